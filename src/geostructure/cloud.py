@@ -1,0 +1,64 @@
+"""The point cloud every stage works on."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass
+class Cloud:
+    """Points held as float64 offsets from ``offset``, so UTM-sized coordinates keep precision.
+
+    Parameters
+    ----------
+    local : (N, 3) float64
+        Point coordinates minus ``offset``. All arithmetic happens on these.
+    offset : (3,) float64
+        Added back to ``local`` to give the coordinates of the input file.
+    crs : str or None
+        Coordinate reference system as WKT when the input file declared one.
+    normals : (N, 3) float64 or None
+        Normals stored in the input (used only to break the tie for vertical planes).
+    source : str
+        Where the points came from, for messages and ``run.json``.
+    """
+
+    local: np.ndarray
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    crs: str | None = None
+    normals: np.ndarray | None = None
+    source: str = "<memory>"
+
+    def __post_init__(self):
+        self.local = np.ascontiguousarray(self.local, dtype=np.float64).reshape(-1, 3)
+        self.offset = np.asarray(self.offset, dtype=np.float64).reshape(3)
+        if self.normals is not None:
+            self.normals = np.asarray(self.normals, dtype=np.float64).reshape(-1, 3)
+
+    @classmethod
+    def from_points(cls, points, *, source="<memory>", crs=None, normals=None) -> "Cloud":
+        """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        offset = (points.min(axis=0) + points.max(axis=0)) / 2 if len(points) else np.zeros(3)
+        # Round the offset so it prints cleanly and survives float32 writers (E57, LAS scale).
+        offset = np.round(offset, 0)
+        return cls(points - offset, offset, crs=crs, normals=normals, source=str(source))
+
+    @property
+    def points(self) -> np.ndarray:
+        """Absolute coordinates (``local + offset``)."""
+        return self.local + self.offset
+
+    def __len__(self) -> int:
+        return len(self.local)
+
+    def subset(self, mask: np.ndarray) -> "Cloud":
+        """The cloud restricted to ``mask`` (boolean or index array)."""
+        normals = None if self.normals is None else self.normals[mask]
+        return Cloud(self.local[mask], self.offset, self.crs, normals, self.source)
+
+    @property
+    def name(self) -> str:
+        return Path(self.source).name

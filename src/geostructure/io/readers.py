@@ -1,0 +1,269 @@
+"""Readers: one function per format, each returning a :class:`~geostructure.cloud.Cloud`.
+
+Every reader turns a library's exception into a :class:`GeoStructureError` that names the
+file and what is wrong, and checks the points are finite and numerous enough to measure.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..cloud import Cloud
+from ..errors import GeoStructureError
+
+TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
+SUFFIXES = (".ply", ".las", ".laz", ".e57") + TEXT_SUFFIXES
+
+#: Points sampled on a mesh's faces when a PLY carries triangles (see :func:`sample_mesh`).
+DEFAULT_MESH_SAMPLES = 200_000
+
+
+def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
+    """Read a point cloud from PLY, LAS/LAZ, E57 or text (XYZ/TXT/CSV).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file; its extension picks the reader.
+    mesh_samples : int or None
+        For a PLY with faces (a Poisson surface, say): how many points to sample on the
+        faces, area-weighted, as the paper samples its surface back to points. ``None``
+        keeps only the vertices.
+    seed : int
+        Seed of the mesh sampling, so a run is repeatable.
+
+    Returns
+    -------
+    Cloud
+
+    Examples
+    --------
+    >>> cloud = read_cloud("outcrop.laz")  # doctest: +SKIP
+    >>> cloud.points.shape  # doctest: +SKIP
+    (110000, 3)
+    """
+    path = Path(path)
+    if not path.exists():
+        raise GeoStructureError(f"{path}: no such file.")
+    if path.is_dir():
+        raise GeoStructureError(f"{path}: is a folder, not a point-cloud file.")
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise GeoStructureError(
+            f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}."
+        )
+    if path.stat().st_size == 0:
+        raise GeoStructureError(f"{path}: the file is empty.")
+    try:
+        if suffix == ".ply":
+            cloud = read_ply(path, mesh_samples=mesh_samples, seed=seed)
+        elif suffix in (".las", ".laz"):
+            cloud = read_las(path)
+        elif suffix == ".e57":
+            cloud = read_e57(path)
+        else:
+            cloud = read_text(path)
+    except GeoStructureError:
+        raise
+    except PermissionError:
+        raise GeoStructureError(f"{path}: permission denied.") from None
+    except (MemoryError, KeyboardInterrupt):
+        raise
+    except Exception as exc:  # a library's parse error: the user's file is at fault
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise GeoStructureError(f"{path}: cannot be read as {suffix[1:].upper()} ({detail}).") from None
+    check_points(cloud.points, path)
+    return cloud
+
+
+def check_points(points: np.ndarray, path) -> None:
+    """Refuse coordinates no measurement can use: NaN/inf, too few, degenerate."""
+    if len(points) == 0:
+        raise GeoStructureError(f"{path}: holds no points.")
+    bad = ~np.isfinite(points).all(axis=1)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        raise GeoStructureError(
+            f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {first})."
+        )
+    if len(points) < 3:
+        raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
+
+
+def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
+    """PLY, ASCII or binary, float or double; extra vertex properties are ignored."""
+    from plyfile import PlyData
+
+    _check_ply_size(path)
+    data = PlyData.read(str(path), mmap=False)
+    if "vertex" not in data:
+        raise GeoStructureError(f"{path}: has no 'vertex' element.")
+    vertex = data["vertex"].data
+    names = vertex.dtype.names or ()
+    missing = [axis for axis in "xyz" if axis not in names]
+    if missing:
+        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property.")
+    points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
+    normals = None
+    if all(n in names for n in ("nx", "ny", "nz")):
+        normals = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in ("nx", "ny", "nz")])
+    faces = _ply_faces(data, len(points), path)
+    if mesh_samples and faces is not None and len(faces):
+        check_points(points, path)
+        points, normals = sample_mesh(points, faces, mesh_samples, seed=seed)
+    return Cloud.from_points(points, source=str(path), normals=normals)
+
+
+def _check_ply_size(path: Path) -> None:
+    """Catch a binary PLY whose header promises more than the file holds (plyfile may not)."""
+    with open(path, "rb") as fh:
+        head = fh.read(65536)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        raise GeoStructureError(f"{path}: not a PLY file (no 'ply' magic line or no 'end_header').")
+    header = head[:end].decode("ascii", errors="replace")
+    fmt = re.search(r"^format\s+(\S+)", header, re.M)
+    if not fmt or fmt.group(1) == "ascii":
+        return
+    sizes = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
+             "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
+             "double": 8, "float64": 8}
+    need, count, fixed = 0, 0, True
+    for line in header.splitlines():
+        parts = line.split()
+        if parts[:1] == ["element"]:
+            count = int(parts[2])
+        elif parts[:2] == ["property", "list"]:
+            fixed = False  # list sizes vary: only the vertex block can be checked exactly
+        elif parts[:1] == ["property"] and fixed:
+            need += count * sizes.get(parts[1], 0)
+    body = path.stat().st_size - (end + len(b"end_header\n"))
+    if body < need:
+        raise GeoStructureError(
+            f"{path}: truncated: the header promises {need} bytes of fixed-size data, the file holds {body}."
+        )
+
+
+def _ply_faces(data, n_vertices: int, path) -> np.ndarray | None:
+    if "face" not in data or data["face"].count == 0:
+        return None
+    face = data["face"].data
+    key = next((k for k in ("vertex_indices", "vertex_index") if k in face.dtype.names), None)
+    if key is None:
+        return None
+    lists = face[key]
+    lengths = np.fromiter((len(f) for f in lists), dtype=np.int64, count=len(lists))
+    tris = np.vstack([np.asarray(f, dtype=np.int64) for f, n in zip(lists, lengths) if n == 3] or [np.empty((0, 3), np.int64)])
+    if len(tris) and (tris.min() < 0 or tris.max() >= n_vertices):
+        raise GeoStructureError(f"{path}: a face refers to a vertex that does not exist.")
+    return tris
+
+
+def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, *, seed: int = 0):
+    """Sample ``n`` points uniformly over a triangle mesh; returns points and face normals.
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    >>> p, nrm = sample_mesh(v, np.array([[0, 1, 2]]), 100)
+    >>> bool(np.allclose(p[:, 2], 0)), nrm[0].tolist()
+    (True, [0.0, 0.0, 1.0])
+    """
+    rng = np.random.default_rng(seed)
+    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    cross = np.cross(b - a, c - a)
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    if area.sum() <= 0:
+        return vertices, None
+    chosen = rng.choice(len(faces), size=n, p=area / area.sum())
+    r1, r2 = rng.random(n), rng.random(n)
+    flip = r1 + r2 > 1  # fold the unit square onto the triangle
+    r1[flip], r2[flip] = 1 - r1[flip], 1 - r2[flip]
+    points = a[chosen] + r1[:, None] * (b - a)[chosen] + r2[:, None] * (c - a)[chosen]
+    normals = cross[chosen] / np.maximum(2 * area[chosen], 1e-300)[:, None]
+    return points, normals
+
+
+def read_las(path: Path) -> Cloud:
+    """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared."""
+    import laspy
+
+    with laspy.open(str(path)) as reader:
+        expected = reader.header.point_count
+        las = reader.read()
+    if len(las.points) < expected:
+        raise GeoStructureError(
+            f"{path}: the header promises {expected} points, the file holds {len(las.points)}."
+        )
+    points = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
+    return Cloud.from_points(points, source=str(path), crs=_las_crs(las.header))
+
+
+def _las_crs(header) -> str | None:
+    for vlr in header.vlrs:
+        text = getattr(vlr, "string", None)
+        if isinstance(text, str) and text.strip().startswith(("PROJCS", "GEOGCS", "COMPD", "PROJCRS", "GEOGCRS")):
+            return text.strip("\x00 ")
+    for vlr in header.vlrs:
+        for key in getattr(vlr, "geo_keys", []) or []:
+            if key.id in (3072, 2048) and 0 < key.value_offset < 32767:  # projected / geographic EPSG
+                return f"EPSG:{key.value_offset}"
+    return None
+
+
+def read_e57(path: Path) -> Cloud:
+    """E57 (pye57): all scans, each moved by its pose into the file's common frame."""
+    import pye57
+
+    e57 = pye57.E57(str(path))
+    parts = []
+    for i in range(e57.scan_count):
+        scan = e57.read_scan(i, ignore_missing_fields=True, transform=True)
+        parts.append(np.column_stack([scan["cartesianX"], scan["cartesianY"], scan["cartesianZ"]]))
+    points = np.vstack(parts) if parts else np.empty((0, 3))
+    return Cloud.from_points(points.astype(np.float64), source=str(path))
+
+
+_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.I)
+
+
+def read_text(path: Path) -> Cloud:
+    """XYZ/TXT/CSV: space, comma, semicolon or tab separated; optional header; x y z first."""
+    with open(path, "r", encoding="utf-8", errors="strict") as fh:
+        try:
+            lines = fh.read().splitlines()
+        except UnicodeDecodeError:
+            raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
+    data_lines = [(i, ln) for i, ln in enumerate(lines, start=1) if ln.strip() and not ln.lstrip().startswith(("#", "//"))]
+    if not data_lines:
+        raise GeoStructureError(f"{path}: holds no points.")
+    delimiter = _sniff_delimiter(data_lines[min(1, len(data_lines) - 1)][1])
+    first = _split(data_lines[0][1], delimiter)
+    if not all(_NUMBER.match(f) for f in first[:3]):
+        data_lines = data_lines[1:]  # a header row such as "X Y Z R G B"
+    try:
+        rows = [_split(ln, delimiter)[:3] for _, ln in data_lines]
+        points = np.array(rows, dtype=np.float64)
+    except ValueError:
+        for number, line in data_lines:
+            fields = _split(line, delimiter)[:3]
+            if len(fields) < 3:
+                raise GeoStructureError(f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed.") from None
+            bad = next((f for f in fields if not _NUMBER.match(f)), None)
+            if bad is not None:
+                raise GeoStructureError(f"{path}: line {number}: '{bad}' is not a number.") from None
+        raise
+    return Cloud.from_points(points.reshape(-1, 3), source=str(path))
+
+
+def _sniff_delimiter(line: str) -> str | None:
+    for delim in ("\t", ",", ";"):
+        if delim in line:
+            return delim
+    return None  # any run of whitespace
+
+
+def _split(line: str, delimiter: str | None) -> list[str]:
+    return [f.strip() for f in line.strip().split(delimiter)] if delimiter else line.split()

@@ -1,0 +1,81 @@
+"""Parameters of the measuring pipeline, with the paper's Table 1 ranges."""
+from __future__ import annotations
+
+import warnings
+from dataclasses import asdict, dataclass, replace
+
+from .errors import GeoStructureError
+from .filter import METHODS as FILTER_METHODS
+from .rectangle import METHODS as RECTANGLE_METHODS
+from .regions import REFERENCES
+
+#: The paper's Table 1 (start, end, step): the ranges of its four experiments.
+TABLE1 = {"zeta": (0.01, 0.07, 0.006), "theta": (0.0, 30.0, 3.0), "psi": (0.01, 0.6, 0.06), "k": (1, 20, 2)}
+
+
+class ParameterWarning(UserWarning):
+    """A parameter lies outside the range the paper tested."""
+
+
+@dataclass(frozen=True)
+class Params:
+    """Everything that steers a run. Defaults follow the paper's findings (lower is better).
+
+    zeta : voxel edge as a fraction of the cloud's largest extent (paper 0.01-0.07).
+    theta : region-growing angle threshold, degrees (paper's optimum 3-8).
+    psi : region-growing offset threshold, in voxel edges (paper's optimum 0.01-0.2).
+    k : neighbours per seed in region growing (paper's optimum 3-11).
+    min_points : smallest region reported; ``None`` means 0.1% of the filtered points, at least 30.
+    filter : ``local`` (default), ``global`` (the paper's formula) or ``none``.
+    filter_sigma : Mahalanobis distance beyond which a point is an outlier.
+    min_voxel_points : voxels with fewer points fit no plane.
+    max_curvature : voxels less planar than this (smallest eigenvalue / sum) are dropped.
+    reference : region growing compares normals with the ``region`` plane or the ``seed``.
+    max_gap : region-growing neighbours further than this many voxel edges are ignored.
+    rectangle : ``exact`` (rotating calipers) or ``golden`` (the paper's search).
+    """
+
+    zeta: float = 0.01
+    theta: float = 5.0
+    psi: float = 0.1
+    k: int = 8
+    min_points: int | None = None
+    filter: str = "local"
+    filter_sigma: float = 3.0
+    min_voxel_points: int = 5
+    max_curvature: float = 0.05
+    reference: str = "region"
+    max_gap: float = 2.0
+    rectangle: str = "exact"
+
+    def __post_init__(self):
+        checks = [
+            (0 < self.zeta < 1, f"zeta must lie between 0 and 1 (a fraction of the cloud's extent), got {self.zeta}"),
+            (0 <= self.theta <= 90, f"theta must lie between 0 and 90 degrees, got {self.theta}"),
+            (self.psi > 0, f"psi must be positive (voxel edges), got {self.psi}"),
+            (int(self.k) == self.k and self.k >= 1, f"k must be a whole number of at least 1, got {self.k}"),
+            (self.min_points is None or self.min_points >= 3, f"min-points must be at least 3, got {self.min_points}"),
+            (self.filter in FILTER_METHODS, f"filter must be one of {', '.join(FILTER_METHODS)}, got '{self.filter}'"),
+            (self.filter_sigma > 0, f"filter sigma must be positive, got {self.filter_sigma}"),
+            (self.min_voxel_points >= 3, f"min voxel points must be at least 3, got {self.min_voxel_points}"),
+            (0 < self.max_curvature <= 1 / 3, f"max curvature must lie in (0, 1/3], got {self.max_curvature}"),
+            (self.reference in REFERENCES, f"reference must be one of {', '.join(REFERENCES)}, got '{self.reference}'"),
+            (self.max_gap > 0, f"max gap must be positive, got {self.max_gap}"),
+            (self.rectangle in RECTANGLE_METHODS, f"rectangle must be one of {', '.join(RECTANGLE_METHODS)}, got '{self.rectangle}'"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise GeoStructureError(message + ".")
+        object.__setattr__(self, "k", int(self.k))
+        for name, (lo, hi, _) in TABLE1.items():
+            value = getattr(self, name)
+            if not lo <= value <= hi:
+                warnings.warn(f"{name}={value} is outside the range the paper tested ({lo} to {hi}).",
+                              ParameterWarning, stacklevel=3)
+
+    def with_(self, **changes) -> "Params":
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        return asdict(self)

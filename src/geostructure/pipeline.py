@@ -1,0 +1,157 @@
+"""The measuring pipeline: filter -> voxel fit -> region growing -> region planes -> orientation."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .cloud import Cloud
+from .errors import GeoStructureError
+from .filter import FilterResult, filter_outliers
+from .orientation import Frame, Orientation, orientation_from_normals, upward
+from .params import Params
+from .rectangle import RegionPlane, region_plane
+from .regions import grow_regions
+from .voxel import VoxelPlanes, fit_voxels, voxel_edge
+
+STAGES = ("filter", "voxel", "regions", "planes", "orientation")
+
+
+@dataclass
+class Result:
+    """What a run found.
+
+    ``planes`` are sorted largest first and numbered 0, 1, ... in that order;
+    ``labels`` gives each filtered point its plane's number or -1; ``normals`` are unit,
+    in the cloud's axes, pointing upward in ``frame``; ``centroids`` are absolute.
+    """
+
+    cloud: Cloud
+    params: Params
+    frame: Frame
+    filtered: Cloud
+    filter_result: FilterResult
+    voxels: VoxelPlanes
+    voxel_labels: np.ndarray
+    planes: list[RegionPlane]
+    normals: np.ndarray
+    orientation: Orientation
+    labels: np.ndarray
+    seconds: dict = field(default_factory=dict)
+    counts: dict = field(default_factory=dict)
+
+    @property
+    def centroids(self) -> np.ndarray:
+        return np.array([p.centroid for p in self.planes]).reshape(-1, 3) + self.cloud.offset
+
+    def __len__(self) -> int:
+        return len(self.planes)
+
+
+def default_min_points(n_points: int) -> int:
+    """Smallest region reported when the user gives none: 0.1% of the points, at least 30."""
+    return max(30, int(0.001 * n_points))
+
+
+def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None) -> Result:
+    """Find the planar regions of a cloud and measure their strike, dip and dip direction.
+
+    Parameters
+    ----------
+    cloud : Cloud
+    params : Params
+    frame : Frame
+        Which way east, north and up point in the cloud.
+    progress : callable, optional
+        ``progress(stage, done, total)``, called as the work goes on.
+
+    Examples
+    --------
+    >>> from geostructure.synthetic import observatory_scene
+    >>> scene = observatory_scene(n_points=60_000, seed=1)
+    >>> result = measure(scene.cloud)
+    >>> len(result) >= 6
+    True
+    """
+    report = progress or (lambda stage, done, total: None)
+    seconds, counts = {}, {"input": len(cloud)}
+    if len(cloud) < 3:
+        raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
+    extent = np.ptp(cloud.local, axis=0)
+    if extent.max() <= 0:
+        raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
+    if np.linalg.matrix_rank(np.cov(cloud.local[:: max(1, len(cloud) // 100_000)], rowvar=False),
+                             tol=1e-12 * extent.max() ** 2) < 2:
+        raise GeoStructureError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
+
+    t = time.perf_counter()
+    report("filter", 0, None)
+    edge = voxel_edge(cloud.local, params.zeta)
+    filt = filter_outliers(cloud.local, params.filter, edge=edge, threshold=params.filter_sigma)
+    filtered = cloud.subset(filt.keep)
+    counts["filtered"] = len(filtered)
+    seconds["filter"] = time.perf_counter() - t
+    if len(filtered) < 3:
+        raise GeoStructureError(f"{cloud.source}: the outlier filter left {len(filtered)} point(s); try --filter none.")
+
+    t = time.perf_counter()
+    report("voxel", 0, None)
+    voxels = fit_voxels(filtered.local, params.zeta, min_points=params.min_voxel_points,
+                        max_curvature=params.max_curvature)
+    counts["voxel_planes"] = len(voxels)
+    seconds["voxel"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    growth = grow_regions(voxels, params.theta, params.psi, params.k, reference=params.reference,
+                          max_gap=params.max_gap, progress=lambda done: report("regions", done, len(voxels)))
+    seconds["regions"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    min_points = params.min_points or default_min_points(len(filtered))
+    point_region = np.where(voxels.point_voxel >= 0, growth.labels[np.maximum(voxels.point_voxel, 0)], -1)
+    planes, kept = _region_planes(filtered.local, point_region, growth.labels, min_points, params.rectangle, report)
+    labels = np.full(len(filtered), -1, dtype=np.int64)
+    voxel_labels = np.full(len(voxels), -1, dtype=np.int64)
+    for new_id, old_id in enumerate(kept):
+        labels[point_region == old_id] = new_id
+        voxel_labels[growth.labels == old_id] = new_id
+    counts["regions"] = growth.n_regions
+    counts["planes"] = len(planes)
+    counts["labelled_points"] = int((labels >= 0).sum())
+    seconds["planes"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    report("orientation", 0, None)
+    raw = np.array([p.normal for p in planes]).reshape(-1, 3)
+    outward = _outward(filtered, labels, len(planes))
+    normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
+    orientation = orientation_from_normals(normals, frame, outward)
+    seconds["orientation"] = time.perf_counter() - t
+    return Result(cloud, params, frame, filtered, filt, voxels, voxel_labels, planes, normals,
+                  orientation, labels, seconds, counts)
+
+
+def _region_planes(points, point_region, voxel_region, min_points, method, report):
+    """Region planes of the regions with ``min_points`` points and 3 voxels, largest first."""
+    n_voxels = np.bincount(voxel_region[voxel_region >= 0], minlength=max(voxel_region.max() + 1, 1))
+    labelled = point_region >= 0
+    sizes = np.bincount(point_region[labelled], minlength=len(n_voxels))
+    candidates = np.flatnonzero((sizes >= min_points) & (n_voxels >= 3))
+    candidates = candidates[np.argsort(-sizes[candidates], kind="stable")]
+    order = np.argsort(point_region, kind="stable")
+    starts = np.searchsorted(point_region[order], np.arange(len(n_voxels) + 1))
+    planes = []
+    for i, region in enumerate(candidates):
+        planes.append(region_plane(points[order[starts[region]:starts[region + 1]]], method))
+        report("planes", i + 1, len(candidates))
+    return planes, candidates
+
+
+def _outward(cloud: Cloud, labels: np.ndarray, n_planes: int) -> np.ndarray | None:
+    """Mean stored normal of each plane's points: the side its face is seen from."""
+    if cloud.normals is None or n_planes == 0:
+        return None
+    mask = labels >= 0
+    out = np.stack([np.bincount(labels[mask], cloud.normals[mask, a], n_planes) for a in range(3)], axis=1)
+    return out
