@@ -38,6 +38,9 @@ class Result:
     normals: np.ndarray
     orientation: Orientation
     labels: np.ndarray
+    n_voxels: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    scatter: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    uncertainty: np.ndarray = field(default_factory=lambda: np.zeros(0))
     seconds: dict = field(default_factory=dict)
     counts: dict = field(default_factory=dict)
 
@@ -127,9 +130,23 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
     outward = _outward(filtered, labels, len(planes))
     normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
     orientation = orientation_from_normals(normals, frame, outward)
+    n_voxels, scatter, uncertainty = normal_spread(voxels.normal, voxel_labels, normals)
     seconds["orientation"] = time.perf_counter() - t
     return Result(cloud, params, frame, filtered, filt, voxels, voxel_labels, planes, normals,
-                  orientation, labels, seconds, counts)
+                  orientation, labels, n_voxels, scatter, uncertainty, seconds, counts)
+
+
+def normal_spread(voxel_normals, voxel_labels, plane_normals):
+    """Voxel count, RMS angle (deg) of voxel normals about each plane's normal, and its
+    standard error (RMS / sqrt(voxels)): the plane's scatter and the uncertainty of its normal."""
+    n = len(plane_normals)
+    mask = voxel_labels >= 0
+    lab = voxel_labels[mask]
+    cos = np.abs(np.einsum("ij,ij->i", voxel_normals[mask], plane_normals[lab])) if n else np.zeros(0)
+    angle2 = np.degrees(np.arccos(np.clip(cos, 0.0, 1.0))) ** 2
+    count = np.bincount(lab, minlength=n)
+    scatter = np.sqrt(np.bincount(lab, angle2, minlength=n) / np.maximum(count, 1))
+    return count, scatter, scatter / np.sqrt(np.maximum(count, 1))
 
 
 def _region_planes(points, point_region, voxel_region, min_points, method, report):

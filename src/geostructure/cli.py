@@ -1,0 +1,181 @@
+"""Command line: argument parsing only; every command calls the public Python API."""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from . import __version__
+from .errors import GeoStructureError
+from .io.readers import DEFAULT_MESH_SAMPLES, read_cloud
+from .io.writers import write_outputs
+from .orientation import Frame
+from .params import Params
+from .pipeline import measure
+from .progress import StageProgress
+
+EXIT_USER_ERROR = 2
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return EXIT_USER_ERROR
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = _show_warning
+        try:
+            return args.run(args) or 0
+        except GeoStructureError as exc:
+            print(f"geostructure: error: {exc}", file=sys.stderr)
+            return EXIT_USER_ERROR
+        except KeyboardInterrupt:
+            print("geostructure: interrupted; no output was written for the unfinished step.", file=sys.stderr)
+            return 130
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"geostructure: warning: {message}", file=sys.stderr)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="geostructure", description=(
+        "Measure strike, dip and dip direction of the planar surfaces in a point cloud."))
+    parser.add_argument("--version", action="version", version=f"geostructure {__version__}")
+    sub = parser.add_subparsers(dest="command")
+
+    m = sub.add_parser("measure", help="measure the planes of a point cloud file")
+    m.add_argument("input", type=Path, help="PLY, LAS, LAZ, E57, XYZ, TXT or CSV file")
+    m.add_argument("-o", "--outdir", type=Path, required=True, help="folder for planes.csv, regions.ply, run.json")
+    m.add_argument("--mesh-samples", type=int, default=DEFAULT_MESH_SAMPLES,
+                   help="points sampled on a PLY mesh's faces (0: use the vertices only)")
+    add_measure_options(m)
+    m.set_defaults(run=run_measure)
+
+    d = sub.add_parser("demo", help="measure the bundled synthetic observatory scene")
+    d.add_argument("-o", "--outdir", type=Path, default=Path("out/demo"))
+    d.add_argument("--points", type=int, default=300_000, help="points in the scene")
+    d.add_argument("--seed", type=int, default=0)
+    add_measure_options(d)
+    d.set_defaults(run=run_demo)
+    return parser
+
+
+def add_measure_options(p: argparse.ArgumentParser) -> None:
+    defaults = Params()
+    g = p.add_argument_group("frame (which way is up and north)")
+    g.add_argument("--frame", choices=("enu", "paper"), default="enu",
+                   help="enu: x=East y=North z=Up (default); paper: x=North y=West z=Up")
+    g.add_argument("--up", type=float, nargs=3, metavar=("X", "Y", "Z"), help="up vector in cloud axes")
+    g.add_argument("--north", type=float, nargs=3, metavar=("X", "Y", "Z"), help="north vector in cloud axes")
+    g.add_argument("--declination", type=float, default=0.0,
+                   help="magnetic declination in degrees, east positive: azimuths read against magnetic north")
+    a = p.add_argument_group("algorithm (the paper's variable factors)")
+    a.add_argument("--zeta", type=float, default=defaults.zeta, help="voxel edge / largest extent (default %(default)s)")
+    a.add_argument("--theta", type=float, default=defaults.theta, help="angle threshold, degrees (default %(default)s)")
+    a.add_argument("--psi", type=float, default=defaults.psi, help="offset threshold, voxel edges (default %(default)s)")
+    a.add_argument("--k", type=int, default=defaults.k, help="neighbours per seed (default %(default)s)")
+    a.add_argument("--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)")
+    a.add_argument("--filter", choices=("local", "global", "none"), default=defaults.filter,
+                   help="Mahalanobis outlier filter (default %(default)s)")
+    a.add_argument("--sigma", type=float, default=defaults.filter_sigma, help="filter threshold, std (default %(default)s)")
+    a.add_argument("--reference", choices=("region", "seed"), default=defaults.reference,
+                   help="compare normals with the region plane or the seed (default %(default)s)")
+    a.add_argument("--rectangle", choices=("exact", "golden"), default=defaults.rectangle,
+                   help="minimum-perimeter rectangle by rotating calipers or golden-section search")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
+
+
+def params_from(args) -> Params:
+    return Params(zeta=args.zeta, theta=args.theta, psi=args.psi, k=args.k, min_points=args.min_points,
+                  filter=args.filter, filter_sigma=args.sigma, reference=args.reference, rectangle=args.rectangle)
+
+
+def frame_from(args) -> Frame:
+    if (args.up is None) != (args.north is None):
+        raise GeoStructureError("give both --up and --north, or neither.")
+    if args.up is not None:
+        return Frame.from_up_north(args.up, args.north, args.declination)
+    return Frame.named(args.frame, args.declination)
+
+
+def run_measure(args) -> int:
+    params, frame = params_from(args), frame_from(args)
+    with StageProgress(enabled=not args.quiet) as progress:
+        t = time.perf_counter()
+        progress("read", 0, None)
+        cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
+        read_seconds = time.perf_counter() - t
+        result = measure(cloud, params, frame, progress)
+        result.seconds = {"read": read_seconds, **result.seconds}
+        progress("write", 0, None)
+        paths = write_outputs(result, args.outdir)
+    if not args.quiet:
+        print_planes(result)
+        print(f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "
+              f"wrote {', '.join(str(p) for p in paths.values())}")
+    return 0
+
+
+def run_demo(args) -> int:
+    from .evaluate import match_scene
+    from .synthetic import observatory_scene
+
+    params, frame = params_from(args), frame_from(args)
+    scene = observatory_scene(args.points, seed=args.seed)
+    with StageProgress(enabled=not args.quiet) as progress:
+        result = measure(scene.cloud, params, frame, progress)
+        paths = write_outputs(result, args.outdir, extra={"demo": {"points": args.points, "seed": args.seed}})
+    match = match_scene(result, scene)
+    if not args.quiet:
+        print_planes(result)
+        print_match(match)
+        print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    return 0 if match.all_found else 1
+
+
+def _console() -> Console:
+    """stdout console; wide enough for the tables when stdout is a file or pipe."""
+    console = Console()
+    return console if console.is_terminal else Console(width=120)
+
+
+def print_planes(result, console: Console | None = None) -> None:
+    console = console or _console()
+    table = Table(title=f"Planes in {Path(str(result.cloud.source)).name} (frame: {result.frame.name})")
+    for column in ("id", "points", "area", "strike", "dip", "dip dir", "± deg", "centroid"):
+        table.add_column(column, justify="right")
+    o = result.orientation
+    for i, plane in enumerate(result.planes):
+        c = result.centroids[i]
+        table.add_row(str(i), f"{plane.n_points:,}", f"{plane.area:.4g}", f"{o.strike[i]:05.1f}", f"{o.dip[i]:04.1f}",
+                      f"{o.dip_direction[i]:05.1f}", f"{result.uncertainty[i]:.2f}",
+                      f"{c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}")
+    console.print(table)
+
+
+def print_match(match, console: Console | None = None) -> None:
+    console = console or _console()
+    table = Table(title="Against the scene's ground truth")
+    for column in ("surface", "region", "true dd/dip", "measured dd/dip", "normal error (deg)"):
+        table.add_column(column, justify="right")
+    for row in match.rows:
+        found = row.region is not None
+        table.add_row(row.name, str(row.region) if found else "missed",
+                      f"{row.true_dip_direction:05.1f}/{row.true_dip:04.1f}",
+                      f"{row.dip_direction:05.1f}/{row.dip:04.1f}" if found else "-",
+                      f"{row.error:.3f}" if found else "-")
+    console.print(table)
+    console.print(f"mean normal error {match.mean_error:.3f} deg, max {match.max_error:.3f} deg, "
+                  f"{match.n_found} of {len(match.rows)} surfaces found")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
