@@ -1,0 +1,45 @@
+"""Shared fixtures: real data from ../shared/data (skipped with a message when absent)."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geostructure.pipeline import measure
+from geostructure.synthetic import observatory_scene
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def shared_file(relative: str) -> Path:
+    path = DATA / relative
+    if not path.exists():
+        pytest.skip(f"real test data {relative} is not here (expected ../shared/data beside the checkout)")
+    return path
+
+
+@pytest.fixture(scope="session")
+def scene():
+    return observatory_scene(120_000, seed=3)
+
+
+@pytest.fixture(scope="session")
+def scene_result(scene):
+    return measure(scene.cloud)
+
+
+def random_rotation(rng) -> np.ndarray:
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q @ np.diag(np.sign(np.diag(r)))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+def plane_points(normal, n=4000, size=10.0, noise=0.01, center=(0, 0, 0), seed=0):
+    """Noisy points on a square patch with the given normal."""
+    rng = np.random.default_rng(seed)
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    helper = np.array([1.0, 0, 0]) if abs(normal[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    ab = (rng.random((n, 2)) - 0.5) * size
+    return np.asarray(center) + ab[:, :1] * u + ab[:, 1:] * v + rng.normal(0, noise, (n, 1)) * normal
