@@ -117,6 +117,9 @@ def run_measure(args) -> int:
         result.seconds = {"read": read_seconds, **result.seconds}
         progress("write", 0, None)
         paths = write_outputs(result, args.outdir)
+    if not len(result):
+        print("geostructure: warning: no plane found; if the cloud is sparse, try a larger --zeta "
+              "(voxels need at least 5 points each to fit a plane).", file=sys.stderr)
     if not args.quiet:
         print_planes(result)
         print(f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "

@@ -41,7 +41,8 @@ class Cloud:
     def from_points(cls, points, *, source="<memory>", crs=None, normals=None) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        offset = (points.min(axis=0) + points.max(axis=0)) / 2 if len(points) else np.zeros(3)
+        finite = points[np.isfinite(points).all(axis=1)]  # readers report NaN/inf rows by count
+        offset = (finite.min(axis=0) + finite.max(axis=0)) / 2 if len(finite) else np.zeros(3)
         # Round the offset so it prints cleanly and survives float32 writers (E57, LAS scale).
         offset = np.round(offset, 0) + 0.0  # + 0.0 turns -0.0 into 0.0
         return cls(points - offset, offset, crs=crs, normals=normals, source=str(source))

@@ -62,7 +62,11 @@ def global_filter(points: np.ndarray, threshold: float = 3.0) -> FilterResult:
     return FilterResult(d <= threshold, d, "global", threshold)
 
 
-def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, min_support: int = 10) -> FilterResult:
+#: Fewest points in a block for its covariance to be trusted.
+MIN_COVARIANCE_POINTS = 10
+
+
+def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, isolation: float = 0.1) -> FilterResult:
     """Drop points more than ``threshold`` std from their neighbourhood, or with no neighbourhood.
 
     Parameters
@@ -72,8 +76,9 @@ def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, min_su
         Voxel edge; the neighbourhood is the 3x3x3 block of voxels around a point's voxel.
     threshold : float
         Mahalanobis distance beyond which a point is an outlier.
-    min_support : int
-        A block with fewer points is isolated: its points are dropped.
+    isolation : float
+        A block holding fewer than this fraction of the median point's block count (and
+        fewer than 10) is isolated: its points are dropped.
     """
     origin = points.min(axis=0)
     moments, inverse = accumulate_moments(points, edge, origin)
@@ -85,8 +90,12 @@ def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, min_su
     corner = origin + moments.keys * edge
     diff = points - (corner + mean)[inverse]
     d = np.sqrt(np.clip(np.einsum("ni,nij,nj->n", diff, inv[inverse], diff), 0.0, None))
-    keep = (d <= threshold) & (count[inverse] >= min_support)
-    return FilterResult(keep, d, "local", threshold)
+    support = count[inverse]
+    typical = float(np.median(support))
+    isolated = support < min(max(3.0, isolation * typical), MIN_COVARIANCE_POINTS)
+    testable = support >= MIN_COVARIANCE_POINTS
+    keep = ~isolated & (~testable | (d <= threshold))
+    return FilterResult(keep, np.where(testable, d, 0.0), "local", threshold)
 
 
 def _block_sums(keys, count, sums, products, edge):
@@ -119,10 +128,10 @@ def _block_sums(keys, count, sums, products, edge):
 
 
 def filter_outliers(points: np.ndarray, method: str = "local", *, edge: float | None = None,
-                    threshold: float = 3.0, min_support: int = 10) -> FilterResult:
+                    threshold: float = 3.0) -> FilterResult:
     """Run the chosen filter; ``none`` keeps everything."""
     if method == "global":
         return global_filter(points, threshold)
     if method == "local":
-        return local_filter(points, edge, threshold, min_support)
+        return local_filter(points, edge, threshold)
     return FilterResult(np.ones(len(points), bool), np.zeros(len(points)), "none", threshold)

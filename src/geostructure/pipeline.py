@@ -112,7 +112,9 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
 
     t = time.perf_counter()
     min_points = params.min_points or default_min_points(len(filtered))
-    point_region = np.where(voxels.point_voxel >= 0, growth.labels[np.maximum(voxels.point_voxel, 0)], -1)
+    point_region = np.full(len(filtered), -1, dtype=np.int64)
+    fitted = voxels.point_voxel >= 0
+    point_region[fitted] = growth.labels[voxels.point_voxel[fitted]]
     planes, kept = _region_planes(filtered.local, point_region, growth.labels, min_points, params.rectangle, report)
     labels = np.full(len(filtered), -1, dtype=np.int64)
     voxel_labels = np.full(len(voxels), -1, dtype=np.int64)
@@ -151,7 +153,7 @@ def normal_spread(voxel_normals, voxel_labels, plane_normals):
 
 def _region_planes(points, point_region, voxel_region, min_points, method, report):
     """Region planes of the regions with ``min_points`` points and 3 voxels, largest first."""
-    n_voxels = np.bincount(voxel_region[voxel_region >= 0], minlength=max(voxel_region.max() + 1, 1))
+    n_voxels = np.bincount(voxel_region[voxel_region >= 0], minlength=1)
     labelled = point_region >= 0
     sizes = np.bincount(point_region[labelled], minlength=len(n_voxels))
     candidates = np.flatnonzero((sizes >= min_points) & (n_voxels >= 3))

@@ -1,0 +1,119 @@
+import numpy as np
+import pytest
+from conftest import shared_file
+
+from geostructure.io.readers import read_cloud
+
+
+@pytest.fixture
+def points():
+    rng = np.random.default_rng(0)
+    return rng.random((500, 3)) * [10, 20, 5] + [500_000.25, 5_000_000.5, 120.0]
+
+
+def write_ply(path, points, *, text, dtype="f8", extra=True, faces=None):
+    from plyfile import PlyData, PlyElement
+
+    fields = [("x", dtype), ("y", dtype), ("z", dtype)] + ([("red", "u1"), ("intensity", "f4")] if extra else [])
+    v = np.zeros(len(points), dtype=fields)
+    v["x"], v["y"], v["z"] = points.T
+    elements = [PlyElement.describe(v, "vertex")]
+    if faces is not None:
+        f = np.empty(len(faces), dtype=[("vertex_indices", "i4", (3,))])
+        f["vertex_indices"] = faces
+        elements.append(PlyElement.describe(f, "face"))
+    PlyData(elements, text=text).write(str(path))
+
+
+@pytest.mark.parametrize("text", [True, False])
+@pytest.mark.parametrize("dtype", ["f4", "f8"])
+def test_ply_ascii_and_binary_float_and_double(tmp_path, points, text, dtype):
+    path = tmp_path / "c.ply"
+    write_ply(path, points, text=text, dtype=dtype)
+    cloud = read_cloud(path)
+    tol = 1e-9 if dtype == "f8" else 1.0  # float32 cannot hold UTM coordinates to the centimetre
+    np.testing.assert_allclose(cloud.points, points, atol=tol, rtol=0)
+    if dtype == "f8":
+        assert np.abs(cloud.local).max() < 30  # centred on an offset before any arithmetic
+
+
+def test_ply_mesh_is_sampled_on_its_faces(tmp_path):
+    v = np.array([[0, 0, 0], [4, 0, 0], [4, 2, 0], [0, 2, 0]], float)
+    path = tmp_path / "m.ply"
+    write_ply(path, v, text=True, extra=False, faces=np.array([[0, 1, 2], [0, 2, 3]]))
+    cloud = read_cloud(path, mesh_samples=1000)
+    assert len(cloud) == 1000
+    p = cloud.points
+    assert np.allclose(p[:, 2], 0) and p[:, 0].min() >= 0 and p[:, 0].max() <= 4
+    assert len(read_cloud(path, mesh_samples=None)) == 4
+
+
+@pytest.mark.parametrize("suffix", [".las", ".laz"])
+def test_las_and_laz_scaled_coordinates(tmp_path, points, suffix):
+    import laspy
+
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.scales = [0.001, 0.001, 0.001]
+    header.offsets = [500_000, 5_000_000, 0]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    path = tmp_path / f"c{suffix}"
+    las.write(str(path))
+    cloud = read_cloud(path)
+    np.testing.assert_allclose(cloud.points, points, atol=0.0006, rtol=0)
+
+
+def test_e57_round_trip_applies_the_scan_pose(tmp_path, points):
+    import pye57
+
+    # pye57 stores float32 coordinates: the offset travels in the scan's pose instead.
+    offset = np.round(points.mean(axis=0))
+    local = points - offset
+    path = tmp_path / "c.e57"
+    with pye57.E57(str(path), mode="w") as e57:
+        e57.write_scan_raw({"cartesianX": local[:, 0], "cartesianY": local[:, 1], "cartesianZ": local[:, 2]},
+                           translation=offset, rotation=np.array([1.0, 0, 0, 0]))
+    cloud = read_cloud(path)
+    np.testing.assert_allclose(cloud.points, points, atol=1e-5, rtol=0)
+
+
+@pytest.mark.parametrize("content", [
+    "{x} {y} {z}\n",
+    "{x},{y},{z}\n",
+    "{x}\t{y}\t{z}\n",
+    "{x};{y};{z}\n",
+    "{x} {y} {z} 12 200 3\n",
+    "  {x}   {y}  {z}  \n",
+])
+@pytest.mark.parametrize("header", ["", "X Y Z R G B\n", "# a comment\n", "x,y,z\n"])
+def test_text_layouts(tmp_path, content, header):
+    pts = np.array([[1.5, 2.0, 3.25], [4.0, 5.0, 6.0], [7.0, 8.5, 9.0], [1.0, 0.0, 2.0]])
+    path = tmp_path / "c.xyz"
+    if "," in header and "," not in content:
+        header = header.replace(",", " ")
+    path.write_text(header + "".join(content.format(x=x, y=y, z=z) for x, y, z in pts))
+    np.testing.assert_allclose(read_cloud(path).points, pts)
+
+
+def test_real_outcrop_text_in_utm():
+    cloud = read_cloud(shared_file("jfm_outcrop_test/test.txt"))
+    assert len(cloud) == 1133
+    assert cloud.points[:, 1].min() > 5_000_000
+
+
+def test_real_airborne_laz_with_crs():
+    cloud = read_cloud(shared_file("pdal_autzen/autzen_trim.laz"))
+    assert len(cloud) == 110_000
+    assert cloud.crs and "Lambert" in cloud.crs
+
+
+def test_real_e57_scan():
+    cloud = read_cloud(shared_file("pye57_pump/pumpAVisualReferenceImage.e57"))
+    assert len(cloud) == 155_201
+
+
+def test_real_poisson_mesh_from_the_paper():
+    path = shared_file("observatory/dense_poisson_oc_6.ply")
+    assert len(read_cloud(path, mesh_samples=None)) == 9693
+    cloud = read_cloud(path, mesh_samples=50_000)
+    assert len(cloud) == 50_000 and cloud.normals is not None

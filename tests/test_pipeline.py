@@ -1,0 +1,114 @@
+import numpy as np
+import pytest
+from conftest import random_rotation
+
+from geostructure.cloud import Cloud
+from geostructure.errors import GeoStructureError
+from geostructure.evaluate import match_scene
+from geostructure.orientation import Frame, azimuth_difference
+from geostructure.params import ParameterWarning, Params
+from geostructure.pipeline import measure
+from geostructure.synthetic import observatory_scene
+
+
+def test_finds_the_six_observatory_surfaces_within_half_a_degree(scene, scene_result):
+    match = match_scene(scene_result, scene)
+    assert match.all_found, [r.name for r in match.rows if r.region is None]
+    assert match.mean_error <= 0.5
+    assert match.max_error <= 1.0
+
+
+def test_the_paper_table_angles_are_reproduced_on_the_scene(scene, scene_result):
+    truth = scene.truth_table()
+    match = match_scene(scene_result, scene)
+    for i, row in enumerate(match.rows):
+        assert abs(row.dip - truth["dip"][i]) < 0.5
+        assert azimuth_difference(row.dip_direction, truth["dip_direction"][i]) < 0.5
+
+
+def test_translation_to_utm_coordinates_changes_nothing(scene_result):
+    far = observatory_scene(120_000, seed=3, offset=(662_000.0, 5_103_000.0, 500.0))
+    result = measure(far.cloud)
+    assert len(result) == len(scene_result)
+    np.testing.assert_allclose(result.normals, scene_result.normals, atol=1e-6)
+    np.testing.assert_allclose(result.centroids - [662_000.0, 5_103_000.0, 500.0], scene_result.centroids, atol=1e-4)
+
+
+def test_rotating_the_cloud_with_its_frame_gives_the_same_planes(scene, scene_result):
+    rot = random_rotation(np.random.default_rng(11))
+    turned = Cloud.from_points(scene.cloud.points @ rot.T)
+    frame = Frame.from_up_north(rot @ [0, 0, 1], rot @ [0, 1, 0])
+    result = measure(turned, Params(), frame)
+    for surface in scene.surfaces:
+        surface.center = rot @ surface.center
+        surface.normal = rot @ surface.normal
+    try:
+        match = match_scene(result, scene)
+    finally:
+        for surface in scene.surfaces:
+            surface.center = rot.T @ surface.center
+            surface.normal = rot.T @ surface.normal
+    assert match.all_found and match.mean_error <= 0.5
+
+
+@pytest.mark.parametrize("scale", [0.1, 10.0])
+def test_scale_does_not_change_the_result(scale):
+    small = observatory_scene(80_000, seed=4, scale=scale)
+    result = measure(small.cloud)
+    match = match_scene(result, small)
+    assert match.all_found and match.mean_error <= 0.5
+
+
+def test_runs_are_deterministic(scene):
+    a = measure(scene.cloud)
+    b = measure(scene.cloud)
+    np.testing.assert_array_equal(a.labels, b.labels)
+    np.testing.assert_array_equal(a.normals, b.normals)
+    assert observatory_scene(5000, seed=9).cloud.points.tobytes() == observatory_scene(5000, seed=9).cloud.points.tobytes()
+
+
+def test_golden_section_gives_the_same_orientations(scene, scene_result):
+    golden = measure(scene.cloud, Params(rectangle="golden"))
+    np.testing.assert_allclose(golden.normals, scene_result.normals)
+    widths = np.array([p.perimeter for p in golden.planes])
+    exact = np.array([p.perimeter for p in scene_result.planes])
+    assert np.all(widths <= exact * 1.005) and np.all(exact <= widths + 1e-9)
+
+
+def test_degenerate_clouds_are_refused():
+    with pytest.raises(GeoStructureError, match="one spot"):
+        measure(Cloud.from_points(np.ones((10, 3))))
+    line = np.c_[np.linspace(0, 1, 50), np.linspace(0, 2, 50), np.linspace(0, 3, 50)]
+    with pytest.raises(GeoStructureError, match="one line"):
+        measure(Cloud.from_points(line))
+    with pytest.raises(GeoStructureError, match="at least 3"):
+        measure(Cloud.from_points(np.eye(3)[:2]))
+
+
+def test_parameters_are_checked():
+    with pytest.raises(GeoStructureError, match="zeta"):
+        Params(zeta=0)
+    with pytest.raises(GeoStructureError, match="k must"):
+        Params(k=0)
+    with pytest.raises(GeoStructureError, match="filter"):
+        Params(filter="median")
+    with pytest.warns(ParameterWarning, match="theta=45"):
+        Params(theta=45)
+
+
+def test_a_cloud_too_sparse_for_its_voxels_gives_no_plane_and_no_crash():
+    rng = np.random.default_rng(0)
+    pts = np.c_[rng.random((300, 2)) * 100, rng.normal(0, 0.01, 300)]
+    result = measure(Cloud.from_points(pts), Params(zeta=0.01))
+    assert len(result) == 0 and (result.labels == -1).all()
+
+
+def test_real_outcrop_gives_planes_at_a_zeta_its_density_supports():
+    from conftest import shared_file
+
+    from geostructure.io.readers import read_cloud
+
+    cloud = read_cloud(shared_file("jfm_outcrop_test/test.txt"))
+    result = measure(cloud, Params(zeta=0.05))
+    assert len(result) >= 1
+    assert result.centroids[:, 1].min() > 5_000_000  # reported back in UTM
