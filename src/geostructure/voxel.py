@@ -65,11 +65,24 @@ def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarra
     return np.floor((points - origin) / edge).astype(np.int64)
 
 
+def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique rows of an (N, 3) integer key array and the inverse map, via one int64 code
+    per row (a 1-D unique is several times faster than ``np.unique(axis=0)``)."""
+    low = keys.min(axis=0)
+    span = keys.max(axis=0) - low + 1
+    shifted = keys - low
+    codes = (shifted[:, 0] * span[1] + shifted[:, 1]) * span[2] + shifted[:, 2]
+    unique_codes, inverse = np.unique(codes, return_inverse=True)
+    kz = unique_codes % span[2]
+    ky = (unique_codes // span[2]) % span[1]
+    kx = unique_codes // (span[1] * span[2])
+    return np.column_stack([kx, ky, kz]) + low, inverse.ravel()
+
+
 def accumulate_moments(points: np.ndarray, edge: float, origin: np.ndarray):
     """Moments of every occupied voxel, and each point's voxel index (inverse map)."""
     keys = voxel_keys(points, edge, origin)
-    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
+    unique, inverse = unique_keys(keys)
     rel = points - (origin + unique[inverse] * edge)
     n = len(unique)
     count = np.bincount(inverse, minlength=n).astype(np.float64)
@@ -82,9 +95,7 @@ def add_moments(a: VoxelMoments, b: VoxelMoments) -> VoxelMoments:
     """Sum the moments of two chunks (same edge and origin) voxel by voxel."""
     if a.edge != b.edge or not np.array_equal(a.origin, b.origin):
         raise ValueError("moments must share voxel edge and origin to be added")
-    keys = np.vstack([a.keys, b.keys])
-    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
+    unique, inverse = unique_keys(np.vstack([a.keys, b.keys]))
 
     def total(x, y):
         stacked = np.concatenate([x, y])
