@@ -231,31 +231,49 @@ _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$"
 
 def read_text(path: Path) -> Cloud:
     """XYZ/TXT/CSV: space, comma, semicolon or tab separated; optional header; x y z first."""
-    with open(path, "r", encoding="utf-8", errors="strict") as fh:
-        try:
-            lines = fh.read().splitlines()
-        except UnicodeDecodeError:
-            raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
-    data_lines = [(i, ln) for i, ln in enumerate(lines, start=1) if ln.strip() and not ln.lstrip().startswith(("#", "//"))]
-    if not data_lines:
+    first_lines = _first_data_lines(path, 2)
+    if not first_lines:
         raise GeoStructureError(f"{path}: holds no points.")
-    delimiter = _sniff_delimiter(data_lines[min(1, len(data_lines) - 1)][1])
-    first = _split(data_lines[0][1], delimiter)
-    if not all(_NUMBER.match(f) for f in first[:3]):
-        data_lines = data_lines[1:]  # a header row such as "X Y Z R G B"
+    delimiter = _sniff_delimiter(first_lines[-1][1])
+    header = not all(_NUMBER.match(f) for f in _split(first_lines[0][1], delimiter)[:3])
+    skip = first_lines[0][0] if header else first_lines[0][0] - 1
+    try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
+        points = np.loadtxt(path, dtype=np.float64, delimiter=delimiter, usecols=(0, 1, 2),
+                            comments=("#", "//"), skiprows=skip, ndmin=2, encoding="utf-8")
+    except UnicodeDecodeError:
+        raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
+    except (ValueError, IndexError):
+        _raise_bad_line(path, delimiter, skip)
+        raise
+    return Cloud.from_points(points, source=str(path))
+
+
+def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
+    """The first ``n`` non-blank, non-comment lines with their 1-based numbers."""
+    found = []
     try:
-        rows = [_split(ln, delimiter)[:3] for _, ln in data_lines]
-        points = np.array(rows, dtype=np.float64)
-    except ValueError:
-        for number, line in data_lines:
+        with open(path, "r", encoding="utf-8") as fh:
+            for number, line in enumerate(fh, start=1):
+                if line.strip() and not line.lstrip().startswith(("#", "//")):
+                    found.append((number, line))
+                    if len(found) == n:
+                        break
+    except UnicodeDecodeError:
+        raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
+    return found
+
+
+def _raise_bad_line(path: Path, delimiter: str | None, skip: int) -> None:
+    with open(path, "r", encoding="utf-8") as fh:
+        for number, line in enumerate(fh, start=1):
+            if number <= skip or not line.strip() or line.lstrip().startswith(("#", "//")):
+                continue
             fields = _split(line, delimiter)[:3]
             if len(fields) < 3:
-                raise GeoStructureError(f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed.") from None
+                raise GeoStructureError(f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed.")
             bad = next((f for f in fields if not _NUMBER.match(f)), None)
             if bad is not None:
-                raise GeoStructureError(f"{path}: line {number}: '{bad}' is not a number.") from None
-        raise
-    return Cloud.from_points(points.reshape(-1, 3), source=str(path))
+                raise GeoStructureError(f"{path}: line {number}: '{bad}' is not a number.")
 
 
 def _sniff_delimiter(line: str) -> str | None:
