@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import shared_file
 
-from geostructure.evaluate import fit_frame_to_truth
+from geostructure.framefit import fit_frame_to_truth
 from geostructure.io.readers import read_cloud
 from geostructure.orientation import Frame, angle_between_normals
 from geostructure.params import Params

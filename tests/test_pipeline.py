@@ -13,7 +13,7 @@ from geostructure.synthetic import observatory_scene
 
 def test_finds_the_six_observatory_surfaces_within_half_a_degree(scene, scene_result):
     match = match_scene(scene_result, scene)
-    assert match.all_found, [r.name for r in match.rows if r.region is None]
+    assert match.all_found, [s.surface for s in match.surfaces if not s.found]
     assert match.mean_error <= 0.5
     assert match.max_error <= 1.0
 
@@ -21,7 +21,7 @@ def test_finds_the_six_observatory_surfaces_within_half_a_degree(scene, scene_re
 def test_the_paper_table_angles_are_reproduced_on_the_scene(scene, scene_result):
     truth = scene.truth_table()
     match = match_scene(scene_result, scene)
-    for i, row in enumerate(match.rows):
+    for i, row in enumerate(match.surfaces):
         assert abs(row.dip - truth["dip"][i]) < 0.5
         assert azimuth_difference(row.dip_direction, truth["dip_direction"][i]) < 0.5
 

@@ -169,15 +169,15 @@ def print_match(match, console: Console | None = None) -> None:
     table = Table(title="Against the scene's ground truth")
     for column in ("surface", "region", "true dd/dip", "measured dd/dip", "normal error (deg)"):
         table.add_column(column, justify="right")
-    for row in match.rows:
-        found = row.region is not None
-        table.add_row(row.name, str(row.region) if found else "missed",
+    for row in match.surfaces:
+        found = row.found
+        table.add_row(row.surface, str(row.region) if found else "missed",
                       f"{row.true_dip_direction:05.1f}/{row.true_dip:04.1f}",
                       f"{row.dip_direction:05.1f}/{row.dip:04.1f}" if found else "-",
-                      f"{row.error:.3f}" if found else "-")
+                      f"{row.normal_error_deg:.3f}" if found else "-")
     console.print(table)
     console.print(f"mean normal error {match.mean_error:.3f} deg, max {match.max_error:.3f} deg, "
-                  f"{match.n_found} of {len(match.rows)} surfaces found")
+                  f"{match.n_found} of {len(match.surfaces)} surfaces found")
 
 
 if __name__ == "__main__":

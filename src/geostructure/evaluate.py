@@ -1,138 +1,247 @@
-"""Compare found planes with ground truth: one-to-one matching and angle errors."""
+"""Compare found planes with ground truth: matching, the paper's quality score z, angle errors.
+
+The paper's score, exactly as printed (``ORIENTATION.md``)::
+
+    z(P)   = (|P_gt - P_m| - P_min) / (P_max - P_min)     P in strike, dip, dip direction
+    z(R_i) = (z(strike) + z(dip) + z(dip direction)) / 3
+    z(R)   = sqrt(sum_i z(R_i)^2) / n
+
+with P_min = 0 and P_max = 360 for strike and dip direction, 90 for dip. As printed,
+|P_gt - P_m| does not wrap at 360: strike 359 measured as 1 scores 358 degrees of error.
+The wrap-aware variant takes the smaller way round (2 degrees) and is otherwise the same.
+A surface that no plane matches scores z(R_i) = 1 (the worst), so missing a surface can
+never improve a run's score; the count of missed surfaces is reported beside it.
+"""
 from __future__ import annotations
 
-from dataclasses import dataclass
+import csv
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .orientation import angle_between_normals, orientation_from_normals
+from .errors import GeoStructureError
+from .io.truth import GroundTruth
+from .orientation import angle_between_normals, azimuth_difference
+
+RANGES = {"strike": 360.0, "dip": 90.0, "dip_direction": 360.0}
 
 
 @dataclass
-class MatchRow:
-    name: str
-    region: int | None
-    true_dip: float
-    true_dip_direction: float
-    dip: float = float("nan")
-    dip_direction: float = float("nan")
-    error: float = float("nan")
+class PlaneSet:
+    """The measured planes as evaluation needs them (from a Result or a planes.csv)."""
+
+    n_points: np.ndarray
+    centroids: np.ndarray
+    normals: np.ndarray
+    strike: np.ndarray
+    dip: np.ndarray
+    dip_direction: np.ndarray
+    rect_centers: np.ndarray
+    rect_u: np.ndarray
+    rect_size: np.ndarray  # (P, 2) width, height
+
+    def __len__(self) -> int:
+        return len(self.n_points)
+
+    @classmethod
+    def from_result(cls, result) -> "PlaneSet":
+        o = result.orientation
+        planes = result.planes
+        return cls(np.array([p.n_points for p in planes]), result.centroids, result.normals, o.strike, o.dip,
+                   o.dip_direction, np.array([p.center for p in planes]).reshape(-1, 3) + result.cloud.offset,
+                   np.array([p.u for p in planes]).reshape(-1, 3),
+                   np.array([[p.width, p.height] for p in planes]).reshape(-1, 2))
+
+    @classmethod
+    def from_csv(cls, path) -> "PlaneSet":
+        path = Path(path)
+        if not path.is_file():
+            raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.")
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        try:
+            def col(*names):
+                return np.array([[float(r[n]) for n in names] for r in rows]).reshape(len(rows), len(names))
+
+            return cls(col("n_points")[:, 0].astype(int), col("centroid_x", "centroid_y", "centroid_z"),
+                       col("normal_x", "normal_y", "normal_z"), col("strike")[:, 0], col("dip")[:, 0],
+                       col("dip_direction")[:, 0], col("rect_center_x", "rect_center_y", "rect_center_z"),
+                       col("rect_u_x", "rect_u_y", "rect_u_z"), col("rect_width", "rect_height"))
+        except (KeyError, ValueError) as exc:
+            raise GeoStructureError(f"{path}: not a GeoStructure planes.csv ({exc}).") from None
 
 
-@dataclass
-class Match:
-    rows: list[MatchRow]
-
-    @property
-    def errors(self) -> np.ndarray:
-        return np.array([r.error for r in self.rows if r.region is not None])
-
-    @property
-    def n_found(self) -> int:
-        return sum(r.region is not None for r in self.rows)
-
-    @property
-    def all_found(self) -> bool:
-        return self.n_found == len(self.rows)
-
-    @property
-    def mean_error(self) -> float:
-        return float(self.errors.mean()) if len(self.errors) else float("nan")
-
-    @property
-    def max_error(self) -> float:
-        return float(self.errors.max()) if len(self.errors) else float("nan")
+def distance_to_rectangles(point, planes: PlaneSet) -> np.ndarray:
+    """Distance from a point to each plane's bounding rectangle (0 inside a flat one)."""
+    d = np.asarray(point, dtype=np.float64) - planes.rect_centers
+    n = planes.normals
+    v = np.cross(n, planes.rect_u)
+    a = np.abs(np.einsum("ij,ij->i", d, planes.rect_u)) - planes.rect_size[:, 0] / 2
+    b = np.abs(np.einsum("ij,ij->i", d, v)) - planes.rect_size[:, 1] / 2
+    c = np.einsum("ij,ij->i", d, n)
+    return np.sqrt(np.maximum(a, 0) ** 2 + np.maximum(b, 0) ** 2 + c**2)
 
 
 def match_by_location(centroids, truth_centres, radii) -> np.ndarray:
-    """For each truth surface, the index of the plane matched to it one-to-one, or -1.
-
-    A plane can match a surface only if its centroid lies within that surface's ``radius``
-    of the surface's centre; among those, the assignment minimises total distance.
-    """
+    """For each truth centre, the plane whose centroid is nearest within ``radii``, one-to-one."""
     centroids = np.asarray(centroids, dtype=np.float64).reshape(-1, 3)
     truth_centres = np.asarray(truth_centres, dtype=np.float64).reshape(-1, 3)
-    out = np.full(len(truth_centres), -1, dtype=np.int64)
-    if not len(centroids) or not len(truth_centres):
-        return out
     dist = np.linalg.norm(truth_centres[:, None, :] - centroids[None, :, :], axis=2)
-    allowed = dist <= np.asarray(radii, dtype=np.float64)[:, None]
-    cost = np.where(allowed, dist, 1e12)
-    rows, cols = linear_sum_assignment(cost)
+    return _assign(dist, np.asarray(radii, dtype=np.float64)[:, None])
+
+
+def _assign(cost: np.ndarray, limit) -> np.ndarray:
+    """One-to-one assignment minimising total cost among entries within ``limit``; -1 unmatched."""
+    out = np.full(cost.shape[0], -1, dtype=np.int64)
+    if cost.size == 0:
+        return out
+    allowed = cost <= limit
+    rows, cols = linear_sum_assignment(np.where(allowed, cost, 1e12))
     ok = allowed[rows, cols]
     out[rows[ok]] = cols[ok]
     return out
 
 
-def match_scene(result, scene) -> Match:
-    """Match a result to a synthetic scene's surfaces and measure each normal's error."""
-    truth_normals = scene.normals
-    truth = orientation_from_normals(truth_normals, result.frame)
-    centres = np.array([s.center for s in scene.surfaces])
-    radii = np.array([0.5 * np.hypot(s.width, s.height) for s in scene.surfaces])
-    matched = match_by_location(result.centroids, centres, radii)
-    rows = []
-    for i, surface in enumerate(scene.surfaces):
-        row = MatchRow(surface.name, None, float(truth.dip[i]), float(truth.dip_direction[i]))
-        j = int(matched[i])
-        if j >= 0:
-            row.region = j
-            row.dip = float(result.orientation.dip[j])
-            row.dip_direction = float(result.orientation.dip_direction[j])
-            row.error = float(angle_between_normals(result.normals[j], truth_normals[i])[0])
-        rows.append(row)
-    return Match(rows)
+def match_planes(planes: PlaneSet, truth: GroundTruth, *, max_distance: float = np.inf,
+                 max_angle: float = 30.0, candidates: int | None = None) -> np.ndarray:
+    """Match each truth surface to one plane, or -1 (missed).
+
+    With a centre: the plane whose rectangle contains or is nearest to it, within
+    ``max_distance``. Without: by orientation, among the ``candidates`` largest planes
+    (default three per surface, at least 10), within ``max_angle`` degrees.
+    """
+    matched = np.full(len(truth), -1, dtype=np.int64)
+    if not len(planes):
+        return matched
+    located = truth.has_centres
+    if located.any():
+        dist = np.array([distance_to_rectangles(c, planes) for c in truth.centres[located]])
+        matched[located] = _assign(dist, max_distance)
+    free = ~located
+    if free.any():
+        taken = set(matched[matched >= 0].tolist())
+        limit = candidates or max(10, 3 * len(truth))
+        pool = np.array([j for j in np.argsort(-planes.n_points, kind="stable")[:limit] if j not in taken], dtype=int)
+        if len(pool):
+            angle = np.array([angle_between_normals(np.repeat(n[None], len(pool), 0), planes.normals[pool])
+                              for n in truth.normals[free]])
+            chosen = _assign(angle, max_angle)
+            matched[free] = np.where(chosen >= 0, pool[np.maximum(chosen, 0)], -1)
+    return matched
 
 
 @dataclass
-class FrameFit:
-    """A rotation taking truth normals (their frame) onto measured normals (cloud axes)."""
-
-    rotation: np.ndarray
-    matched: np.ndarray      # plane index per truth surface
-    residuals: np.ndarray    # angle (deg) per surface after the rotation
-    rotation_angle: float    # degrees between the fitted frame and the starting one
+class SurfaceScore:
+    surface: str
+    region: int                 # -1: missed
+    true_strike: float
+    true_dip: float
+    true_dip_direction: float
+    strike: float = float("nan")
+    dip: float = float("nan")
+    dip_direction: float = float("nan")
+    z_strike: float = 1.0
+    z_dip: float = 1.0
+    z_dip_direction: float = 1.0
+    z_region: float = 1.0       # the paper's z(R_i), as printed
+    z_region_wrapped: float = 1.0
+    normal_error_deg: float = float("nan")
 
     @property
-    def mean_residual(self) -> float:
-        return float(self.residuals.mean())
+    def found(self) -> bool:
+        return self.region >= 0
 
 
-def kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation R minimising sum |R a_i - b_i|^2 (rows are vectors)."""
-    h = a.T @ b
-    u, _, vt = np.linalg.svd(h)
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    return vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+@dataclass
+class Evaluation:
+    surfaces: list[SurfaceScore]
+
+    @property
+    def n_found(self) -> int:
+        return sum(s.found for s in self.surfaces)
+
+    @property
+    def n_missed(self) -> int:
+        return len(self.surfaces) - self.n_found
+
+    @property
+    def all_found(self) -> bool:
+        return self.n_missed == 0
+
+    @property
+    def z(self) -> float:
+        """The paper's z(R) as printed (missed surfaces count as z(R_i) = 1)."""
+        return run_score([s.z_region for s in self.surfaces])
+
+    @property
+    def z_wrapped(self) -> float:
+        return run_score([s.z_region_wrapped for s in self.surfaces])
+
+    @property
+    def errors(self) -> np.ndarray:
+        return np.array([s.normal_error_deg for s in self.surfaces if s.found])
+
+    @property
+    def mean_error(self) -> float:
+        return float(self.errors.mean()) if self.n_found else float("nan")
+
+    @property
+    def max_error(self) -> float:
+        return float(self.errors.max()) if self.n_found else float("nan")
+
+    def summary(self) -> dict:
+        return {"z": self.z, "z_wrapped": self.z_wrapped, "mean_normal_error_deg": self.mean_error,
+                "max_normal_error_deg": self.max_error, "found": self.n_found, "missed": self.n_missed,
+                "surfaces": [asdict(s) for s in self.surfaces]}
 
 
-def fit_frame_to_truth(normals, truth_normals, *, start=None, candidates: int = 30, iterations: int = 20) -> FrameFit:
-    """Fix an unreferenced cloud's frame from ground-truth planes.
+def z_score(truth, measured, quantity: str, *, wrap: bool = False) -> np.ndarray:
+    """The paper's z(P) for one quantity; ``wrap=True`` takes azimuths the short way round."""
+    span = RANGES[quantity]
+    if wrap and quantity != "dip":
+        diff = azimuth_difference(truth, measured)
+    else:
+        diff = np.abs(np.asarray(truth, dtype=np.float64) - np.asarray(measured, dtype=np.float64))
+    return diff / span
 
-    Alternates a one-to-one assignment of truth normals to the ``candidates`` largest planes
-    (by angle, sign-free) with a least-squares rotation (Kabsch) of the truth normals onto
-    their planes' normals, starting from ``start`` (identity: the cloud is roughly in the
-    truth's frame). The residuals say how well the planes agree once the frame is known.
-    """
-    normals = np.asarray(normals, dtype=np.float64)[:candidates]
-    truth = np.asarray(truth_normals, dtype=np.float64)
-    truth = truth / np.linalg.norm(truth, axis=1, keepdims=True)
-    rotation = np.eye(3) if start is None else np.asarray(start, dtype=np.float64)
-    matched = np.full(len(truth), -1)
-    for _ in range(iterations):
-        rotated = truth @ rotation.T
-        cost = np.degrees(np.arccos(np.clip(np.abs(rotated @ normals.T), 0, 1)))
-        rows, cols = linear_sum_assignment(cost)
-        new = np.full(len(truth), -1)
-        new[rows] = cols
-        target = normals[new] * np.sign(np.einsum("ij,ij->i", normals[new], rotated))[:, None]
-        rotation = kabsch(truth, target)
-        if np.array_equal(new, matched):
-            break
-        matched = new
-    residuals = angle_between_normals(truth @ rotation.T, normals[matched])
-    start_rot = np.eye(3) if start is None else np.asarray(start, dtype=np.float64)
-    turn = rotation @ start_rot.T
-    angle = float(np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1, 1))))
-    return FrameFit(rotation, matched, residuals, angle)
+
+def run_score(region_scores) -> float:
+    """The paper's z(R) = sqrt(sum z(R_i)^2) / n."""
+    z = np.asarray(region_scores, dtype=np.float64)
+    return float(np.sqrt(np.sum(z**2)) / len(z)) if len(z) else float("nan")
+
+
+def evaluate(planes: PlaneSet, truth: GroundTruth, **match_options) -> Evaluation:
+    """Match planes to the ground truth and score every surface (missed ones score 1)."""
+    matched = match_planes(planes, truth, **match_options)
+    scores = []
+    for i, name in enumerate(truth.names):
+        s = SurfaceScore(name, int(matched[i]), float(truth.strike[i]), float(truth.dip[i]),
+                         float(truth.dip_direction[i]))
+        j = int(matched[i])
+        if j >= 0:
+            s.strike, s.dip, s.dip_direction = float(planes.strike[j]), float(planes.dip[j]), float(planes.dip_direction[j])
+            parts = [float(z_score(getattr(s, f"true_{q}"), getattr(s, q), q)) for q in RANGES]
+            wrapped = [float(z_score(getattr(s, f"true_{q}"), getattr(s, q), q, wrap=True)) for q in RANGES]
+            s.z_strike, s.z_dip, s.z_dip_direction = parts
+            s.z_region = sum(parts) / 3
+            s.z_region_wrapped = sum(wrapped) / 3
+            s.normal_error_deg = float(angle_between_normals(truth.normals[i], planes.normals[j])[0])
+        scores.append(s)
+    return Evaluation(scores)
+
+
+def scene_truth(scene, frame) -> GroundTruth:
+    """A synthetic scene's six surfaces as ground truth with centres (for the demo and tests)."""
+    from .orientation import orientation_from_normals
+
+    o = orientation_from_normals(scene.normals, frame)
+    return GroundTruth([s.name for s in scene.surfaces], o.dip, o.dip_direction,
+                       np.array([s.normal for s in scene.surfaces]), np.array([s.center for s in scene.surfaces]))
+
+
+def match_scene(result, scene) -> Evaluation:
+    """Evaluate a result against its synthetic scene, matching by location."""
+    return evaluate(PlaneSet.from_result(result), scene_truth(scene, result.frame), max_distance=0.5 * result.voxels.edge * 10)

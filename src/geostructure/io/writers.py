@@ -21,7 +21,8 @@ from ..errors import GeoStructureError
 PLANE_COLUMNS = ("region_id", "n_points", "area_m2", "centroid_x", "centroid_y", "centroid_z",
                  "normal_x", "normal_y", "normal_z", "strike", "dip", "dip_direction")
 EXTRA_COLUMNS = ("rect_width", "rect_height", "fit_residual", "n_voxels", "normal_scatter_deg",
-                 "normal_uncertainty_deg")
+                 "normal_uncertainty_deg", "rect_center_x", "rect_center_y", "rect_center_z",
+                 "rect_u_x", "rect_u_y", "rect_u_z")
 
 
 def _file_mode() -> int:
@@ -65,7 +66,8 @@ def plane_rows(result) -> list[dict]:
     for i, plane in enumerate(result.planes):
         values = [i, plane.n_points, plane.area, *centroids[i], *result.normals[i], o.strike[i], o.dip[i],
                   o.dip_direction[i], plane.width, plane.height, plane.residual,
-                  int(result.n_voxels[i]), result.scatter[i], result.uncertainty[i]]
+                  int(result.n_voxels[i]), result.scatter[i], result.uncertainty[i],
+                  *(plane.center + result.cloud.offset), *plane.u]
         rows.append(dict(zip(PLANE_COLUMNS + EXTRA_COLUMNS, values)))
     return rows
 

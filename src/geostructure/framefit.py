@@ -1,0 +1,62 @@
+"""Fix an unreferenced cloud's frame from ground-truth planes (best-fit rotation)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from .orientation import angle_between_normals
+
+
+@dataclass
+class FrameFit:
+    """A rotation taking truth normals (their frame) onto measured normals (cloud axes)."""
+
+    rotation: np.ndarray
+    matched: np.ndarray      # plane index per truth surface
+    residuals: np.ndarray    # angle (deg) per surface after the rotation
+    rotation_angle: float    # degrees between the fitted frame and the starting one
+
+    @property
+    def mean_residual(self) -> float:
+        return float(self.residuals.mean())
+
+
+def kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation R minimising sum |R a_i - b_i|^2 (rows are vectors)."""
+    h = a.T @ b
+    u, _, vt = np.linalg.svd(h)
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    return vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+
+
+def fit_frame_to_truth(normals, truth_normals, *, start=None, candidates: int = 30, iterations: int = 20) -> FrameFit:
+    """Fix an unreferenced cloud's frame from ground-truth planes.
+
+    Alternates a one-to-one assignment of truth normals to the ``candidates`` largest planes
+    (by angle, sign-free) with a least-squares rotation (Kabsch) of the truth normals onto
+    their planes' normals, starting from ``start`` (identity: the cloud is roughly in the
+    truth's frame). The residuals say how well the planes agree once the frame is known.
+    """
+    normals = np.asarray(normals, dtype=np.float64)[:candidates]
+    truth = np.asarray(truth_normals, dtype=np.float64)
+    truth = truth / np.linalg.norm(truth, axis=1, keepdims=True)
+    rotation = np.eye(3) if start is None else np.asarray(start, dtype=np.float64)
+    matched = np.full(len(truth), -1)
+    for _ in range(iterations):
+        rotated = truth @ rotation.T
+        cost = np.degrees(np.arccos(np.clip(np.abs(rotated @ normals.T), 0, 1)))
+        rows, cols = linear_sum_assignment(cost)
+        new = np.full(len(truth), -1)
+        new[rows] = cols
+        target = normals[new] * np.sign(np.einsum("ij,ij->i", normals[new], rotated))[:, None]
+        rotation = kabsch(truth, target)
+        if np.array_equal(new, matched):
+            break
+        matched = new
+    residuals = angle_between_normals(truth @ rotation.T, normals[matched])
+    start_rot = np.eye(3) if start is None else np.asarray(start, dtype=np.float64)
+    turn = rotation @ start_rot.T
+    angle = float(np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1, 1))))
+    return FrameFit(rotation, matched, residuals, angle)
