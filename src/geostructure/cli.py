@@ -56,8 +56,30 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("-o", "--outdir", type=Path, required=True, help="folder for planes.csv, regions.ply, run.json")
     m.add_argument("--mesh-samples", type=int, default=DEFAULT_MESH_SAMPLES,
                    help="points sampled on a PLY mesh's faces (0: use the vertices only)")
+    m.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
     add_measure_options(m)
     m.set_defaults(run=run_measure)
+
+    e = sub.add_parser("evaluate", help="score a measured OUTDIR against a ground-truth CSV")
+    e.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
+    e.add_argument("--truth", type=Path, required=True, help="CSV: surface, strike, dip, dip_direction[, center_*]")
+    e.add_argument("-q", "--quiet", action="store_true", help="no table")
+    e.set_defaults(run=run_evaluate)
+
+    w = sub.add_parser("sweep", help="the paper's experiments: vary one factor, record time and z(R)")
+    w.add_argument("input", type=Path, nargs="?", help="cloud file (or --demo for the bundled scene)")
+    w.add_argument("--demo", action="store_true", help="sweep the bundled synthetic scene against its exact truth")
+    w.add_argument("--truth", type=Path, help="ground-truth CSV (required unless --demo)")
+    w.add_argument("-o", "--outdir", type=Path, default=Path("out/sweep"))
+    w.add_argument("--factor", choices=("zeta", "theta", "psi", "k", "all"), default="all")
+    w.add_argument("--start", type=float)
+    w.add_argument("--end", type=float)
+    w.add_argument("--step", type=float)
+    w.add_argument("--workers", type=int, default=2, help="runs in parallel (default %(default)s)")
+    w.add_argument("--points", type=int, default=300_000, help="points in the --demo scene")
+    w.add_argument("--mesh-samples", type=int, default=DEFAULT_MESH_SAMPLES)
+    add_measure_options(w)
+    w.set_defaults(run=run_sweep)
 
     d = sub.add_parser("demo", help="measure the bundled synthetic observatory scene")
     d.add_argument("-o", "--outdir", type=Path, default=Path("out/demo"))
@@ -124,6 +146,31 @@ def run_measure(args) -> int:
         print_planes(result)
         print(f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "
               f"wrote {', '.join(str(p) for p in paths.values())}")
+    if args.truth:
+        return run_evaluate(argparse.Namespace(outdir=args.outdir, truth=args.truth, quiet=args.quiet))
+    return 0
+
+
+def run_evaluate(args) -> int:
+    import json
+
+    from .evaluate import PlaneSet, evaluate
+    from .io.truth import read_truth
+    from .io.writers import write_evaluation
+
+    run_path = args.outdir / "run.json"
+    try:
+        frame_record = json.loads(run_path.read_text())["frame"]
+        frame = Frame(tuple(map(tuple, frame_record["rotation"])), frame_record["declination"], frame_record["name"])
+    except FileNotFoundError:
+        raise GeoStructureError(f"{run_path}: no such file; run 'geostructure measure' first.") from None
+    except (ValueError, KeyError, TypeError):
+        raise GeoStructureError(f"{run_path}: not a GeoStructure run record.") from None
+    evaluation = evaluate(PlaneSet.from_csv(args.outdir / "planes.csv"), read_truth(args.truth, frame))
+    paths = write_evaluation(evaluation, args.outdir)
+    if not args.quiet:
+        print_evaluation(evaluation)
+        print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0
 
 
@@ -150,6 +197,54 @@ def _console() -> Console:
     return console if console.is_terminal else Console(width=120)
 
 
+def run_sweep(args) -> int:
+    from .evaluate import scene_truth
+    from .io.truth import read_truth
+    from .io.writers import prepare_outdir, write_json, write_table_csv
+    from .sweep import FACTORS, plot_sweep, rows_as_dicts
+    from .sweep import run_sweep as sweep
+
+    base, frame = params_from(args), frame_from(args)
+    if args.demo:
+        from .synthetic import observatory_scene
+
+        scene = observatory_scene(args.points)
+        cloud, truth = scene.cloud, scene_truth(scene, frame)
+    else:
+        if args.input is None or args.truth is None:
+            raise GeoStructureError("sweep needs INPUT and --truth TRUTH.csv, or --demo.")
+        truth = read_truth(args.truth, frame)
+        cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
+    factors = FACTORS if args.factor == "all" else (args.factor,)
+    if args.factor == "all" and any(v is not None for v in (args.start, args.end, args.step)):
+        raise GeoStructureError("--start, --end and --step need a single --factor.")
+    ranges = {args.factor: (args.start, args.end, args.step)} if args.factor != "all" else {}
+    outdir = prepare_outdir(args.outdir)
+    t = time.perf_counter()
+    with StageProgress(enabled=not args.quiet) as progress:
+        rows = sweep(cloud, truth, frame, factors, base, ranges=ranges, workers=args.workers, progress=progress)
+    write_table_csv(rows_as_dicts(rows), outdir / "sweep.csv")
+    figures = plot_sweep(rows, outdir / f"sweep_{args.factor}")
+    write_json({"input": "demo" if args.demo else str(args.input), "base_params": base.to_dict(),
+                "seconds": round(time.perf_counter() - t, 2), "runs": rows_as_dicts(rows)}, outdir / "sweep.json")
+    if not args.quiet:
+        print_sweep(rows)
+        print(f"{len(rows)} runs in {time.perf_counter() - t:.0f} s; wrote {outdir / 'sweep.csv'}, "
+              f"{', '.join(str(p) for p in figures)}")
+    return 0
+
+
+def print_sweep(rows, console: Console | None = None) -> None:
+    console = console or _console()
+    table = Table(title="Sweep")
+    for column in ("factor", "value", "region growing s", "total s", "z(R)", "z wrapped", "mean error", "found", "planes"):
+        table.add_column(column, justify="right")
+    for r in rows:
+        table.add_row(r.factor, f"{r.value:g}", f"{r.regions_s:.2f}", f"{r.total_s:.2f}", f"{r.z:.3g}",
+                      f"{r.z_wrapped:.3g}", f"{r.mean_error_deg:.2f}", f"{r.found}/{r.found + r.missed}", str(r.planes))
+    console.print(table)
+
+
 def print_planes(result, console: Console | None = None) -> None:
     console = console or _console()
     table = Table(title=f"Planes in {Path(str(result.cloud.source)).name} (frame: {result.frame.name})")
@@ -162,6 +257,24 @@ def print_planes(result, console: Console | None = None) -> None:
                       f"{o.dip_direction[i]:05.1f}", f"{result.uncertainty[i]:.2f}",
                       f"{c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}")
     console.print(table)
+
+
+def print_evaluation(evaluation, console: Console | None = None) -> None:
+    console = console or _console()
+    table = Table(title="Against the ground truth")
+    for column in ("surface", "region", "true strike/dip/dd", "measured strike/dip/dd", "z(R_i)", "z wrapped",
+                   "normal error"):
+        table.add_column(column, justify="right")
+    for s in evaluation.surfaces:
+        measured = f"{s.strike:05.1f}/{s.dip:04.1f}/{s.dip_direction:05.1f}" if s.found else "missed"
+        table.add_row(s.surface, str(s.region) if s.found else "-",
+                      f"{s.true_strike:05.1f}/{s.true_dip:04.1f}/{s.true_dip_direction:05.1f}", measured,
+                      f"{s.z_region:.4f}", f"{s.z_region_wrapped:.4f}",
+                      f"{s.normal_error_deg:.2f} deg" if s.found else "-")
+    console.print(table)
+    console.print(f"z(R) = {evaluation.z:.4f} as printed in the paper, {evaluation.z_wrapped:.4f} wrap-aware; "
+                  f"normal error mean {evaluation.mean_error:.2f} deg, max {evaluation.max_error:.2f} deg; "
+                  f"{evaluation.n_found} of {len(evaluation.surfaces)} surfaces found")
 
 
 def print_match(match, console: Console | None = None) -> None:

@@ -80,13 +80,13 @@ def _format(value) -> str:
 
 def write_planes_csv(result, path) -> Path:
     """``planes.csv``: one row per plane, largest first, in the input's own coordinates."""
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", newline="") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(PLANE_COLUMNS + EXTRA_COLUMNS)
-            for row in plane_rows(result):
-                writer.writerow([_format(v) for v in row.values()])
-    return Path(path)
+    rows = plane_rows(result)
+    if not rows:  # keep the header, so an empty result is still a valid table
+        rows_header = dict.fromkeys(PLANE_COLUMNS + EXTRA_COLUMNS, "")
+        with atomic_path(path) as tmp:
+            tmp.write_text(",".join(rows_header) + "\n")
+        return Path(path)
+    return write_table_csv(rows, path)
 
 
 def write_regions_ply(result, path) -> Path:
@@ -151,3 +151,24 @@ def write_outputs(result, outdir, extra: dict | None = None) -> dict[str, Path]:
         "regions": write_regions_ply(result, outdir / "regions.ply"),
         "run": write_json(run_record(result, extra), outdir / "run.json"),
     }
+
+
+def write_table_csv(rows: list[dict], path) -> Path:
+    """A list of same-keyed dicts as CSV (header from the first row's keys)."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="") as fh:
+            writer = csv.writer(fh)
+            if rows:
+                writer.writerow(rows[0].keys())
+            for row in rows:
+                writer.writerow([v if isinstance(v, str) else _format(v) for v in row.values()])
+    return Path(path)
+
+
+def write_evaluation(evaluation, outdir) -> dict[str, Path]:
+    """``evaluation.csv`` (one row per ground-truth surface) and ``evaluation.json`` (scores)."""
+    from dataclasses import asdict
+
+    outdir = prepare_outdir(outdir)
+    return {"evaluation_csv": write_table_csv([asdict(s) for s in evaluation.surfaces], outdir / "evaluation.csv"),
+            "evaluation_json": write_json(evaluation.summary(), outdir / "evaluation.json")}
