@@ -9,6 +9,7 @@ The public API::
 """
 __version__ = "0.1.0"
 
+from .auto import choose_params
 from .cloud import Cloud
 from .errors import GeoStructureError
 from .io.readers import read_cloud
@@ -17,6 +18,6 @@ from .orientation import Frame, Orientation, angle_between_normals, azimuth_diff
 from .params import Params
 from .pipeline import Result, measure
 
-__all__ = ["Cloud", "Frame", "GeoStructureError", "Orientation", "Params", "Result", "angle_between_normals",
+__all__ = ["choose_params", "Cloud", "Frame", "GeoStructureError", "Orientation", "Params", "Result", "angle_between_normals",
            "azimuth_difference", "measure", "orientation_from_normals", "read_cloud", "write_outputs",
            "__version__"]

@@ -78,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--workers", type=int, default=2, help="runs in parallel (default %(default)s)")
     w.add_argument("--points", type=int, default=300_000, help="points in the --demo scene")
     w.add_argument("--mesh-samples", type=int, default=DEFAULT_MESH_SAMPLES)
-    add_measure_options(w)
+    add_measure_options(w, auto_default=False)
     w.set_defaults(run=run_sweep)
 
     d = sub.add_parser("demo", help="measure the bundled synthetic observatory scene")
@@ -90,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def add_measure_options(p: argparse.ArgumentParser) -> None:
+def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -> None:
     defaults = Params()
     g = p.add_argument_group("frame (which way is up and north)")
     g.add_argument("--frame", choices=("enu", "paper"), default="enu",
@@ -100,10 +100,12 @@ def add_measure_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--declination", type=float, default=0.0,
                    help="magnetic declination in degrees, east positive: azimuths read against magnetic north")
     a = p.add_argument_group("algorithm (the paper's variable factors)")
-    a.add_argument("--zeta", type=float, default=defaults.zeta, help="voxel edge / largest extent (default %(default)s)")
-    a.add_argument("--theta", type=float, default=defaults.theta, help="angle threshold, degrees (default %(default)s)")
-    a.add_argument("--psi", type=float, default=defaults.psi, help="offset threshold, voxel edges (default %(default)s)")
-    a.add_argument("--k", type=int, default=defaults.k, help="neighbours per seed (default %(default)s)")
+    a.add_argument("--auto", action=argparse.BooleanOptionalAction, default=auto_default,
+                   help="choose zeta, theta, psi and k from the cloud (explicit values below still win)")
+    a.add_argument("--zeta", type=float, help=f"voxel edge / largest extent (fixed default {defaults.zeta})")
+    a.add_argument("--theta", type=float, help=f"angle threshold, degrees (fixed default {defaults.theta})")
+    a.add_argument("--psi", type=float, help=f"offset threshold, voxel edges (fixed default {defaults.psi})")
+    a.add_argument("--k", type=int, help=f"neighbours per seed (fixed default {defaults.k})")
     a.add_argument("--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)")
     a.add_argument("--filter", choices=("local", "global", "none"), default=defaults.filter,
                    help="Mahalanobis outlier filter (default %(default)s)")
@@ -115,9 +117,32 @@ def add_measure_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
 
 
-def params_from(args) -> Params:
-    return Params(zeta=args.zeta, theta=args.theta, psi=args.psi, k=args.k, min_points=args.min_points,
-                  filter=args.filter, filter_sigma=args.sigma, reference=args.reference, rectangle=args.rectangle)
+FACTOR_OPTIONS = ("zeta", "theta", "psi", "k")
+
+
+def params_from(args, cloud=None) -> tuple[Params, dict | None]:
+    """Parameters from the options; with --auto (and a cloud), chosen from the cloud first.
+
+    Returns the parameters and, for --auto, a record of the choice for run.json.
+    """
+    given = {name: getattr(args, name) for name in FACTOR_OPTIONS if getattr(args, name) is not None}
+    base = Params(min_points=args.min_points, filter=args.filter, filter_sigma=args.sigma,
+                  reference=args.reference, rectangle=args.rectangle, **given)
+    if not (args.auto and cloud is not None) or len(given) == len(FACTOR_OPTIONS):
+        return base, None
+    from .auto import choose_params
+    from .pipeline import check_measurable
+
+    check_measurable(cloud)
+    choice = choose_params(cloud.local, base)
+    params = choice.params.with_(**given) if given else choice.params
+    if not args.quiet:
+        print(f"geostructure: {choice.describe()}" + (f"; given: {given}" if given else ""), file=sys.stderr)
+    record = {"zeta": choice.params.zeta, "theta": choice.params.theta, "psi": choice.params.psi,
+              "k": choice.params.k, "points_per_voxel": choice.points_per_voxel,
+              "normal_noise_deg": choice.normal_noise_deg, "offset_noise_voxel_edges": choice.offset_noise,
+              "overridden_by_user": sorted(given)}
+    return params, record
 
 
 def frame_from(args) -> Frame:
@@ -129,16 +154,21 @@ def frame_from(args) -> Frame:
 
 
 def run_measure(args) -> int:
-    params, frame = params_from(args), frame_from(args)
+    frame = frame_from(args)
+    params_from(args)  # refuse bad parameters before any reading
     with StageProgress(enabled=not args.quiet) as progress:
         t = time.perf_counter()
         progress("read", 0, None)
         cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
         read_seconds = time.perf_counter() - t
+        t = time.perf_counter()
+        progress("auto", 0, None)
+        params, auto = params_from(args, cloud)
+        auto_seconds = time.perf_counter() - t
         result = measure(cloud, params, frame, progress)
-        result.seconds = {"read": read_seconds, **result.seconds}
+        result.seconds = {"read": read_seconds, "auto": auto_seconds, **result.seconds}
         progress("write", 0, None)
-        paths = write_outputs(result, args.outdir)
+        paths = write_outputs(result, args.outdir, extra={"auto": auto})
     if not len(result):
         print("geostructure: warning: no plane found; if the cloud is sparse, try a larger --zeta "
               "(voxels need at least 5 points each to fit a plane).", file=sys.stderr)
@@ -178,11 +208,12 @@ def run_demo(args) -> int:
     from .evaluate import match_scene
     from .synthetic import observatory_scene
 
-    params, frame = params_from(args), frame_from(args)
+    frame = frame_from(args)
     scene = observatory_scene(args.points, seed=args.seed)
+    params, auto = params_from(args, scene.cloud)
     with StageProgress(enabled=not args.quiet) as progress:
         result = measure(scene.cloud, params, frame, progress)
-        paths = write_outputs(result, args.outdir, extra={"demo": {"points": args.points, "seed": args.seed}})
+        paths = write_outputs(result, args.outdir, extra={"auto": auto, "demo": {"points": args.points, "seed": args.seed}})
     match = match_scene(result, scene)
     if not args.quiet:
         print_planes(result)
@@ -204,7 +235,7 @@ def run_sweep(args) -> int:
     from .sweep import FACTORS, plot_sweep, rows_as_dicts
     from .sweep import run_sweep as sweep
 
-    base, frame = params_from(args), frame_from(args)
+    frame = frame_from(args)
     if args.demo:
         from .synthetic import observatory_scene
 
@@ -215,6 +246,7 @@ def run_sweep(args) -> int:
             raise GeoStructureError("sweep needs INPUT and --truth TRUTH.csv, or --demo.")
         truth = read_truth(args.truth, frame)
         cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
+    base, _ = params_from(args, cloud)
     factors = FACTORS if args.factor == "all" else (args.factor,)
     if args.factor == "all" and any(v is not None for v in (args.start, args.end, args.step)):
         raise GeoStructureError("--start, --end and --step need a single --factor.")

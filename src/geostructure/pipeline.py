@@ -57,6 +57,18 @@ def default_min_points(n_points: int) -> int:
     return max(30, int(0.001 * n_points))
 
 
+def check_measurable(cloud: Cloud) -> None:
+    """Refuse clouds no plane can be measured in: too few points, one spot, one line."""
+    if len(cloud) < 3:
+        raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
+    extent = np.ptp(cloud.local, axis=0)
+    if extent.max() <= 0:
+        raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
+    if np.linalg.matrix_rank(np.cov(cloud.local[:: max(1, len(cloud) // 100_000)], rowvar=False),
+                             tol=1e-12 * extent.max() ** 2) < 2:
+        raise GeoStructureError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
+
+
 def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None) -> Result:
     """Find the planar regions of a cloud and measure their strike, dip and dip direction.
 
@@ -79,14 +91,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
     """
     report = progress or (lambda stage, done, total: None)
     seconds, counts = {}, {"input": len(cloud)}
-    if len(cloud) < 3:
-        raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
-    extent = np.ptp(cloud.local, axis=0)
-    if extent.max() <= 0:
-        raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
-    if np.linalg.matrix_rank(np.cov(cloud.local[:: max(1, len(cloud) // 100_000)], rowvar=False),
-                             tol=1e-12 * extent.max() ** 2) < 2:
-        raise GeoStructureError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
+    check_measurable(cloud)
 
     t = time.perf_counter()
     report("filter", 0, None)

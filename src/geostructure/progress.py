@@ -7,7 +7,7 @@ import time
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-LABELS = {"read": "Reading", "filter": "Mahalanobis filter", "voxel": "Voxel fit", "regions": "Region growing",
+LABELS = {"read": "Reading", "auto": "Choosing parameters", "filter": "Mahalanobis filter", "voxel": "Voxel fit", "regions": "Region growing",
           "planes": "Region planes", "orientation": "Orientation", "write": "Writing"}
 
 

@@ -1,0 +1,111 @@
+"""Choose zeta, theta and psi from the cloud alone (no ground truth).
+
+1. **zeta from density and noise.** A voxel needs enough points for a stable plane, and
+   no more than that, or it straddles edges. The density zeta is the smallest value whose
+   typical voxel (the voxel of the median point) holds ``TARGET_POINTS`` points; occupancy
+   is counted on a subsample and scaled up. A voxel must also be large against the noise,
+   or its normal is mostly noise: the median voxel-plane residual sigma, measured at the
+   density zeta, must be at most ``MAX_NOISE_RATIO`` of the edge, so zeta is raised to
+   sigma / (MAX_NOISE_RATIO x extent) where needed.
+2. **Noise from local plane fits.** At that zeta, each planar voxel's neighbours (its 6
+   nearest voxel planes) give two noise measures. One is the angle between their normals:
+   on a surface it is noise and roughness, at an edge it is the edge. The other is the
+   offset of a neighbour's centroid from the voxel's plane, in voxel edges. Their medians
+   describe the surfaces, because edges are a minority of voxel pairs.
+3. **theta and psi** are set a few times above those medians, clipped to the paper's
+   optimum ranges. Above the noise, neighbours on one surface join; at a real edge the
+   angle is far larger than the noise, so regions still stop there.
+4. **k** stays at 8: the paper's optimum is 3 to 11, and the sweeps here show a plateau
+   from 3 upward.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .params import Params
+from .voxel import accumulate_moments, fit_voxels, voxel_edge
+
+#: Points wanted in the typical voxel.
+TARGET_POINTS = 30
+#: Largest noise (median voxel-plane residual) as a fraction of the voxel edge.
+MAX_NOISE_RATIO = 0.05
+ZETA_RANGE = (0.004, 0.1)
+THETA_RANGE = (3.0, 20.0)
+PSI_RANGE = (0.02, 0.6)
+
+
+@dataclass
+class AutoChoice:
+    """The chosen parameters and the measurements behind them."""
+
+    params: Params
+    points_per_voxel: float
+    normal_noise_deg: float
+    offset_noise: float  # voxel edges
+
+    def describe(self) -> str:
+        p = self.params
+        return (f"auto: zeta {p.zeta:.4g} ({self.points_per_voxel:.0f} points in the typical voxel), "
+                f"theta {p.theta:.3g} deg (normal noise {self.normal_noise_deg:.2f} deg), "
+                f"psi {p.psi:.3g} voxel edges (offset noise {self.offset_noise:.3f}), k {p.k}")
+
+
+def typical_occupancy(points: np.ndarray, zeta: float, *, sample: int = 400_000, seed: int = 0) -> float:
+    """Points in the voxel of the median point, estimated on a subsample."""
+    rng = np.random.default_rng(seed)
+    fraction = min(1.0, sample / len(points))
+    sub = points if fraction == 1.0 else points[rng.choice(len(points), int(sample), replace=False)]
+    edge = voxel_edge(points, zeta)
+    moments, inverse = accumulate_moments(sub, edge, points.min(axis=0))
+    return float(np.median(moments.count[inverse])) / fraction
+
+
+def choose_zeta(points: np.ndarray, target: float = TARGET_POINTS) -> tuple[float, float]:
+    """Smallest zeta on a geometric grid whose typical voxel holds ``target`` points."""
+    grid = np.geomspace(*ZETA_RANGE, 40)
+    occupancy = 0.0
+    for zeta in grid:
+        occupancy = typical_occupancy(points, zeta)
+        if occupancy >= target:
+            return float(zeta), occupancy
+    return float(grid[-1]), occupancy
+
+
+def surface_noise(points: np.ndarray, zeta: float, neighbours: int = 6) -> tuple[float, float]:
+    """Median angle (deg) between neighbouring voxel normals and median neighbour offset (voxel edges)."""
+    voxels = fit_voxels(points, zeta, max_curvature=1 / 3)
+    if len(voxels) < neighbours + 1:
+        return 5.0, 0.1
+    _, idx = cKDTree(voxels.centroid).query(voxels.centroid, k=neighbours + 1, workers=-1)
+    idx = idx[:, 1:]
+    cos = np.abs(np.einsum("ij,ikj->ik", voxels.normal, voxels.normal[idx]))
+    angle = np.degrees(np.arccos(np.clip(cos, 0, 1)))
+    offset = np.abs(np.einsum("ikj,ij->ik", voxels.centroid[idx] - voxels.centroid[:, None, :], voxels.normal))
+    return float(np.median(angle)), float(np.median(offset) / voxels.edge)
+
+
+def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
+    """Parameters for this cloud: zeta from density, theta and psi from measured noise.
+
+    ``points`` are local (offset-centred) coordinates; fields of ``base`` other than
+    zeta, theta and psi are kept.
+    """
+    zeta, occupancy = choose_zeta(points)
+    sigma = float(np.median(fit_voxels(points, zeta, max_curvature=1 / 3).residual))
+    extent = voxel_edge(points, 1.0)
+    zeta = float(np.clip(max(zeta, sigma / (MAX_NOISE_RATIO * extent)), *ZETA_RANGE))
+    occupancy = typical_occupancy(points, zeta)
+    angle, offset = surface_noise(points, zeta)
+    theta = float(np.clip(3.0 * angle, *THETA_RANGE))
+    psi = float(np.clip(3.0 * offset, *PSI_RANGE))
+    import warnings
+
+    from .params import ParameterWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ParameterWarning)  # a sparse cloud may need zeta past 0.07
+        params = base.with_(zeta=round(zeta, 5), theta=round(theta, 2), psi=round(psi, 3), k=8)
+    return AutoChoice(params, occupancy, angle, offset)
