@@ -44,3 +44,21 @@ def test_angles_between_the_six_surfaces_need_no_frame(observatory):
     error = np.abs(pairwise(observatory.normals[fit.matched]) - pairwise(PAPER_NORMALS))
     print(f"\nobservatory: angles between surfaces off by {error.mean():.2f} deg on average, {error.max():.2f} at most")
     assert error.mean() < 4.0
+
+
+def test_evaluate_fit_frame_on_the_paper_cloud(tmp_path, capsys):
+    import json
+
+    from geostructure.cli import main
+
+    truth = __import__("pathlib").Path(__file__).parent / "data" / "paper_truth.csv"
+    cloud = shared_file("observatory/dense_poisson_oc_6.ply")
+    out = tmp_path / "obs"
+    assert main(["measure", str(cloud), "-o", str(out), "--frame", "paper", "--no-auto", "--zeta", "0.02", "-q"]) == 0
+    assert main(["evaluate", str(out), "--truth", str(truth), "--fit-frame", "-q"]) == 0
+    assert "surface '4'" in capsys.readouterr().err
+    summary = json.loads((out / "evaluation.json").read_text())
+    fit = summary["frame_fit"]
+    assert summary["found"] == 6 and fit["rotation_deg"] < 10
+    assert fit["mean_residual_deg"] == pytest.approx(summary["mean_normal_error_deg"])
+    assert fit["mean_residual_deg"] < 3.5 and fit["pairwise_mean_deg"] < 4.0

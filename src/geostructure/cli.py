@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+
+import numpy as np
 import time
 import warnings
 from pathlib import Path
@@ -63,6 +65,8 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("evaluate", help="score a measured OUTDIR against a ground-truth CSV")
     e.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
     e.add_argument("--truth", type=Path, required=True, help="CSV: surface, strike, dip, dip_direction[, center_*]")
+    e.add_argument("--fit-frame", action="store_true",
+                   help="for an unreferenced cloud: fit the frame from the ground-truth planes, then score")
     e.add_argument("-q", "--quiet", action="store_true", help="no table")
     e.set_defaults(run=run_evaluate)
 
@@ -177,7 +181,7 @@ def run_measure(args) -> int:
         print(f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "
               f"wrote {', '.join(str(p) for p in paths.values())}")
     if args.truth:
-        return run_evaluate(argparse.Namespace(outdir=args.outdir, truth=args.truth, quiet=args.quiet))
+        return run_evaluate(argparse.Namespace(outdir=args.outdir, truth=args.truth, quiet=args.quiet, fit_frame=False))
     return 0
 
 
@@ -196,12 +200,45 @@ def run_evaluate(args) -> int:
         raise GeoStructureError(f"{run_path}: no such file; run 'geostructure measure' first.") from None
     except (ValueError, KeyError, TypeError):
         raise GeoStructureError(f"{run_path}: not a GeoStructure run record.") from None
-    evaluation = evaluate(PlaneSet.from_csv(args.outdir / "planes.csv"), read_truth(args.truth, frame))
-    paths = write_evaluation(evaluation, args.outdir)
+    planes, truth = PlaneSet.from_csv(args.outdir / "planes.csv"), read_truth(args.truth, frame)
+    extra, matched = {}, None
+    if args.fit_frame:
+        planes, truth, extra = _refit_frame(planes, truth, frame, args.truth)
+        matched = extra["frame_fit"]["matched_regions"]
+    evaluation = evaluate(planes, truth, matched=matched)
+    paths = write_evaluation(evaluation, args.outdir, extra)
     if not args.quiet:
         print_evaluation(evaluation)
+        if extra:
+            f = extra["frame_fit"]
+            print(f"frame fitted to the ground truth: turned {f['rotation_deg']:.1f} deg from '{frame.name}'; "
+                  f"residuals {', '.join(f'{r:.1f}' for r in f['residuals_deg'])} deg (mean {f['mean_residual_deg']:.2f}); "
+                  f"angles between surfaces off by {f['pairwise_mean_deg']:.2f} deg on average (frame-free)")
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0
+
+
+def _refit_frame(planes, truth, frame, truth_path):
+    """Planes and truth re-expressed in the frame fitted from the truth itself (see framefit)."""
+    from dataclasses import replace
+
+    from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
+    from .io.truth import read_truth
+    from .orientation import orientation_from_normals
+
+    order = np.argsort(-planes.n_points, kind="stable")
+    fit = fit_frame_to_truth(planes.normals[order], truth.normals, candidates=30)
+    fit.matched = order[fit.matched]
+    new = fitted_frame(frame, fit)
+    o = orientation_from_normals(planes.normals, new)
+    planes = replace(planes, strike=o.strike, dip=o.dip, dip_direction=o.dip_direction)
+    truth = read_truth(truth_path, new)
+    pairwise = pairwise_angle_error(planes.normals[fit.matched], truth.normals)
+    record = {"rotation_deg": fit.rotation_angle, "residuals_deg": fit.residuals.tolist(),
+              "mean_residual_deg": fit.mean_residual, "matched_regions": fit.matched.tolist(),
+              "pairwise_mean_deg": float(pairwise.mean()), "pairwise_max_deg": float(pairwise.max()),
+              "frame_rotation": [list(r) for r in new.rotation]}
+    return planes, truth, {"frame_fit": record}
 
 
 def run_demo(args) -> int:

@@ -213,9 +213,10 @@ def run_score(region_scores) -> float:
     return float(np.sqrt(np.sum(z**2)) / len(z)) if len(z) else float("nan")
 
 
-def evaluate(planes: PlaneSet, truth: GroundTruth, **match_options) -> Evaluation:
-    """Match planes to the ground truth and score every surface (missed ones score 1)."""
-    matched = match_planes(planes, truth, **match_options)
+def evaluate(planes: PlaneSet, truth: GroundTruth, *, matched=None, **match_options) -> Evaluation:
+    """Match planes to the ground truth (unless ``matched`` gives the plane per surface, -1
+    for none) and score every surface (missed ones score 1)."""
+    matched = match_planes(planes, truth, **match_options) if matched is None else np.asarray(matched)
     scores = []
     for i, name in enumerate(truth.names):
         s = SurfaceScore(name, int(matched[i]), float(truth.strike[i]), float(truth.dip[i]),

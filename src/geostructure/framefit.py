@@ -60,3 +60,22 @@ def fit_frame_to_truth(normals, truth_normals, *, start=None, candidates: int = 
     turn = rotation @ start_rot.T
     angle = float(np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1, 1))))
     return FrameFit(rotation, matched, residuals, angle)
+
+
+def fitted_frame(frame, fit: FrameFit):
+    """The frame in which the truth normals land on their planes: east, north, up turned by the fit."""
+    from .orientation import Frame
+
+    matrix = frame.matrix @ fit.rotation.T  # each row (E, N, U in cloud axes) rotated
+    return Frame(tuple(map(tuple, matrix.tolist())), frame.declination, f"{frame.name}, fitted to ground truth")
+
+
+def pairwise_angle_error(normals, truth_normals) -> np.ndarray:
+    """|angle between surfaces i and j as measured - as in the truth|, for every pair: needs no frame."""
+    n = len(truth_normals)
+    iu = np.triu_indices(n, 1)
+
+    def pairs(v):
+        return angle_between_normals(np.repeat(v, n, 0), np.tile(v, (n, 1))).reshape(n, n)[iu]
+
+    return np.abs(pairs(np.asarray(normals)) - pairs(np.asarray(truth_normals)))

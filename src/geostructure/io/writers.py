@@ -165,10 +165,10 @@ def write_table_csv(rows: list[dict], path) -> Path:
     return Path(path)
 
 
-def write_evaluation(evaluation, outdir) -> dict[str, Path]:
+def write_evaluation(evaluation, outdir, extra: dict | None = None) -> dict[str, Path]:
     """``evaluation.csv`` (one row per ground-truth surface) and ``evaluation.json`` (scores)."""
     from dataclasses import asdict
 
     outdir = prepare_outdir(outdir)
     return {"evaluation_csv": write_table_csv([asdict(s) for s in evaluation.surfaces], outdir / "evaluation.csv"),
-            "evaluation_json": write_json(evaluation.summary(), outdir / "evaluation.json")}
+            "evaluation_json": write_json({**evaluation.summary(), **(extra or {})}, outdir / "evaluation.json")}
