@@ -70,6 +70,12 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("-q", "--quiet", action="store_true", help="no table")
     e.set_defaults(run=run_evaluate)
 
+    r = sub.add_parser("report", help="stereonet and rose figures of a measured OUTDIR "
+                       "(the interactive report.html is not built yet)")
+    r.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
+    r.add_argument("-q", "--quiet", action="store_true")
+    r.set_defaults(run=run_report)
+
     w = sub.add_parser("sweep", help="the paper's experiments: vary one factor, record time and z(R)")
     w.add_argument("input", type=Path, nargs="?", help="cloud file (or --demo for the bundled scene)")
     w.add_argument("--demo", action="store_true", help="sweep the bundled synthetic scene against its exact truth")
@@ -263,6 +269,18 @@ def _console() -> Console:
     """stdout console; wide enough for the tables when stdout is a file or pipe."""
     console = Console()
     return console if console.is_terminal else Console(width=120)
+
+
+def run_report(args) -> int:
+    from .evaluate import PlaneSet
+    from .report.stereonet import rose_figure, save, stereonet_figure
+
+    planes = PlaneSet.from_csv(args.outdir / "planes.csv")
+    paths = save(stereonet_figure(planes.strike, planes.dip)[0], args.outdir / "stereonet")
+    paths += save(rose_figure(planes.strike)[0], args.outdir / "rose", formats=("png",))
+    if not args.quiet:
+        print(f"wrote {', '.join(str(p) for p in paths)}")
+    return 0
 
 
 def run_sweep(args) -> int:

@@ -144,10 +144,15 @@ def _json_default(value):
 
 
 def write_outputs(result, outdir, extra: dict | None = None) -> dict[str, Path]:
-    """Write planes.csv, regions.ply and run.json into ``outdir``; returns their paths."""
+    """Write planes.csv, planes_dips.csv, planes.geojson, regions.ply and run.json into
+    ``outdir``; returns their paths."""
+    from ..report.exports import write_dips_csv, write_geojson
+
     outdir = prepare_outdir(outdir)
     return {
         "planes": write_planes_csv(result, outdir / "planes.csv"),
+        "dips": write_dips_csv(result, outdir / "planes_dips.csv"),
+        "geojson": write_geojson(result, outdir / "planes.geojson"),
         "regions": write_regions_ply(result, outdir / "regions.ply"),
         "run": write_json(run_record(result, extra), outdir / "run.json"),
     }

@@ -1,0 +1,1 @@
+"""Reports: files other tools read (exports) and pictures geologists read (stereonets)."""

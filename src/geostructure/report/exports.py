@@ -1,0 +1,54 @@
+"""Exports for other tools: Dips/Stereonet CSV and GeoJSON of the region rectangles."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..io.writers import atomic_path, write_table_csv
+
+
+def write_dips_csv(result, path) -> Path:
+    """``planes_dips.csv``: Dip Direction, Dip first (the layout Rocscience Dips and
+    Allmendinger's Stereonet import), then the region id and its point count."""
+    o = result.orientation
+    rows = [{"Dip Direction": round(float(o.dip_direction[i]), 2), "Dip": round(float(o.dip[i]), 2),
+             "Region": i, "Points": p.n_points} for i, p in enumerate(result.planes)]
+    if not rows:
+        with atomic_path(path) as tmp:
+            tmp.write_text("Dip Direction,Dip,Region,Points\n")
+        return Path(path)
+    return write_table_csv(rows, path)
+
+
+def geojson(result) -> dict:
+    """The region rectangles as 3-D polygons with their orientation as properties.
+
+    Coordinates are the input's own; the CRS is named when the input declared one.
+    """
+    o = result.orientation
+    features = []
+    for i, plane in enumerate(result.planes):
+        ring = (plane.corners + result.cloud.offset).tolist()
+        features.append({
+            "type": "Feature",
+            "geometry": {"type": "Polygon", "coordinates": [ring + [ring[0]]]},
+            "properties": {"region_id": i, "strike": float(o.strike[i]), "dip": float(o.dip[i]),
+                           "dip_direction": float(o.dip_direction[i]), "n_points": plane.n_points,
+                           "area": plane.area, "rect_width": plane.width, "rect_height": plane.height,
+                           "normal_uncertainty_deg": float(result.uncertainty[i])},
+        })
+    data = {"type": "FeatureCollection", "features": features}
+    crs = result.cloud.crs
+    if crs and crs.startswith("EPSG:"):
+        data["crs"] = {"type": "name", "properties": {"name": f"urn:ogc:def:crs:EPSG::{crs[5:]}"}}
+    elif crs:
+        data["crs_wkt"] = crs  # a foreign member: GeoJSON has no place for WKT
+    return data
+
+
+def write_geojson(result, path) -> Path:
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(geojson(result), default=lambda v: v.item() if isinstance(v, np.generic) else str(v)))
+    return Path(path)

@@ -1,0 +1,66 @@
+"""Static figures: lower-hemisphere equal-area stereonet and rose diagram of strikes."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def stereonet_figure(strike, dip, *, title: str = ""):
+    """Poles, great circles and pole density (Kamb contours) on an equal-area net."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import warnings
+
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(6, 6))
+    with warnings.catch_warnings():  # mplstereonet 0.6's Axes.cla override: its concern, not the user's
+        warnings.simplefilter("ignore", matplotlib.MatplotlibDeprecationWarning)
+        warnings.simplefilter("ignore", PendingDeprecationWarning)
+        import mplstereonet  # noqa: F401  (registers the 'stereonet' projection)
+
+        ax = fig.add_subplot(111, projection="stereonet")
+    strike, dip = np.asarray(strike, float), np.asarray(dip, float)
+    if len(strike) >= 3:
+        ax.density_contourf(strike, dip, measurement="poles", cmap="Blues", alpha=0.6)
+    ax.plane(strike, dip, "k-", linewidth=0.6, alpha=0.7)
+    ax.pole(strike, dip, "ro", markersize=5, label="poles")
+    ax.grid(True)
+    ax.set_title(title or f"{len(strike)} planes (lower hemisphere, equal area)", y=1.08)
+    return fig, ax
+
+
+def rose_figure(strike, *, bin_width: float = 10.0):
+    """Rose diagram of strikes, drawn both ways (a strike is a line, not a direction)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    both = np.concatenate([np.asarray(strike, float), (np.asarray(strike, float) + 180) % 360])
+    edges = np.arange(0, 360 + bin_width, bin_width)
+    counts, _ = np.histogram(both, edges)
+    fig = plt.figure(figsize=(5, 5))
+    ax = fig.add_subplot(111, projection="polar")
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    ax.bar(np.radians(edges[:-1] + bin_width / 2), counts, width=np.radians(bin_width), edgecolor="k", alpha=0.7)
+    ax.set_title("Strikes (rose diagram)", y=1.08)
+    return fig, ax
+
+
+def save(fig, stem, formats=("png", "svg")) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    from ..io.writers import atomic_path
+
+    paths = []
+    for fmt in formats:
+        path = Path(f"{stem}.{fmt}")
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=130, bbox_inches="tight")
+        paths.append(path)
+    plt.close(fig)
+    return paths

@@ -1,0 +1,55 @@
+import csv
+import json
+
+import numpy as np
+from conftest import shared_file
+
+from geostructure.cli import main
+from geostructure.io.readers import read_cloud
+from geostructure.params import Params
+from geostructure.pipeline import measure
+from geostructure.report.exports import geojson
+from geostructure.report.stereonet import stereonet_figure
+
+
+def test_pole_at_dip_40_dip_direction_89_sits_where_mplstereonet_puts_it():
+    import mplstereonet
+
+    strike, dip = (89 - 90) % 360, 40
+    fig, ax = stereonet_figure([strike], [dip])
+    poles = [line for line in ax.lines if line.get_label() == "poles"][0]
+    x, y = poles.get_data()
+    lon, lat = mplstereonet.pole(strike, dip)
+    np.testing.assert_allclose([x[0], y[0]], [lon[0], lat[0]], atol=1e-12)
+    # The pole of a plane dipping 40 towards 089 plunges 50 towards 269.
+    plunge, bearing = mplstereonet.geographic2plunge_bearing(x, y)
+    assert abs(plunge[0] - 50) < 1e-9
+    assert abs(bearing[0] - 269) < 1e-9
+
+
+def test_exports_written_by_measure(tmp_path, scene, capsys):
+    from test_io import write_ply
+
+    path = tmp_path / "scene.ply"
+    write_ply(path, scene.cloud.points, text=False)
+    out = tmp_path / "out"
+    assert main(["measure", str(path), "-o", str(out), "-q"]) == 0
+    dips = list(csv.reader(open(out / "planes_dips.csv")))
+    planes = list(csv.DictReader(open(out / "planes.csv")))
+    assert dips[0][:2] == ["Dip Direction", "Dip"] and len(dips) - 1 == len(planes)
+    assert float(dips[1][0]) == round(float(planes[0]["dip_direction"]), 2)
+    data = json.loads((out / "planes.geojson").read_text())
+    ring = data["features"][0]["geometry"]["coordinates"][0]
+    assert len(ring) == 5 and ring[0] == ring[-1] and len(ring[0]) == 3
+    assert "crs" not in data  # the synthetic scene has no CRS
+    assert main(["report", str(out), "-q"]) == 0
+    for name in ("stereonet.png", "stereonet.svg", "rose.png"):
+        assert (out / name).stat().st_size > 1000
+
+
+def test_geojson_names_the_crs_of_a_georeferenced_input():
+    cloud = read_cloud(shared_file("pdal_autzen/autzen_trim.laz"))
+    data = geojson(measure(cloud, Params(zeta=0.02)))
+    assert data["features"] and ("crs" in data or "Lambert" in data.get("crs_wkt", ""))
+    x, y, _ = data["features"][0]["geometry"]["coordinates"][0][0]
+    assert x > 600_000 and y > 800_000  # in the input's own coordinates
