@@ -1,7 +1,6 @@
 """Progress on stderr for the command line; the library itself only calls a callback."""
 from __future__ import annotations
 
-import sys
 import time
 
 from rich.console import Console
@@ -19,7 +18,7 @@ class StageProgress:
 
     def __init__(self, enabled: bool = True, console: Console | None = None):
         self.console = console or Console(stderr=True)
-        self.enabled = enabled and self.console.is_terminal or enabled == "always"
+        self.enabled = enabled and self.console.is_terminal
         self._progress = Progress(SpinnerColumn(), TextColumn("{task.description:<20}"), BarColumn(),
                                   MofNCompleteColumn(), TimeElapsedColumn(), console=self.console,
                                   disable=not self.enabled)
@@ -49,7 +48,3 @@ class StageProgress:
             total = self._progress.tasks[task].total or 1
             self._progress.update(task, total=total, completed=total)
 
-
-def plain_log(message: str) -> None:
-    """A line on stderr for long work when no terminal is attached (CI, pipes)."""
-    print(message, file=sys.stderr, flush=True)

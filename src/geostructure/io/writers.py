@@ -80,13 +80,7 @@ def _format(value) -> str:
 
 def write_planes_csv(result, path) -> Path:
     """``planes.csv``: one row per plane, largest first, in the input's own coordinates."""
-    rows = plane_rows(result)
-    if not rows:  # keep the header, so an empty result is still a valid table
-        rows_header = dict.fromkeys(PLANE_COLUMNS + EXTRA_COLUMNS, "")
-        with atomic_path(path) as tmp:
-            tmp.write_text(",".join(rows_header) + "\n")
-        return Path(path)
-    return write_table_csv(rows, path)
+    return write_table_csv(plane_rows(result), path, columns=PLANE_COLUMNS + EXTRA_COLUMNS)
 
 
 def write_regions_ply(result, path) -> Path:
@@ -158,13 +152,15 @@ def write_outputs(result, outdir, extra: dict | None = None) -> dict[str, Path]:
     }
 
 
-def write_table_csv(rows: list[dict], path) -> Path:
-    """A list of same-keyed dicts as CSV (header from the first row's keys)."""
+def write_table_csv(rows: list[dict], path, columns=None) -> Path:
+    """A list of same-keyed dicts as CSV; the header is ``columns`` or the first row's keys,
+    so a table with no rows still has its header when ``columns`` is given."""
+    header = list(columns) if columns is not None else (list(rows[0]) if rows else [])
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="") as fh:
             writer = csv.writer(fh)
-            if rows:
-                writer.writerow(rows[0].keys())
+            if header:
+                writer.writerow(header)
             for row in rows:
                 writer.writerow([v if isinstance(v, str) else _format(v) for v in row.values()])
     return Path(path)

@@ -15,11 +15,7 @@ def write_dips_csv(result, path) -> Path:
     o = result.orientation
     rows = [{"Dip Direction": round(float(o.dip_direction[i]), 2), "Dip": round(float(o.dip[i]), 2),
              "Region": i, "Points": p.n_points} for i, p in enumerate(result.planes)]
-    if not rows:
-        with atomic_path(path) as tmp:
-            tmp.write_text("Dip Direction,Dip,Region,Points\n")
-        return Path(path)
-    return write_table_csv(rows, path)
+    return write_table_csv(rows, path, columns=("Dip Direction", "Dip", "Region", "Points"))
 
 
 def geojson(result) -> dict:
