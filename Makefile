@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench install clean
+.PHONY: demo test bench install browser clean
 
 $(STAMP): pyproject.toml constraints.txt
 	python3 -m venv $(VENV)
@@ -16,7 +16,10 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/geostructure demo -o out/demo
 
-test: $(STAMP)
+browser:
+	bash scripts/install-browser.sh
+
+test: $(STAMP) browser
 	$(PY) -m pytest
 
 bench: $(STAMP)

@@ -59,6 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--mesh-samples", type=int, default=DEFAULT_MESH_SAMPLES,
                    help="points sampled on a PLY mesh's faces (0: use the vertices only)")
     m.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
+    m.add_argument("--report", action="store_true", help="also write report.html, stereonet and rose figures")
     add_measure_options(m)
     m.set_defaults(run=run_measure)
 
@@ -70,9 +71,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("-q", "--quiet", action="store_true", help="no table")
     e.set_defaults(run=run_evaluate)
 
-    r = sub.add_parser("report", help="stereonet and rose figures of a measured OUTDIR "
-                       "(the interactive report.html is not built yet)")
+    r = sub.add_parser("report", help="interactive report.html, stereonet and rose figures of a measured OUTDIR")
     r.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
+    r.add_argument("--max-points", type=int, default=None,
+                   help="points drawn in 3D at most (default 100000; the file grows ~70 bytes a point)")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(run=run_report)
 
@@ -95,6 +97,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-o", "--outdir", type=Path, default=Path("out/demo"))
     d.add_argument("--points", type=int, default=300_000, help="points in the scene")
     d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--report", action=argparse.BooleanOptionalAction, default=True,
+                   help="also write report.html, stereonet and rose figures (default on)")
     add_measure_options(d)
     d.set_defaults(run=run_demo)
     return parser
@@ -186,9 +190,12 @@ def run_measure(args) -> int:
         print_planes(result)
         print(f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "
               f"wrote {', '.join(str(p) for p in paths.values())}")
+    status = 0
     if args.truth:
-        return run_evaluate(argparse.Namespace(outdir=args.outdir, truth=args.truth, quiet=args.quiet, fit_frame=False))
-    return 0
+        status = run_evaluate(argparse.Namespace(outdir=args.outdir, truth=args.truth, quiet=args.quiet, fit_frame=False))
+    if args.report:
+        run_report(argparse.Namespace(outdir=args.outdir, quiet=args.quiet, max_points=None))
+    return status
 
 
 def run_evaluate(args) -> int:
@@ -249,6 +256,7 @@ def _refit_frame(planes, truth, frame, truth_path):
 
 def run_demo(args) -> int:
     from .evaluate import match_scene
+    from .io.writers import write_evaluation
     from .synthetic import observatory_scene
 
     frame = frame_from(args)
@@ -258,10 +266,13 @@ def run_demo(args) -> int:
         result = measure(scene.cloud, params, frame, progress)
         paths = write_outputs(result, args.outdir, extra={"auto": auto, "demo": {"points": args.points, "seed": args.seed}})
     match = match_scene(result, scene)
+    paths.update(write_evaluation(match, args.outdir, {"truth": "the scene's exact surfaces"}))
     if not args.quiet:
         print_planes(result)
         print_match(match)
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    if args.report:
+        run_report(argparse.Namespace(outdir=args.outdir, quiet=args.quiet, max_points=None))
     return 0 if match.all_found else 1
 
 
@@ -273,10 +284,14 @@ def _console() -> Console:
 
 def run_report(args) -> int:
     from .evaluate import PlaneSet
+    from .report.html import build_report
     from .report.stereonet import rose_figure, save, stereonet_figure
 
+    if args.max_points is not None and args.max_points < 1:
+        raise GeoStructureError(f"--max-points must be at least 1, not {args.max_points}.")
     planes = PlaneSet.from_csv(args.outdir / "planes.csv")
-    paths = save(stereonet_figure(planes.strike, planes.dip)[0], args.outdir / "stereonet")
+    paths = [build_report(args.outdir, max_points=args.max_points)]
+    paths += save(stereonet_figure(planes.strike, planes.dip)[0], args.outdir / "stereonet")
     paths += save(rose_figure(planes.strike)[0], args.outdir / "rose", formats=("png",))
     if not args.quiet:
         print(f"wrote {', '.join(str(p) for p in paths)}")

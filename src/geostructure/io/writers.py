@@ -1,4 +1,4 @@
-"""Writers: planes.csv, regions.ply and run.json, each written atomically.
+"""Writers: planes.csv, regions.ply, voxel_planes.ply and run.json, each written atomically.
 
 Every file goes to a temporary name in the output folder first and is renamed into place
 only when complete, so an interrupted or failed run never leaves a partial file behind.
@@ -100,6 +100,26 @@ def write_regions_ply(result, path) -> Path:
     return Path(path)
 
 
+def write_voxel_planes_ply(result, path) -> Path:
+    """``voxel_planes.ply``: each fitted voxel's centroid (double) with its unit normal, point
+    count and ``region_id`` (-1 for none): the paper's "voxel planes" stage, as a cloud with
+    normals that CloudCompare shows as such."""
+    from plyfile import PlyData, PlyElement
+
+    voxels = result.voxels
+    vertex = np.empty(len(voxels), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), ("nx", "f4"), ("ny", "f4"),
+                                          ("nz", "f4"), ("count", "i4"), ("region_id", "i4")])
+    centroids = voxels.centroid + result.cloud.offset
+    vertex["x"], vertex["y"], vertex["z"] = centroids.T
+    vertex["nx"], vertex["ny"], vertex["nz"] = voxels.normal.T
+    vertex["count"] = voxels.count
+    vertex["region_id"] = result.voxel_labels
+    with atomic_path(path) as tmp:
+        PlyData([PlyElement.describe(vertex, "vertex")], text=False,
+                comments=["written by geostructure", f"voxel_edge {voxels.edge!r}"]).write(str(tmp))
+    return Path(path)
+
+
 def run_record(result, extra: dict | None = None) -> dict:
     """Parameters, frame, versions, point counts and seconds per stage, as plain JSON values."""
     import scipy
@@ -138,8 +158,8 @@ def _json_default(value):
 
 
 def write_outputs(result, outdir, extra: dict | None = None) -> dict[str, Path]:
-    """Write planes.csv, planes_dips.csv, planes.geojson, regions.ply and run.json into
-    ``outdir``; returns their paths."""
+    """Write planes.csv, planes_dips.csv, planes.geojson, regions.ply, voxel_planes.ply and
+    run.json into ``outdir``; returns their paths."""
     from ..report.exports import write_dips_csv, write_geojson
 
     outdir = prepare_outdir(outdir)
@@ -148,6 +168,7 @@ def write_outputs(result, outdir, extra: dict | None = None) -> dict[str, Path]:
         "dips": write_dips_csv(result, outdir / "planes_dips.csv"),
         "geojson": write_geojson(result, outdir / "planes.geojson"),
         "regions": write_regions_ply(result, outdir / "regions.ply"),
+        "voxels": write_voxel_planes_ply(result, outdir / "voxel_planes.ply"),
         "run": write_json(run_record(result, extra), outdir / "run.json"),
     }
 

@@ -1,0 +1,126 @@
+"""What the interactive report shows, read back from a measured output folder.
+
+The report is built from the files ``measure`` writes (``planes.csv``, ``regions.ply``,
+``voxel_planes.ply``, ``run.json`` and, after ``evaluate``, ``evaluation.csv``), so
+``geostructure report OUTDIR`` and ``measure --report`` draw exactly the same thing.
+"""
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GeoStructureError
+
+#: Points drawn in 3D at most: enough to read the outcrop's shape, few enough for WebGL
+#: to turn it fluently and for the file to stay small whatever the input's size.
+MAX_DISPLAY_POINTS = 100_000
+#: Voxel planes drawn at most (each is a small square: two triangles).
+MAX_DISPLAY_VOXELS = 30_000
+
+
+@dataclass
+class ReportScene:
+    """Coordinates are local (absolute minus ``offset``) so float32 keeps millimetres."""
+
+    points: np.ndarray            # (M, 3) decimated filtered points, float32, local
+    point_region: np.ndarray      # (M,) region id or -1
+    n_points_total: int
+    voxel_centroids: np.ndarray   # (V, 3) local
+    voxel_normals: np.ndarray     # (V, 3)
+    voxel_region: np.ndarray      # (V,)
+    voxel_edge: float
+    planes: list[dict]            # planes.csv rows (floats), with "corners" (4, 3) local
+    frame_rotation: np.ndarray    # rows: east, north, up in cloud axes
+    frame_name: str
+    offset: np.ndarray
+    crs: str | None
+    source: str
+    truth: dict = field(default_factory=dict)   # region id -> evaluation row
+
+
+def load_scene(outdir, max_points: int = MAX_DISPLAY_POINTS, max_voxels: int = MAX_DISPLAY_VOXELS,
+               seed: int = 0) -> ReportScene:
+    """Read a measured output folder into a :class:`ReportScene`, decimated for display.
+
+    Decimation is a seeded uniform sample, so dense and sparse parts keep their proportions.
+    """
+    outdir = Path(outdir)
+    run = _read_run(outdir / "run.json")
+    offset = np.asarray(run.get("offset", [0, 0, 0]), dtype=np.float64)
+    rng = np.random.default_rng(seed)
+    points, point_region, total = _read_ply_sample(outdir / "regions.ply", ("region_id",), offset, max_points, rng)
+    voxel_path = outdir / "voxel_planes.ply"
+    if voxel_path.exists():
+        vox, extra, _ = _read_ply_sample(voxel_path, ("nx", "ny", "nz", "region_id"), offset, max_voxels, rng)
+        voxel_normals, voxel_region = np.stack(extra[:3], axis=1), extra[3]
+    else:  # folders written before voxel_planes.ply existed: no voxel layer
+        vox, voxel_normals, voxel_region = np.zeros((0, 3), np.float32), np.zeros((0, 3)), np.zeros(0, int)
+    planes = _read_planes(outdir / "planes.csv", offset)
+    return ReportScene(points, point_region[0], total, vox, voxel_normals, voxel_region,
+                       float(run.get("voxel_edge", 0.0)), planes,
+                       np.asarray(run["frame"]["rotation"], dtype=np.float64), run["frame"]["name"],
+                       offset, run.get("crs"), str(run.get("input", "")), _read_truth(outdir / "evaluation.csv"))
+
+
+def _read_run(path: Path) -> dict:
+    try:
+        run = json.loads(path.read_text())
+        run["frame"]["rotation"]
+    except FileNotFoundError:
+        raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
+    except (ValueError, KeyError, TypeError):
+        raise GeoStructureError(f"{path}: not a GeoStructure run record.") from None
+    return run
+
+
+def _read_ply_sample(path: Path, names, offset, limit, rng):
+    from plyfile import PlyData, PlyParseError
+
+    try:
+        vertex = PlyData.read(str(path))["vertex"].data
+        columns = [vertex[n] for n in ("x", "y", "z", *names)]
+    except FileNotFoundError:
+        raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
+    except (PlyParseError, KeyError, ValueError) as exc:
+        raise GeoStructureError(f"{path}: not a GeoStructure PLY ({exc}).") from None
+    total = len(vertex)
+    pick = np.sort(rng.choice(total, limit, replace=False)) if total > limit else slice(None)
+    xyz = (np.stack(columns[:3], axis=1)[pick].astype(np.float64) - offset).astype(np.float32)
+    return xyz, [np.asarray(c[pick]) for c in columns[3:]], total
+
+
+def _read_planes(path: Path, offset) -> list[dict]:
+    try:
+        with open(path, newline="") as fh:
+            rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
+    except FileNotFoundError:
+        raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
+    except (ValueError, TypeError):
+        raise GeoStructureError(f"{path}: not a GeoStructure planes table.") from None
+    for row in rows:
+        row["region_id"] = int(row["region_id"])
+        row["n_points"] = int(row["n_points"])
+        row["corners"] = rectangle_corners(row, offset)
+    return rows
+
+
+def rectangle_corners(row: dict, offset) -> np.ndarray:
+    """(4, 3) local corners of a plane's rectangle from its planes.csv row."""
+    center = np.array([row["rect_center_x"], row["rect_center_y"], row["rect_center_z"]]) - offset
+    u = np.array([row["rect_u_x"], row["rect_u_y"], row["rect_u_z"]])
+    v = np.cross([row["normal_x"], row["normal_y"], row["normal_z"]], u)
+    hu, hv = u * row["rect_width"] / 2, v * row["rect_height"] / 2
+    return center + np.array([-hu - hv, hu - hv, hu + hv, -hu + hv])
+
+
+def _read_truth(path: Path) -> dict:
+    """Region id -> its evaluation row (surface name, truth angles, errors), if evaluated."""
+    if not path.exists():
+        return {}
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return {int(r["region"]): r for r in rows if r.get("region") not in (None, "", "-1")}

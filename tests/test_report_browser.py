@@ -1,0 +1,82 @@
+"""End-to-end: report.html in a real headless Chromium (Debian's chromium + chromedriver)."""
+import os
+import shutil
+import tempfile
+import time
+
+import pytest
+
+from geostructure.evaluate import match_scene
+from geostructure.io.writers import write_evaluation, write_outputs
+from geostructure.report.html import build_report
+
+CHROMIUM, DRIVER = shutil.which("chromium") or "/usr/bin/chromium", shutil.which("chromedriver") or "/usr/bin/chromedriver"
+# This machine has no network: keep Chromium from trying (and from failing loudly).
+FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--disable-dev-shm-usage", "--window-size=1400,1000")
+
+
+@pytest.fixture(scope="module")
+def browser():
+    if not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)):
+        message = "Debian's chromium and chromium-driver are not installed (make test installs them as root)"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+    webdriver = pytest.importorskip("selenium.webdriver")
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    profile = tempfile.mkdtemp(prefix="gs-chromium-")
+    for flag in (*FLAGS, f"--user-data-dir={profile}"):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    yield driver
+    driver.quit()
+    shutil.rmtree(profile, ignore_errors=True)
+
+
+def open_report(driver, path, timeout=90):
+    driver.get(path.resolve().as_uri())
+    end = time.monotonic() + timeout
+    while not driver.execute_script("return window.reportReady === true"):
+        assert time.monotonic() < end, "report.html never finished drawing"
+        time.sleep(0.1)
+
+
+def test_report_opens_lists_every_plane_and_shows_the_clicked_one(browser, tmp_path, scene, scene_result):
+    from selenium.webdriver.common.by import By
+
+    write_outputs(scene_result, tmp_path)
+    write_evaluation(match_scene(scene_result, scene), tmp_path)
+    open_report(browser, build_report(tmp_path, max_points=20_000))
+
+    errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    assert not errors, errors
+    rows = browser.find_elements(By.CSS_SELECTOR, "#planes tbody tr")
+    assert sorted(int(r.get_attribute("data-id")) for r in rows) == list(range(len(scene_result)))
+
+    browser.find_element(By.CSS_SELECTOR, 'th[data-key="dip"]').click()      # sort by dip
+    dips = [float(r.find_elements(By.TAG_NAME, "td")[2].text) for r in
+            browser.find_elements(By.CSS_SELECTOR, "#planes tbody tr")]
+    assert dips == sorted(dips)
+
+    target = browser.find_element(By.CSS_SELECTOR, '#planes tbody tr[data-id="2"]')
+    target.click()
+    info = browser.find_element(By.ID, "info").text
+    o = scene_result.orientation
+    assert info.startswith("Plane 2")
+    assert f"strike {o.strike[2]:.1f}°" in info and f"dip {o.dip[2]:.1f}°" in info
+    assert "measured vs truth" in info
+    assert "selected" in target.get_attribute("class")
+    highlighted = browser.execute_script("return document.getElementById('scene3d').data[4].x.length")
+    assert highlighted == 4  # the plane's rectangle is drawn as the highlight
+
+    browser.find_element(By.CSS_SELECTOR, 'input[data-layer="voxels"]').click()
+    assert browser.execute_script("return document.getElementById('scene3d').data[2].visible") is True
+    browser.save_screenshot(str(tmp_path / "report.png"))
+    assert (tmp_path / "report.png").stat().st_size > 10_000
+    assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]

@@ -1,0 +1,100 @@
+"""report.html without a browser: projection arithmetic, payload contents, bad folders."""
+import json
+import re
+
+import numpy as np
+import pytest
+
+from geostructure.cli import main
+from geostructure.evaluate import match_scene
+from geostructure.io.writers import write_evaluation, write_outputs
+from geostructure.report.html import build_report
+from geostructure.report.scene import load_scene
+from geostructure.report.stereonet import great_circle_xy, pole_density, pole_xy
+
+
+def payload(html: str) -> dict:
+    match = re.search(r'<script id="payload" type="application/json">(.*?)</script>', html, re.S)
+    return json.loads(match.group(1))
+
+
+def test_pole_projection_agrees_with_mplstereonet():
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with warnings.catch_warnings():  # mplstereonet 0.6's Axes.cla override
+        warnings.simplefilter("ignore", PendingDeprecationWarning)
+        import mplstereonet
+
+    ax = plt.figure().add_subplot(111, projection="stereonet")
+    for dip_direction, dip in [(89, 40), (0, 10), (225, 75), (300, 89.5)]:
+        lon, lat = mplstereonet.pole(dip_direction - 90, dip)
+        expected = ax.transProjection.transform(np.column_stack([lon, lat]))[0] / np.sqrt(2)
+        np.testing.assert_allclose(np.ravel(pole_xy(dip_direction, dip)), expected, atol=1e-9)
+    plt.close("all")
+    # dip 40 towards 089: pole plunges 50 towards 269, Lambert radius sqrt(2) sin(20 deg).
+    x, y = pole_xy(89, 40)
+    assert np.hypot(x, y) == pytest.approx(np.sqrt(2) * np.sin(np.radians(20)))
+    assert np.degrees(np.arctan2(x, y)) % 360 == pytest.approx(269)
+
+
+def test_great_circle_runs_strike_to_strike_through_the_dip_line():
+    x, y = great_circle_xy(89, 40)
+    assert np.hypot(x[0], y[0]) == pytest.approx(1) and np.hypot(x[-1], y[-1]) == pytest.approx(1)
+    assert np.degrees(np.arctan2(x[0], y[0])) % 360 == pytest.approx(359)   # the strike
+    mid = len(x) // 2                                                        # the dip line: plunge 40 to 089
+    assert np.hypot(x[mid], y[mid]) == pytest.approx(np.sqrt(2) * np.sin(np.radians(25)))
+    assert np.degrees(np.arctan2(x[mid], y[mid])) == pytest.approx(89)
+
+
+def test_pole_density_peaks_on_the_cluster():
+    rng = np.random.default_rng(0)
+    dd, dip = 120 + rng.normal(0, 3, 40), 30 + rng.normal(0, 3, 40)
+    x, y, density = pole_density(np.r_[dd, rng.uniform(0, 360, 10)], np.r_[dip, rng.uniform(0, 90, 10)])
+    row, col = np.unravel_index(np.nanargmax(density), density.shape)
+    px, py = pole_xy(120, 30)
+    assert np.hypot(x[col] - px, y[row] - py) < 0.06
+    assert np.isnan(density[0, 0])  # outside the primitive circle
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory, scene, scene_result):
+    out = tmp_path_factory.mktemp("report")
+    write_outputs(scene_result, out)
+    write_evaluation(match_scene(scene_result, scene), out)
+    return out
+
+
+def test_report_is_self_contained_and_lists_every_plane(measured, scene_result):
+    path = build_report(measured, max_points=5_000)
+    html = path.read_text()
+    assert not re.search(r"<(script|link)[^>]+(src|href)=", html), "the page must not load anything"
+    data = payload(html)
+    ids = [p["region_id"] for p in data["planes"]]
+    assert ids == list(range(len(scene_result)))
+    assert data["meta"]["points_shown"] == 5_000 and data["meta"]["points_total"] == len(scene_result.filtered)
+    first = data["planes"][0]
+    assert first["dip"] == pytest.approx(scene_result.orientation.dip[0])
+    assert first["truth_error"] < 0.5 and first["truth"]["surface"]
+    # the rectangle drawn is the region plane's, in offset-free coordinates
+    expected = scene_result.planes[0].corners + scene_result.cloud.offset - np.array(data["meta"]["offset"])
+    np.testing.assert_allclose(np.array(first["corners"]), expected, atol=1e-3)
+    assert data["scene"]["data"][3]["type"] == "mesh3d" and len(data["stereonet"]["data"]) >= 4
+
+
+def test_decimation_keeps_regions_and_is_seeded(measured):
+    a, b = load_scene(measured, max_points=2_000), load_scene(measured, max_points=2_000)
+    np.testing.assert_array_equal(a.points, b.points)
+    assert len(a.points) == 2_000 and (a.point_region >= 0).mean() > 0.5
+    assert len(a.voxel_centroids) > 0 and np.allclose(np.linalg.norm(a.voxel_normals, axis=1), 1, atol=1e-5)
+
+
+def test_report_command_refuses_a_folder_without_a_run(tmp_path, capsys):
+    assert main(["report", str(tmp_path), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "planes.csv" in err or "run.json" in err
+    assert "Traceback" not in err and not (tmp_path / "report.html").exists()
