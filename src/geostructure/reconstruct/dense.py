@@ -1,0 +1,213 @@
+"""Dense cloud from a sparse SfM model.
+
+Two paths on the same undistorted images (``pycolmap.undistort_images``):
+
+- ``colmap`` (needs a CUDA build of pycolmap): PatchMatch stereo and COLMAP's fusion;
+- ``sgbm`` (any machine): each image with its best neighbours, rectified pairwise, OpenCV
+  semi-global block matching with its left-right check (``disp12MaxDiff``), triangulated;
+  the pair clouds are then fused on a fine grid, keeping only cells that at least
+  ``min_pairs`` different pairs agree on (one pair's mismatch rarely repeats in another's).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GeoStructureError
+
+
+@dataclass(frozen=True)
+class DenseOptions:
+    method: str = "auto"            # auto (colmap with CUDA, else sgbm) | colmap | sgbm
+    max_image_size: int = 1200      # matching resolution (px, longest side)
+    neighbours: int = 2             # stereo partners per image
+    min_angle: float = 5.0          # degrees of triangulation angle a pair needs
+    best_angle: float = 15.0        # depth noise falls as the angle grows; matching gets harder past this
+    max_angle: float = 40.0
+    block_size: int = 5
+    min_pairs: int = 2              # pairs that must agree on a fused cell
+    cell_pixels: float = 2.0        # fused cell edge, in pixel footprints at the median depth
+
+
+@dataclass
+class DenseReport:
+    method: str
+    points: int
+    pairs: int
+    seconds: float
+
+    def summary(self) -> str:
+        return f"{self.points:,} dense points from {self.pairs} stereo pairs ({self.method}) in {self.seconds:.1f} s"
+
+
+def undistort(sparse_dir, image_dir, workdir) -> Path:
+    """COLMAP's undistortion: pinhole images and model under ``workdir`` (reused if present)."""
+    import pycolmap
+
+    workdir = Path(workdir)
+    if not (workdir / "sparse").exists():
+        pycolmap.undistort_images(workdir, sparse_dir, image_dir)
+    return workdir
+
+
+def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOptions(), progress=None):
+    """Returns ((N, 3) points in model coordinates, DenseReport)."""
+    import pycolmap
+
+    t = time.perf_counter()
+    method = options.method
+    if method == "auto":
+        method = "colmap" if pycolmap.has_cuda else "sgbm"
+    if method == "colmap" and not pycolmap.has_cuda:
+        raise GeoStructureError("--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a "
+                                "machine with an NVIDIA GPU); use --dense sgbm here.")
+    workdir = undistort(sparse_dir, image_dir, workdir)
+    if method == "colmap":
+        points, pairs = _colmap(workdir, progress)
+    elif method == "sgbm":
+        points, pairs = _sgbm(workdir, options, progress)
+    else:
+        raise GeoStructureError(f"unknown dense method '{method}'; use auto, colmap or sgbm.")
+    if len(points) < 100:
+        raise GeoStructureError(f"the dense stage found {len(points)} points; the images may be too few or too far "
+                                "apart. Try --dense-neighbours 4 or measure the sparse cloud (--no-dense).")
+    return points, DenseReport(method, len(points), pairs, time.perf_counter() - t)
+
+
+def _colmap(workdir: Path, progress):
+    import pycolmap
+
+    report = progress or (lambda stage, done, total: None)
+    report("dense", 0, None)
+    pycolmap.patch_match_stereo(workdir)
+    fused = pycolmap.stereo_fusion(workdir / "fused.ply", workdir)
+    points = np.array([p.xyz for p in fused.points3D.values()]).reshape(-1, 3)
+    return points, len(fused.images)
+
+
+def choose_pairs(reconstruction, options: DenseOptions) -> list[tuple[int, int]]:
+    """Each image with its ``neighbours`` best partners: those sharing most sparse points,
+    weighted by triangulation angle up to ``best_angle`` (a short baseline gives noisy depth),
+    among those whose angle on the shared points is within [min_angle, max_angle]."""
+    images = {i: img for i, img in reconstruction.images.items() if img.has_pose}
+    shared: dict[tuple[int, int], list[int]] = {}
+    for pid, point in reconstruction.points3D.items():
+        ids = sorted({el.image_id for el in point.track.elements if el.image_id in images})
+        for a in range(len(ids)):
+            for b in range(a + 1, len(ids)):
+                shared.setdefault((ids[a], ids[b]), []).append(pid)
+    scored = []
+    for (a, b), pids in shared.items():
+        if len(pids) < 30:
+            continue
+        xyz = np.array([reconstruction.points3D[p].xyz for p in pids[:200]])
+        ra = xyz - images[a].projection_center()
+        rb = xyz - images[b].projection_center()
+        cos = np.einsum("ij,ij->i", ra, rb) / np.linalg.norm(ra, axis=1) / np.linalg.norm(rb, axis=1)
+        angle = np.degrees(np.median(np.arccos(np.clip(cos, -1, 1))))
+        if options.min_angle <= angle <= options.max_angle:
+            scored.append((len(pids) * min(angle, options.best_angle) / options.best_angle, a, b))
+    scored.sort(reverse=True)
+    count: dict[int, int] = {}
+    pairs = []
+    for _, a, b in scored:
+        if count.get(a, 0) < options.neighbours or count.get(b, 0) < options.neighbours:
+            pairs.append((a, b))
+            count[a], count[b] = count.get(a, 0) + 1, count.get(b, 0) + 1
+    return pairs
+
+
+def _sgbm(workdir: Path, options: DenseOptions, progress):
+    import pycolmap
+
+    report = progress or (lambda stage, done, total: None)
+    reconstruction = pycolmap.Reconstruction(workdir / "sparse")
+    pairs = choose_pairs(reconstruction, options)
+    clouds, footprints = [], []
+    for n, (a, b) in enumerate(pairs):
+        report("dense", n, len(pairs))
+        points, footprint = pair_points(reconstruction, a, b, workdir / "images", options)
+        clouds.append(points)
+        footprints.append(footprint)
+    report("dense", len(pairs), len(pairs))
+    if not clouds:
+        return np.zeros((0, 3)), 0
+    cell = options.cell_pixels * float(np.median(footprints))
+    return fuse(clouds, cell, options.min_pairs), len(pairs)
+
+
+def pair_points(reconstruction, a: int, b: int, image_dir: Path, options: DenseOptions):
+    """Points of one rectified pair in model coordinates, and the pixel footprint (model
+    units per pixel) at the pair's median depth."""
+    import cv2
+
+    img_a, img_b = reconstruction.images[a], reconstruction.images[b]
+    left = cv2.imread(str(image_dir / img_a.name), cv2.IMREAD_GRAYSCALE)
+    right = cv2.imread(str(image_dir / img_b.name), cv2.IMREAD_GRAYSCALE)
+    if left is None or right is None:
+        raise GeoStructureError(f"{image_dir}: cannot read {img_a.name} or {img_b.name}.")
+    scale = min(1.0, options.max_image_size / max(left.shape))
+    size = (round(left.shape[1] * scale), round(left.shape[0] * scale))
+    left = cv2.resize(left, size, interpolation=cv2.INTER_AREA)
+    right = cv2.resize(right, (round(right.shape[1] * scale), round(right.shape[0] * scale)), interpolation=cv2.INTER_AREA)
+    k1, k2 = _intrinsics(img_a.camera, scale), _intrinsics(img_b.camera, scale)
+    pose_a, pose_b = img_a.cam_from_world().matrix(), img_b.cam_from_world().matrix()
+    rotation = pose_b[:, :3] @ pose_a[:, :3].T
+    translation = pose_b[:, 3] - rotation @ pose_a[:, 3]
+    no_distortion = np.zeros(5)  # the images are already undistorted
+    r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(k1, no_distortion, k2, no_distortion, size,
+                                                 np.ascontiguousarray(rotation), translation.reshape(3, 1),
+                                                 flags=cv2.CALIB_ZERO_DISPARITY, alpha=0)
+    map_l = cv2.initUndistortRectifyMap(k1, no_distortion, r1, p1, size, cv2.CV_32FC1)
+    map_r = cv2.initUndistortRectifyMap(k2, no_distortion, r2, p2, size, cv2.CV_32FC1)
+    rect_l = cv2.remap(left, *map_l, cv2.INTER_LINEAR)
+    rect_r = cv2.remap(right, *map_r, cv2.INTER_LINEAR)
+
+    # disparity search range from the sparse points both images see
+    shared = [p.xyz for p in reconstruction.points3D.values()
+              if {a, b} <= {el.image_id for el in p.track.elements}]
+    xyz = np.array(shared).reshape(-1, 3)
+    cam = xyz @ pose_a[:, :3].T + pose_a[:, 3]
+    rect = cam @ r1.T
+    disparity = p1[0, 0] * rect[:, 0] / rect[:, 2] - (p2[0, 0] * rect[:, 0] + p2[0, 3]) / rect[:, 2]
+    lo, hi = np.percentile(disparity, [1, 99]) if len(disparity) else (0, 64)
+    margin = 0.15 * (hi - lo) + 4
+    min_disp = int(np.floor(lo - margin))
+    num_disp = int(np.ceil((hi - lo + 2 * margin) / 16) * 16)
+    num_disp = int(np.clip(num_disp, 16, 512))
+    block = options.block_size
+    matcher = cv2.StereoSGBM_create(minDisparity=min_disp, numDisparities=num_disp, blockSize=block,
+                                    P1=8 * block * block, P2=32 * block * block, disp12MaxDiff=1,
+                                    uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,
+                                    mode=cv2.STEREO_SGBM_MODE_SGBM)
+    disp = matcher.compute(rect_l, rect_r).astype(np.float32) / 16.0
+    valid = (disp > min_disp) & (rect_l > 0)
+    points = cv2.reprojectImageTo3D(disp, q)[valid]
+    points = points[np.isfinite(points).all(axis=1) & (points[:, 2] > 0)]
+    cam_a = points @ r1          # rectified -> camera a (r1 rotates camera a into the rectified frame)
+    world = (cam_a - pose_a[:, 3]) @ pose_a[:, :3]
+    depth = np.median(cam[:, 2]) if len(cam) else 1.0
+    return world, float(depth / p1[0, 0])
+
+
+def _intrinsics(camera, scale: float) -> np.ndarray:
+    k = np.array(camera.calibration_matrix(), dtype=np.float64)
+    k[:2] *= scale
+    return k
+
+
+def fuse(clouds: list[np.ndarray], cell: float, min_pairs: int) -> np.ndarray:
+    """One point (the mean) per grid cell that ``min_pairs`` distinct pairs put points in."""
+    points = np.concatenate(clouds)
+    pair = np.repeat(np.arange(len(clouds)), [len(c) for c in clouds])
+    keys = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
+    _, cell_id = np.unique(keys, axis=0, return_inverse=True)
+    cell_id = cell_id.ravel()
+    distinct = np.unique(np.c_[cell_id, pair], axis=0)
+    support = np.bincount(distinct[:, 0], minlength=cell_id.max() + 1)
+    count = np.bincount(cell_id)
+    means = np.stack([np.bincount(cell_id, points[:, i]) for i in range(3)], axis=1) / np.maximum(count, 1)[:, None]
+    return means[support >= min_pairs]

@@ -1,0 +1,229 @@
+"""Georeferencing: tie an SfM model (arbitrary position, scale and rotation) to the world.
+
+Three sources, best first:
+
+- ground control points: world (E, N, Up) of marks seen in the images (pixel observations,
+  triangulated in the model) or given in model coordinates; solved as a similarity
+  transform (Umeyama 1991) with each point's residual;
+- camera GPS from EXIF: camera centres against their GPS positions, with gravity taken
+  from the cameras' mean up direction (people hold cameras level); approximate;
+- a manual frame: the model's up and north vectors and a scale.
+
+World coordinates are a local east-north-up frame in metres (or the GCPs' own projected
+coordinates), so the measuring stage's ``enu`` frame applies to the transformed cloud.
+"""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GeoStructureError
+
+
+@dataclass
+class Georeference:
+    """world = scale * rotation @ model + translation."""
+
+    scale: float
+    rotation: np.ndarray
+    translation: np.ndarray
+    source: str                        # gcp | exif-gps | manual
+    approximate: bool = False
+    residuals: dict = field(default_factory=dict)   # control point -> residual (world units)
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        return self.scale * np.asarray(points, float) @ self.rotation.T + self.translation
+
+    def apply_vectors(self, vectors: np.ndarray) -> np.ndarray:
+        return np.asarray(vectors, float) @ self.rotation.T
+
+    def to_dict(self) -> dict:
+        return {"source": self.source, "approximate": self.approximate, "scale": float(self.scale),
+                "rotation": self.rotation.tolist(), "translation": self.translation.tolist(),
+                "residuals": {k: float(v) for k, v in self.residuals.items()},
+                "rms_residual": float(np.sqrt(np.mean(np.square(list(self.residuals.values())))))
+                if self.residuals else None}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Georeference":
+        return cls(data["scale"], np.asarray(data["rotation"]), np.asarray(data["translation"]), data["source"],
+                   data.get("approximate", False), data.get("residuals", {}))
+
+
+def umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = True):
+    """Least-squares similarity (s, R, t) with target ~ s R source + t (Umeyama 1991)."""
+    source, target = np.asarray(source, float), np.asarray(target, float)
+    mu_s, mu_t = source.mean(axis=0), target.mean(axis=0)
+    a, b = source - mu_s, target - mu_t
+    u, d, vt = np.linalg.svd(b.T @ a / len(source))
+    sign = np.eye(3)
+    if np.linalg.det(u) * np.linalg.det(vt) < 0:
+        sign[2, 2] = -1
+    rotation = u @ sign @ vt
+    variance = (a ** 2).sum() / len(source)
+    scale = float(np.trace(np.diag(d) @ sign) / variance) if with_scale else 1.0
+    return scale, rotation, mu_t - scale * rotation @ mu_s
+
+
+def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
+    """Similarity from control points seen in the model; residual per point."""
+    names = sorted(set(model_points) & set(world_points))
+    if len(names) < 3:
+        raise GeoStructureError(f"ground control: {len(names)} point(s) located in the model; at least 3 "
+                                "(not in a line) are needed. Check the names match and each is seen in 2+ images.")
+    src = np.array([model_points[n] for n in names])
+    dst = np.array([world_points[n] for n in names])
+    if np.linalg.matrix_rank(src - src.mean(axis=0), tol=1e-9 * np.ptp(src, axis=0).max()) < 2:
+        raise GeoStructureError("ground control points lie on one line; the rotation about it is unknown.")
+    s, r, t = umeyama(src, dst)
+    fitted = s * src @ r.T + t
+    residuals = dict(zip(names, np.linalg.norm(fitted - dst, axis=1).tolist()))
+    return Georeference(s, r, t, "gcp", False, residuals)
+
+
+def manual(up, north, scale: float = 1.0) -> Georeference:
+    """The user's word on which model directions are up and north, and the model's scale."""
+    from ..orientation import Frame
+
+    if not scale > 0:
+        raise GeoStructureError(f"--scale must be positive, not {scale}.")
+    frame = Frame.from_up_north(up, north)
+    return Georeference(float(scale), frame.matrix, np.zeros(3), "manual", approximate=False)
+
+
+def read_gcp_csv(path) -> tuple[dict, list, dict]:
+    """A GCP CSV: ``name, E, N, Up`` and either ``x, y, z`` (model coordinates) or
+    ``image, u, v`` (pixel observations; one row per image a point is seen in).
+
+    Returns (world by name, pixel observations [(name, image, u, v)], model points by name).
+    """
+    path = Path(path)
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise GeoStructureError(f"{path}: no such file.") from None
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise GeoStructureError(f"{path}: not a CSV file ({exc}).") from None
+    if not rows:
+        raise GeoStructureError(f"{path}: holds no control points.")
+    columns = {c.strip().lower(): c for c in rows[0]}
+    need = ["name", "e", "n", "up"]
+    has_model, has_pixels = all(c in columns for c in "xyz"), all(c in columns for c in ("image", "u", "v"))
+    if not all(c in columns for c in need) or not (has_model or has_pixels):
+        raise GeoStructureError(f"{path}: needs columns name, E, N, Up and either x, y, z (model) or image, u, v "
+                                f"(pixels); it has {', '.join(rows[0])}.")
+    world, observations, model = {}, [], {}
+    for line, row in enumerate(rows, start=2):
+        get = lambda c: row[columns[c]].strip()  # noqa: E731
+        try:
+            name = get("name")
+            world[name] = [float(get("e")), float(get("n")), float(get("up"))]
+            if has_pixels and get("image"):
+                observations.append((name, get("image"), float(get("u")), float(get("v"))))
+            if has_model and get("x"):
+                model[name] = [float(get("x")), float(get("y")), float(get("z"))]
+        except (ValueError, TypeError):
+            raise GeoStructureError(f"{path}, line {line}: a coordinate is not a number.") from None
+    return world, observations, model
+
+
+def triangulate_observations(reconstruction, observations) -> dict:
+    """Model coordinates of each control point seen in 2+ registered images (linear DLT on
+    undistorted, normalised image coordinates)."""
+    by_name = {img.name: img for img in reconstruction.images.values() if img.has_pose}
+    rows: dict[str, list] = {}
+    for name, image_name, u, v in observations:
+        image = by_name.get(image_name)
+        if image is None:
+            continue
+        x, y = image.camera.cam_from_img(np.array([[u, v]], float))[0]
+        pose = image.cam_from_world().matrix()
+        rows.setdefault(name, []).extend([x * pose[2] - pose[0], y * pose[2] - pose[1]])
+    points = {}
+    for name, equations in rows.items():
+        if len(equations) >= 4:
+            _, _, vt = np.linalg.svd(np.array(equations))
+            points[name] = vt[-1, :3] / vt[-1, 3]
+    return points
+
+
+def gps_from_exif(path) -> tuple[float, float, float] | None:
+    """(latitude, longitude, altitude m) from a photo's EXIF, or None."""
+    from PIL import Image
+    from PIL.ExifTags import IFD
+
+    try:
+        with Image.open(path) as image:
+            gps = image.getexif().get_ifd(IFD.GPSInfo)
+    except OSError:
+        return None
+    if not gps or 2 not in gps or 4 not in gps:
+        return None
+    lat = sum(float(v) / 60 ** i for i, v in enumerate(gps[2])) * (-1 if gps.get(1) == "S" else 1)
+    lon = sum(float(v) / 60 ** i for i, v in enumerate(gps[4])) * (-1 if gps.get(3) == "W" else 1)
+    alt = float(gps.get(6, 0.0)) * (-1 if gps.get(5) == b"\x01" else 1)
+    return lat, lon, alt
+
+
+def geodetic_to_enu(lat, lon, alt, origin) -> np.ndarray:
+    """WGS84 latitude/longitude/altitude to east-north-up metres about ``origin`` (lat, lon, alt)."""
+    def ecef(lat, lon, alt):
+        a, e2 = 6378137.0, 6.69437999014e-3
+        lat, lon = np.radians(lat), np.radians(lon)
+        n = a / np.sqrt(1 - e2 * np.sin(lat) ** 2)
+        return np.stack([(n + alt) * np.cos(lat) * np.cos(lon), (n + alt) * np.cos(lat) * np.sin(lon),
+                         (n * (1 - e2) + alt) * np.sin(lat)], axis=-1)
+
+    lat0, lon0 = np.radians(origin[0]), np.radians(origin[1])
+    d = ecef(np.asarray(lat), np.asarray(lon), np.asarray(alt)) - ecef(*origin)
+    east = np.array([-np.sin(lon0), np.cos(lon0), 0])
+    north = np.array([-np.sin(lat0) * np.cos(lon0), -np.sin(lat0) * np.sin(lon0), np.cos(lat0)])
+    up = np.array([np.cos(lat0) * np.cos(lon0), np.cos(lat0) * np.sin(lon0), np.sin(lat0)])
+    return d @ np.vstack([east, north, up]).T
+
+
+def solve_exif_gps(reconstruction, image_dir) -> Georeference:
+    """Camera centres against EXIF GPS: up from the cameras' mean up direction, then heading,
+    scale and shift from the horizontal GPS track. Approximate (GPS is good to metres)."""
+    centres, gps = [], []
+    ups = []
+    for image in reconstruction.images.values():
+        if not image.has_pose:
+            continue
+        fix = gps_from_exif(Path(image_dir) / image.name)
+        world_from_cam = image.cam_from_world().inverse().matrix()
+        ups.append(-world_from_cam[:, 1])  # camera y points down in the image
+        if fix is not None:
+            centres.append(image.projection_center())
+            gps.append(fix)
+    if len(gps) < 3:
+        raise GeoStructureError(f"{image_dir}: {len(gps)} registered photo(s) carry GPS in EXIF; at least 3 are "
+                                "needed. Give --gcp control points or --up/--north/--scale instead.")
+    gps = np.array(gps)
+    enu = geodetic_to_enu(gps[:, 0], gps[:, 1], gps[:, 2], gps[0])
+    up = np.mean(ups, axis=0)
+    up /= np.linalg.norm(up)
+    centres = np.array(centres)
+    level = _rotation_between(up, np.array([0.0, 0.0, 1.0]))
+    flat = centres @ level.T
+    s, r2, _ = umeyama(np.c_[flat[:, :2], np.zeros(len(flat))], np.c_[enu[:, :2], np.zeros(len(enu))])
+    rotation = r2 @ level
+    translation = enu.mean(axis=0) - s * rotation @ centres.mean(axis=0)
+    geo = Georeference(s, rotation, translation, "exif-gps", approximate=True)
+    residual = np.linalg.norm(geo.apply(centres) - enu, axis=1)
+    geo.residuals = {f"camera {i}": float(v) for i, v in enumerate(residual)}
+    geo.origin = gps[0].tolist()
+    return geo
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking unit vector a onto unit vector b."""
+    v, c = np.cross(a, b), float(a @ b)
+    if np.linalg.norm(v) < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + k + k @ k / (1 + c)

@@ -1,0 +1,123 @@
+"""Sparse Structure from Motion with pycolmap: SIFT features, matching, incremental mapping.
+
+Video frames are matched sequentially (each with its next ``overlap`` frames, plus loop
+detection off: the clip is one pass); photo sets up to ``EXHAUSTIVE_LIMIT`` images are
+matched exhaustively. The largest model is kept.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GeoStructureError
+
+IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp"}
+EXHAUSTIVE_LIMIT = 60
+
+
+@dataclass(frozen=True)
+class SfmOptions:
+    matching: str = "auto"            # auto | sequential | exhaustive
+    max_image_size: int = 1600        # SIFT on images downscaled to this (px, longest side)
+    max_features: int = 8192
+    overlap: int = 10                 # sequential matching: each frame with its next N
+    single_camera: bool = True        # one camera for all images (a video, one photographer)
+    threads: int = -1
+    seed: int = 0
+
+
+@dataclass
+class SfmReport:
+    images: int
+    registered: int
+    points: int
+    mean_reprojection_error: float   # pixels
+    matching: str
+    seconds: dict
+
+    def summary(self) -> str:
+        return (f"registered {self.registered} of {self.images} images, {self.points:,} sparse points, "
+                f"mean reprojection error {self.mean_reprojection_error:.2f} px ({self.matching} matching)")
+
+
+def list_images(folder) -> list[Path]:
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise GeoStructureError(f"{folder}: not a folder of images.")
+    images = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+    if not images:
+        raise GeoStructureError(f"{folder}: holds no images (.jpg, .png or .tif); give a folder of photos or a video.")
+    return images
+
+
+def run_sfm(image_dir, workdir, options: SfmOptions = SfmOptions(), progress=None):
+    """Reconstruct cameras and sparse points; returns (pycolmap.Reconstruction, SfmReport).
+
+    Raises GeoStructureError, saying what to try, when fewer than 3 images register.
+    """
+    import pycolmap
+
+    report = progress or (lambda stage, done, total: None)
+    image_dir, workdir = Path(image_dir), Path(workdir)
+    images = list_images(image_dir)
+    workdir.mkdir(parents=True, exist_ok=True)
+    database = workdir / "database.db"
+    database.unlink(missing_ok=True)  # features of an earlier, different image set must not leak in
+    seconds = {}
+
+    t = time.perf_counter()
+    report("features", 0, None)
+    extraction = pycolmap.FeatureExtractionOptions()
+    extraction.max_image_size = options.max_image_size
+    extraction.num_threads = options.threads
+    extraction.sift.max_num_features = options.max_features
+    pycolmap.extract_features(database, image_dir, image_names=[p.name for p in images],
+                              camera_mode=pycolmap.CameraMode.SINGLE if options.single_camera else pycolmap.CameraMode.AUTO,
+                              extraction_options=extraction, device=pycolmap.Device.cpu)
+    seconds["features"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    report("matching", 0, None)
+    matching = options.matching
+    if matching == "auto":
+        matching = "exhaustive" if len(images) <= EXHAUSTIVE_LIMIT else "sequential"
+    matcher = pycolmap.FeatureMatchingOptions()
+    matcher.num_threads = options.threads
+    if matching == "sequential":
+        pairing = pycolmap.SequentialPairingOptions()
+        pairing.overlap = options.overlap
+        pycolmap.match_sequential(database, matching_options=matcher, pairing_options=pairing, device=pycolmap.Device.cpu)
+    elif matching == "exhaustive":
+        pycolmap.match_exhaustive(database, matching_options=matcher, device=pycolmap.Device.cpu)
+    else:
+        raise GeoStructureError(f"unknown matching '{matching}'; use auto, sequential or exhaustive.")
+    seconds["matching"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    report("mapping", 0, None)
+    mapping = pycolmap.IncrementalPipelineOptions()
+    mapping.num_threads = options.threads
+    mapping.random_seed = options.seed
+    sparse = workdir / "sparse"
+    sparse.mkdir(exist_ok=True)
+    models = pycolmap.incremental_mapping(database, image_dir, sparse, mapping)
+    seconds["mapping"] = time.perf_counter() - t
+    best = max(models.values(), key=lambda r: r.num_reg_images(), default=None)
+    registered = best.num_reg_images() if best is not None else 0
+    if registered < 3:
+        raise GeoStructureError(
+            f"{image_dir}: SfM registered {registered} of {len(images)} images (at least 3 are needed). "
+            "The photos may not overlap: take them so that each shares about two thirds of its view with the "
+            "next, avoid plain or shiny surfaces, or try --matching exhaustive.")
+    best.write(sparse)  # the kept model at sparse/, for the dense stage and for COLMAP's GUI
+    return best, SfmReport(len(images), registered, best.num_points3D(), float(best.compute_mean_reprojection_error()),
+                           matching, seconds)
+
+
+def sparse_points(reconstruction) -> np.ndarray:
+    """(N, 3) sparse points of a model, in model coordinates."""
+    points = [p.xyz for p in reconstruction.points3D.values()]
+    return np.array(points, dtype=np.float64).reshape(-1, 3)
