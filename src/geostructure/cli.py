@@ -4,10 +4,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
 import time
 import warnings
 from pathlib import Path
+
+import numpy as np
 
 from rich.console import Console
 from rich.table import Table
@@ -101,6 +102,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write report.html, stereonet and rose figures (default on)")
     add_measure_options(d)
     d.set_defaults(run=run_demo)
+
+    from .cli_reconstruct import add_reconstruct_commands
+
+    add_reconstruct_commands(sub)
     return parser
 
 
@@ -170,19 +175,22 @@ def frame_from(args) -> Frame:
 def run_measure(args) -> int:
     frame = frame_from(args)
     params_from(args)  # refuse bad parameters before any reading
+    t = time.perf_counter()
+    cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
+    return measure_cloud(cloud, args, frame, {"read": time.perf_counter() - t})
+
+
+def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None) -> int:
+    """Measure, write the outputs, print the planes; then evaluate and report if asked."""
     with StageProgress(enabled=not args.quiet) as progress:
-        t = time.perf_counter()
-        progress("read", 0, None)
-        cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
-        read_seconds = time.perf_counter() - t
         t = time.perf_counter()
         progress("auto", 0, None)
         params, auto = params_from(args, cloud)
         auto_seconds = time.perf_counter() - t
         result = measure(cloud, params, frame, progress)
-        result.seconds = {"read": read_seconds, "auto": auto_seconds, **result.seconds}
+        result.seconds = {**seconds, "auto": auto_seconds, **result.seconds}
         progress("write", 0, None)
-        paths = write_outputs(result, args.outdir, extra={"auto": auto})
+        paths = write_outputs(result, args.outdir, extra={"auto": auto, **(extra or {})})
     if not len(result):
         print("geostructure: warning: no plane found; if the cloud is sparse, try a larger --zeta "
               "(voxels need at least 5 points each to fit a plane).", file=sys.stderr)

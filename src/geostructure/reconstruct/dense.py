@@ -30,6 +30,7 @@ class DenseOptions:
     block_size: int = 5
     min_pairs: int = 2              # pairs that must agree on a fused cell
     cell_pixels: float = 2.0        # fused cell edge, in pixel footprints at the median depth
+    canvas: float = 1.4             # rectified image size over the input's, per side
 
 
 @dataclass
@@ -158,11 +159,14 @@ def pair_points(reconstruction, a: int, b: int, image_dir: Path, options: DenseO
     rotation = pose_b[:, :3] @ pose_a[:, :3].T
     translation = pose_b[:, 3] - rotation @ pose_a[:, 3]
     no_distortion = np.zeros(5)  # the images are already undistorted
+    # alpha=1 keeps every pixel (convergent views would lose their edges), on a canvas large
+    # enough that the rotated images keep their resolution
+    canvas = (round(size[0] * options.canvas), round(size[1] * options.canvas))
     r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(k1, no_distortion, k2, no_distortion, size,
                                                  np.ascontiguousarray(rotation), translation.reshape(3, 1),
-                                                 flags=cv2.CALIB_ZERO_DISPARITY, alpha=0)
-    map_l = cv2.initUndistortRectifyMap(k1, no_distortion, r1, p1, size, cv2.CV_32FC1)
-    map_r = cv2.initUndistortRectifyMap(k2, no_distortion, r2, p2, size, cv2.CV_32FC1)
+                                                 flags=cv2.CALIB_ZERO_DISPARITY, alpha=1, newImageSize=canvas)
+    map_l = cv2.initUndistortRectifyMap(k1, no_distortion, r1, p1, canvas, cv2.CV_32FC1)
+    map_r = cv2.initUndistortRectifyMap(k2, no_distortion, r2, p2, canvas, cv2.CV_32FC1)
     rect_l = cv2.remap(left, *map_l, cv2.INTER_LINEAR)
     rect_r = cv2.remap(right, *map_r, cv2.INTER_LINEAR)
 

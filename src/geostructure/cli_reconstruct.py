@@ -1,0 +1,100 @@
+"""Command line for the reconstruction stages: ``frames`` and ``run`` (the whole paper)."""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+
+def add_reconstruct_commands(sub) -> None:
+    from .reconstruct.frames import FrameOptions
+
+    defaults = FrameOptions()
+    f = sub.add_parser("frames", help="pick the sharp, moving frames of a video for SfM")
+    f.add_argument("video", type=Path, help="mp4, avi, mov, mkv ... file")
+    f.add_argument("-o", "--outdir", type=Path, required=True, help="folder for frame_NNNNNN.jpg")
+    add_frame_options(f, defaults)
+    f.add_argument("-q", "--quiet", action="store_true")
+    f.set_defaults(run=run_frames)
+
+    from .cli import add_measure_options
+
+    r = sub.add_parser("run", help="video or photos -> frames -> SfM -> dense -> surface -> georeference -> planes")
+    r.add_argument("source", type=Path, help="a video file or a folder of photos")
+    r.add_argument("-o", "--outdir", type=Path, required=True, help="folder for the cloud, planes and report")
+    g = r.add_argument_group("reconstruction")
+    add_frame_options(g, defaults)
+    g.add_argument("--matching", choices=("auto", "sequential", "exhaustive"), default="auto",
+                   help="SfM matching: sequential for video, exhaustive for photo sets (auto: by count)")
+    g.add_argument("--max-image-size", type=int, default=1600, help="SfM features on images this large (px)")
+    g.add_argument("--dense", choices=("auto", "colmap", "sgbm", "none"), default="auto",
+                   help="dense stage: colmap (CUDA PatchMatch), sgbm (CPU), none (measure sparse points); auto: colmap with CUDA")
+    g.add_argument("--dense-neighbours", type=int, default=2, help="stereo partners per image (sgbm)")
+    g.add_argument("--no-mesh", action="store_true", help="skip the Poisson surface: measure the dense cloud directly")
+    g.add_argument("--poisson-depth", type=int, default=9, help="Poisson octree depth (default %(default)s)")
+    e = r.add_argument_group("georeference (one is needed before strike and dip mean anything)")
+    e.add_argument("--gcp", type=Path, help="control points CSV: name,E,N,Up and image,u,v (pixels) or x,y,z (model)")
+    e.add_argument("--scale", type=float, default=1.0,
+                   help="manual georeference: metres per model unit, with --up and --north given in model axes")
+    r.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
+    r.add_argument("--report", action=argparse.BooleanOptionalAction, default=True, help="write report.html (default on)")
+    add_measure_options(r)
+    r.set_defaults(run=run_run)
+
+
+def add_frame_options(parser, defaults) -> None:
+    parser.add_argument("--fps", type=float, default=None, help="decode rate (default: the video's own)")
+    parser.add_argument("--all-frames", action="store_true", help="keep every decoded frame (no sharpness/motion test)")
+    parser.add_argument("--min-motion", type=float, default=defaults.min_motion,
+                        help="keep a frame once the view moved this fraction of the width (default %(default)s)")
+    parser.add_argument("--max-frames", type=int, default=None, help="stop after this many kept frames")
+
+
+def frame_options(args):
+    from .errors import GeoStructureError
+    from .reconstruct.frames import FrameOptions
+
+    if args.fps is not None and args.fps <= 0:
+        raise GeoStructureError(f"--fps must be positive, not {args.fps}.")
+    return FrameOptions(fps=args.fps, select=not args.all_frames, min_motion=args.min_motion, max_frames=args.max_frames)
+
+
+def run_frames(args) -> int:
+    from .progress import StageProgress
+    from .reconstruct.frames import extract_frames
+
+    with StageProgress(enabled=not args.quiet) as progress:
+        report = extract_frames(args.video, args.outdir, frame_options(args), progress)
+    if not args.quiet:
+        print(f"{report.summary()}; wrote {args.outdir}")
+    return 0
+
+
+def run_run(args) -> int:
+    from .cli import frame_from, measure_cloud, params_from
+    from .cloud import Cloud
+    from .progress import StageProgress
+    from .reconstruct.dense import DenseOptions
+    from .reconstruct.pipeline import ReconstructOptions, reconstruct
+    from .reconstruct.sfm import SfmOptions
+    from .reconstruct.surface import SurfaceOptions
+
+    from .orientation import Frame
+
+    frame_from(args)  # refuse a half-given --up/--north before hours of reconstruction
+    frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up
+    params_from(args)
+    options = ReconstructOptions(
+        frames=frame_options(args),
+        sfm=SfmOptions(matching=args.matching, max_image_size=args.max_image_size),
+        dense=DenseOptions(method="auto" if args.dense == "none" else args.dense, neighbours=args.dense_neighbours),
+        surface=SurfaceOptions(depth=args.poisson_depth),
+        use_dense=args.dense != "none", mesh=not args.no_mesh,
+        gcp=str(args.gcp) if args.gcp else None, up=args.up, north=args.north, scale=args.scale)
+    t = time.perf_counter()
+    log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
+    with StageProgress(enabled=not args.quiet) as progress:
+        made = reconstruct(args.source, args.outdir, options, progress, log)
+    cloud = Cloud.from_points(made.points, source=made.cloud_path)
+    extra = {"reconstruction": {k: v for k, v in made.records.items()}}
+    return measure_cloud(cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra)
