@@ -36,6 +36,9 @@ def add_reconstruct_commands(sub) -> None:
     e.add_argument("--gcp", type=Path, help="control points CSV: name,E,N,Up and image,u,v (pixels) or x,y,z (model)")
     e.add_argument("--scale", type=float, default=1.0,
                    help="manual georeference: metres per model unit, with --up and --north given in model axes")
+    e.add_argument("--assume-level", action="store_true",
+                   help="no control, no GPS: take up from the cameras (held level) and 'north' along their mean "
+                        "view; dips approximate, azimuths relative to the view")
     r.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
     r.add_argument("--report", action=argparse.BooleanOptionalAction, default=True, help="write report.html (default on)")
     add_measure_options(r)
@@ -90,7 +93,8 @@ def run_run(args) -> int:
         dense=DenseOptions(method="auto" if args.dense == "none" else args.dense, neighbours=args.dense_neighbours),
         surface=SurfaceOptions(depth=args.poisson_depth),
         use_dense=args.dense != "none", mesh=not args.no_mesh,
-        gcp=str(args.gcp) if args.gcp else None, up=args.up, north=args.north, scale=args.scale)
+        gcp=str(args.gcp) if args.gcp else None, up=args.up, north=args.north, scale=args.scale,
+        assume_level=args.assume_level)
     t = time.perf_counter()
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     with StageProgress(enabled=not args.quiet) as progress:

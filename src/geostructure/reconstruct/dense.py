@@ -65,13 +65,13 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
     if method == "colmap" and not pycolmap.has_cuda:
         raise GeoStructureError("--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a "
                                 "machine with an NVIDIA GPU); use --dense sgbm here.")
-    workdir = undistort(sparse_dir, image_dir, workdir)
-    if method == "colmap":
-        points, pairs = _colmap(workdir, progress)
-    elif method == "sgbm":
-        points, pairs = _sgbm(workdir, options, progress)
-    else:
+    if method not in ("colmap", "sgbm"):
         raise GeoStructureError(f"unknown dense method '{method}'; use auto, colmap or sgbm.")
+    from .sfm import quiet_colmap
+
+    with quiet_colmap():
+        workdir = undistort(sparse_dir, image_dir, workdir)
+        points, pairs = _colmap(workdir, progress) if method == "colmap" else _sgbm(workdir, options, progress)
     if len(points) < 100:
         raise GeoStructureError(f"the dense stage found {len(points)} points; the images may be too few or too far "
                                 "apart. Try --dense-neighbours 4 or measure the sparse cloud (--no-dense).")

@@ -34,6 +34,7 @@ class ReconstructOptions:
     up: tuple | None = None            # manual frame, in model axes
     north: tuple | None = None
     scale: float = 1.0
+    assume_level: bool = False         # up from the cameras, north along their mean view: approximate
 
 
 @dataclass
@@ -152,6 +153,8 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
         if options.up is None or options.north is None:
             raise GeoStructureError("give both --up and --north (model axes), or neither.")
         return manual(options.up, options.north, options.scale)
+    if options.assume_level:
+        return level_from_cameras(model, options.scale)
     try:
         return solve_exif_gps(model, image_dir)
     except GeoStructureError as exc:
@@ -159,6 +162,22 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
             f"the model is not georeferenced, so strike and dip would mean nothing: {exc} The cloud is "
             "reconstructed; run again with --gcp GCP.csv, or --up X Y Z --north X Y Z [--scale S] in model axes "
             "(the work done so far is kept).") from None
+
+
+def level_from_cameras(model, scale: float = 1.0):
+    """Up as the cameras' mean up direction (people hold cameras level), north as their mean
+    horizontal viewing direction: dips approximate, azimuths relative to where they looked."""
+    from .georef import manual
+
+    ups, views = [], []
+    for image in model.images.values():
+        if image.has_pose:
+            world_from_cam = image.cam_from_world().inverse().matrix()
+            ups.append(-world_from_cam[:, 1])
+            views.append(world_from_cam[:, 2])
+    geo = manual(np.mean(ups, axis=0), np.mean(views, axis=0), scale)
+    geo.source, geo.approximate = "cameras-level", True
+    return geo
 
 
 def describe(georeference) -> str:

@@ -7,6 +7,7 @@ matched exhaustively. The largest model is kept.
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,6 +44,19 @@ class SfmReport:
                 f"mean reprojection error {self.mean_reprojection_error:.2f} px ({self.matching} matching)")
 
 
+@contextmanager
+def quiet_colmap(level: int = 2):
+    """COLMAP logs every step to stderr; keep errors only while it works (then restore)."""
+    import pycolmap
+
+    old = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = level
+    try:
+        yield
+    finally:
+        pycolmap.logging.minloglevel = old
+
+
 def list_images(folder) -> list[Path]:
     folder = Path(folder)
     if not folder.is_dir():
@@ -58,6 +72,11 @@ def run_sfm(image_dir, workdir, options: SfmOptions = SfmOptions(), progress=Non
 
     Raises GeoStructureError, saying what to try, when fewer than 3 images register.
     """
+    with quiet_colmap():
+        return _run_sfm(image_dir, workdir, options, progress)
+
+
+def _run_sfm(image_dir, workdir, options, progress):
     import pycolmap
 
     report = progress or (lambda stage, done, total: None)

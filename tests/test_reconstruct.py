@@ -1,0 +1,121 @@
+"""Reconstruction end to end on a rendered video of an outcrop with known planes, plus the
+frame selection and the errors a user meets with bad input."""
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from geostructure.cli import main
+from geostructure.reconstruct.frames import FrameOptions, decode, extract_frames
+from geostructure.reconstruct.render import faces, write_scene_video, write_video
+
+
+@pytest.fixture(scope="module")
+def outcrop(tmp_path_factory):
+    return write_scene_video(tmp_path_factory.mktemp("outcrop"))
+
+
+@pytest.fixture(scope="module")
+def run_dir(outcrop, tmp_path_factory):
+    video, gcp, _ = outcrop
+    out = tmp_path_factory.mktemp("run")
+    assert main(["run", str(video), "-o", str(out), "--gcp", str(gcp), "-q", "--no-report"]) == 0
+    return out
+
+
+def planes(out):
+    with open(out / "planes.csv") as fh:
+        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
+
+
+def normal(dip, dip_direction):
+    d, dd = np.radians(dip), np.radians(dip_direction)
+    return np.array([np.sin(d) * np.sin(dd), np.sin(d) * np.cos(dd), np.cos(d)])
+
+
+def test_rendered_video_gives_true_dips_after_georeferencing(run_dir):
+    measured = planes(run_dir)
+    found = {}
+    for face in faces():
+        # the largest plane whose centroid lies near the face
+        near = [p for p in measured if abs((np.array([p["centroid_x"], p["centroid_y"], p["centroid_z"]]) - face.centre)
+                                           @ face.normal) < 0.3 and p["n_points"] > 500]
+        assert near, f"{face.name} not found"
+        best = max(near, key=lambda p: p["n_points"])
+        found[face.name] = best
+        assert abs(best["dip"] - face.dip) < 2, (face.name, best["dip"])
+        assert abs((best["dip_direction"] - face.dip_direction + 180) % 360 - 180) < 2, (face.name, best["dip_direction"])
+    names = [f.name for f in faces()]
+    truth = {f.name: f.normal for f in faces()}
+    for i, a in enumerate(names):           # angles between planes need no georeference
+        for b in names[i + 1:]:
+            got = np.degrees(np.arccos(abs(normal(found[a]["dip"], found[a]["dip_direction"])
+                                           @ normal(found[b]["dip"], found[b]["dip_direction"]))))
+            want = np.degrees(np.arccos(abs(truth[a] @ truth[b])))
+            assert abs(got - want) < 1, (a, b, got, want)
+    record = json.loads((run_dir / "reconstruct.json").read_text())
+    assert record["georef"]["source"] == "gcp" and record["georef"]["rms_residual"] < 0.05
+    assert (run_dir / "cloud.ply").stat().st_size > 100_000 and (run_dir / "surface.ply").exists()
+
+
+def test_second_run_resumes_from_the_finished_stages(run_dir, outcrop, capsys):
+    video, gcp, _ = outcrop
+    assert main(["run", str(video), "-o", str(run_dir), "--gcp", str(gcp), "--no-report"]) == 0
+    out = capsys.readouterr().out
+    for stage in ("frames", "sfm", "dense", "surface"):
+        assert f"{stage}: done before" in out
+
+
+def test_unreferenced_model_is_not_measured(run_dir, outcrop, capsys):
+    video, _, _ = outcrop
+    assert main(["run", str(video), "-o", str(run_dir), "-q", "--no-report"]) == 2
+    err = capsys.readouterr().err
+    assert "not georeferenced" in err and "--gcp" in err and "Traceback" not in err
+
+
+def test_frame_selection_drops_blurred_and_still_frames(outcrop, tmp_path):
+    import cv2
+
+    frames = [cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) for _, image in decode(outcrop[0])][:16]
+    blurred = cv2.GaussianBlur(frames[8], (0, 0), 4)
+    shaky = frames[:8] + [blurred] + [frames[8]] * 4 + frames[9:]   # one blurred frame, a pause
+    video = write_video(tmp_path / "shaky.mp4", shaky)
+    report = extract_frames(video, tmp_path / "frames")
+    assert report.decoded == len(shaky)
+    assert report.blurred >= 1 and report.still >= 4
+    kept = {int(p.stem.split("_")[1]) for p in report.paths}
+    assert 8 not in kept and len(kept) >= 5
+    every = extract_frames(video, tmp_path / "all", FrameOptions(select=False))
+    assert len(every.paths) == len(shaky)
+
+
+def test_a_file_that_is_not_a_video(tmp_path, capsys):
+    fake = tmp_path / "clip.mp4"
+    fake.write_text("this is not a video\n")
+    assert main(["frames", str(fake), "-o", str(tmp_path / "f"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "clip.mp4: not a video" in err and "Traceback" not in err
+    assert main(["run", str(tmp_path / "notes.txt"), "-o", str(tmp_path / "o"), "-q"]) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_a_folder_with_no_images(tmp_path, capsys):
+    (tmp_path / "photos").mkdir()
+    (tmp_path / "photos" / "readme.txt").write_text("nothing here")
+    assert main(["run", str(tmp_path / "photos"), "-o", str(tmp_path / "o"), "-q"]) == 2
+    assert "holds no images" in capsys.readouterr().err
+
+
+def test_images_that_do_not_overlap(tmp_path, capsys):
+    import cv2
+
+    from geostructure.reconstruct.render import textures
+
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for i, texture in enumerate(textures(4, size=400, seed=7)):
+        cv2.imwrite(str(photos / f"img_{i}.jpg"), texture.astype(np.uint8))
+    assert main(["run", str(photos), "-o", str(tmp_path / "o"), "-q", "--dense", "none"]) == 2
+    err = capsys.readouterr().err
+    assert "SfM registered" in err and "overlap" in err and "Traceback" not in err
