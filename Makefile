@@ -3,12 +3,12 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench install browser clean
+.PHONY: demo test bench install system-deps clean
 
 $(STAMP): pyproject.toml constraints.txt
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -c constraints.txt -e ".[test]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[test,reconstruct]"
 	touch $@
 
 install: $(STAMP)
@@ -16,14 +16,13 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/geostructure demo -o out/demo
 
-browser:
-	bash scripts/install-browser.sh
+system-deps:
+	bash scripts/install-system-deps.sh
 
-test: $(STAMP) browser
+test: $(STAMP) system-deps
 	$(PY) -m pytest
 
-bench: $(STAMP)
-	$(PY) -m pip install -q -c constraints.txt -e ".[open3d]"
+bench: $(STAMP) system-deps
 	$(PY) bench/bench_pipeline.py
 
 clean:

@@ -109,7 +109,7 @@ def choose_pairs(reconstruction, options: DenseOptions) -> list[tuple[int, int]]
         rb = xyz - images[b].projection_center()
         cos = np.einsum("ij,ij->i", ra, rb) / np.linalg.norm(ra, axis=1) / np.linalg.norm(rb, axis=1)
         angle = np.degrees(np.median(np.arccos(np.clip(cos, -1, 1))))
-        if options.min_angle <= angle <= options.max_angle:
+        if options.min_angle <= angle <= options.max_angle and _sideways(images[a], images[b]):
             scored.append((len(pids) * min(angle, options.best_angle) / options.best_angle, a, b))
     scored.sort(reverse=True)
     count: dict[int, int] = {}
@@ -119,6 +119,16 @@ def choose_pairs(reconstruction, options: DenseOptions) -> list[tuple[int, int]]
             pairs.append((a, b))
             count[a], count[b] = count.get(a, 0) + 1, count.get(b, 0) + 1
     return pairs
+
+
+def _sideways(img_a, img_b, min_ratio: float = 0.8) -> bool:
+    """Whether b sits mostly beside a (not ahead or behind): pairs moving along the view
+    axis rectify badly, their epipoles falling inside the images."""
+    for first, second in ((img_a, img_b), (img_b, img_a)):
+        baseline = np.asarray(first.cam_from_world() * second.projection_center())
+        if np.hypot(baseline[0], baseline[1]) < min_ratio * np.linalg.norm(baseline):
+            return False
+    return True
 
 
 def _sgbm(workdir: Path, options: DenseOptions, progress):
@@ -136,7 +146,9 @@ def _sgbm(workdir: Path, options: DenseOptions, progress):
     report("dense", len(pairs), len(pairs))
     if not clouds:
         return np.zeros((0, 3)), 0
-    cell = options.cell_pixels * float(np.median(footprints))
+    if not any(len(c) for c in clouds):
+        return np.zeros((0, 3)), len(pairs)
+    cell = options.cell_pixels * float(np.nanmedian(footprints))
     return fuse(clouds, cell, options.min_pairs), len(pairs)
 
 
@@ -146,6 +158,8 @@ def pair_points(reconstruction, a: int, b: int, image_dir: Path, options: DenseO
     import cv2
 
     img_a, img_b = reconstruction.images[a], reconstruction.images[b]
+    if (img_a.cam_from_world() * img_b.projection_center())[0] < 0:
+        img_a, img_b, a, b = img_b, img_a, b, a  # SGBM wants the right camera on the right
     left = cv2.imread(str(image_dir / img_a.name), cv2.IMREAD_GRAYSCALE)
     right = cv2.imread(str(image_dir / img_b.name), cv2.IMREAD_GRAYSCALE)
     if left is None or right is None:
@@ -187,6 +201,8 @@ def pair_points(reconstruction, a: int, b: int, image_dir: Path, options: DenseO
                                     P1=8 * block * block, P2=32 * block * block, disp12MaxDiff=1,
                                     uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,
                                     mode=cv2.STEREO_SGBM_MODE_SGBM)
+    if (rect_l > 0).mean() < 0.1:  # rectification pushed the view off the canvas: no pair to match
+        return np.zeros((0, 3)), np.nan
     disp = matcher.compute(rect_l, rect_r).astype(np.float32) / 16.0
     valid = (disp > min_disp) & (rect_l > 0)
     points = cv2.reprojectImageTo3D(disp, q)[valid]
@@ -194,7 +210,7 @@ def pair_points(reconstruction, a: int, b: int, image_dir: Path, options: DenseO
     cam_a = points @ r1          # rectified -> camera a (r1 rotates camera a into the rectified frame)
     world = (cam_a - pose_a[:, 3]) @ pose_a[:, :3]
     depth = np.median(cam[:, 2]) if len(cam) else 1.0
-    return world, float(depth / p1[0, 0])
+    return world, float(abs(depth / p1[0, 0]))
 
 
 def _intrinsics(camera, scale: float) -> np.ndarray:
