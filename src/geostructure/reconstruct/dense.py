@@ -71,20 +71,24 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
 
     with quiet_colmap():
         workdir = undistort(sparse_dir, image_dir, workdir)
-        points, pairs = _colmap(workdir, progress) if method == "colmap" else _sgbm(workdir, options, progress)
+        points, pairs = _colmap(workdir, options, progress) if method == "colmap" else _sgbm(workdir, options, progress)
     if len(points) < 100:
         raise GeoStructureError(f"the dense stage found {len(points)} points; the images may be too few or too far "
                                 "apart. Try --dense-neighbours 4 or measure the sparse cloud (--no-dense).")
     return points, DenseReport(method, len(points), pairs, time.perf_counter() - t)
 
 
-def _colmap(workdir: Path, progress):
+def _colmap(workdir: Path, options: DenseOptions, progress):
     import pycolmap
 
     report = progress or (lambda stage, done, total: None)
     report("dense", 0, None)
-    pycolmap.patch_match_stereo(workdir)
-    fused = pycolmap.stereo_fusion(workdir / "fused.ply", workdir)
+    patch_match = pycolmap.PatchMatchOptions()
+    patch_match.max_image_size = options.max_image_size  # the same resolution as the sgbm path
+    pycolmap.patch_match_stereo(workdir, options=patch_match)
+    fused_dir = workdir / "fused"
+    fused_dir.mkdir(exist_ok=True)  # fusion writes a COLMAP model (a folder) when output_type is bin
+    fused = pycolmap.stereo_fusion(fused_dir, workdir)
     points = np.array([p.xyz for p in fused.points3D.values()]).reshape(-1, 3)
     return points, len(fused.images)
 
