@@ -216,7 +216,6 @@ def solve_exif_gps(reconstruction, image_dir) -> Georeference:
     geo = Georeference(s, rotation, translation, "exif-gps", approximate=True)
     residual = np.linalg.norm(geo.apply(centres) - enu, axis=1)
     geo.residuals = {f"camera {i}": float(v) for i, v in enumerate(residual)}
-    geo.origin = gps[0].tolist()
     return geo
 
 

@@ -48,6 +48,8 @@ def build_report(outdir, path=None, *, max_points: int | None = None, title: str
 def render(scene: ReportScene, title: str) -> str:
     from plotly.offline import get_plotlyjs
 
+    from ..io.writers import _json_default
+
     payload = {
         "title": title,
         "scene": figure_3d(scene),
@@ -60,7 +62,7 @@ def render(scene: ReportScene, title: str) -> str:
                  "frame": scene.frame_name, "points_total": scene.n_points_total,
                  "points_shown": len(scene.points), "n_planes": len(scene.planes)},
     }
-    data = json.dumps(payload, default=_plain, separators=(",", ":")).replace("</", "<\\/")
+    data = json.dumps(payload, default=_json_default, separators=(",", ":")).replace("</", "<\\/")
     assets = resources.files("geostructure.report") / "assets"
     page = (assets / "report.html").read_text(encoding="utf-8")
     return (page.replace("{{TITLE}}", _escape(title))
@@ -250,14 +252,6 @@ def _figure_json(fig) -> dict:
     import plotly.io as pio
 
     return json.loads(pio.to_json(fig, validate=False))
-
-
-def _plain(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 def _escape(text: str) -> str:
