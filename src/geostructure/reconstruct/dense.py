@@ -93,17 +93,24 @@ def _colmap(workdir: Path, options: DenseOptions, progress):
     return points, len(fused.images)
 
 
-def choose_pairs(reconstruction, options: DenseOptions) -> list[tuple[int, int]]:
+def shared_points(reconstruction) -> dict[tuple[int, int], list[int]]:
+    """Sparse point ids seen by each pair of registered images (a < b), from one pass over the tracks."""
+    posed = {i for i, img in reconstruction.images.items() if img.has_pose}
+    shared: dict[tuple[int, int], list[int]] = {}
+    for pid, point in reconstruction.points3D.items():
+        ids = sorted({el.image_id for el in point.track.elements if el.image_id in posed})
+        for a in range(len(ids)):
+            for b in range(a + 1, len(ids)):
+                shared.setdefault((ids[a], ids[b]), []).append(pid)
+    return shared
+
+
+def choose_pairs(reconstruction, options: DenseOptions, shared=None) -> list[tuple[int, int]]:
     """Each image with its ``neighbours`` best partners: those sharing most sparse points,
     weighted by triangulation angle up to ``best_angle`` (a short baseline gives noisy depth),
     among those whose angle on the shared points is within [min_angle, max_angle]."""
     images = {i: img for i, img in reconstruction.images.items() if img.has_pose}
-    shared: dict[tuple[int, int], list[int]] = {}
-    for pid, point in reconstruction.points3D.items():
-        ids = sorted({el.image_id for el in point.track.elements if el.image_id in images})
-        for a in range(len(ids)):
-            for b in range(a + 1, len(ids)):
-                shared.setdefault((ids[a], ids[b]), []).append(pid)
+    shared = shared_points(reconstruction) if shared is None else shared
     scored = []
     for (a, b), pids in shared.items():
         if len(pids) < 30:
@@ -140,11 +147,13 @@ def _sgbm(workdir: Path, options: DenseOptions, progress):
 
     report = progress or (lambda stage, done, total: None)
     reconstruction = pycolmap.Reconstruction(workdir / "sparse")
-    pairs = choose_pairs(reconstruction, options)
+    shared = shared_points(reconstruction)
+    pairs = choose_pairs(reconstruction, options, shared)
     clouds, footprints = [], []
     for n, (a, b) in enumerate(pairs):
         report("dense", n, len(pairs))
-        points, footprint = pair_points(reconstruction, a, b, workdir / "images", options)
+        xyz = np.array([reconstruction.points3D[p].xyz for p in shared[(a, b)]]).reshape(-1, 3)
+        points, footprint = pair_points(reconstruction, a, b, xyz, workdir / "images", options)
         clouds.append(points)
         footprints.append(footprint)
     report("dense", len(pairs), len(pairs))
@@ -156,9 +165,9 @@ def _sgbm(workdir: Path, options: DenseOptions, progress):
     return fuse(clouds, cell, options.min_pairs), len(pairs)
 
 
-def pair_points(reconstruction, a: int, b: int, image_dir: Path, options: DenseOptions):
+def pair_points(reconstruction, a: int, b: int, xyz: np.ndarray, image_dir: Path, options: DenseOptions):
     """Points of one rectified pair in model coordinates, and the pixel footprint (model
-    units per pixel) at the pair's median depth."""
+    units per pixel) at the pair's median depth; ``xyz`` are the sparse points both see."""
     import cv2
 
     img_a, img_b = reconstruction.images[a], reconstruction.images[b]
@@ -189,9 +198,6 @@ def pair_points(reconstruction, a: int, b: int, image_dir: Path, options: DenseO
     rect_r = cv2.remap(right, *map_r, cv2.INTER_LINEAR)
 
     # disparity search range from the sparse points both images see
-    shared = [p.xyz for p in reconstruction.points3D.values()
-              if {a, b} <= {el.image_id for el in p.track.elements}]
-    xyz = np.array(shared).reshape(-1, 3)
     cam = xyz @ pose_a[:, :3].T + pose_a[:, 3]
     rect = cam @ r1.T
     disparity = p1[0, 0] * rect[:, 0] / rect[:, 2] - (p2[0, 0] * rect[:, 0] + p2[0, 3]) / rect[:, 2]

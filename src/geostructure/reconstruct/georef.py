@@ -37,20 +37,12 @@ class Georeference:
     def apply(self, points: np.ndarray) -> np.ndarray:
         return self.scale * np.asarray(points, float) @ self.rotation.T + self.translation
 
-    def apply_vectors(self, vectors: np.ndarray) -> np.ndarray:
-        return np.asarray(vectors, float) @ self.rotation.T
-
     def to_dict(self) -> dict:
         return {"source": self.source, "approximate": self.approximate, "scale": float(self.scale),
                 "rotation": self.rotation.tolist(), "translation": self.translation.tolist(),
                 "residuals": {k: float(v) for k, v in self.residuals.items()},
                 "rms_residual": float(np.sqrt(np.mean(np.square(list(self.residuals.values())))))
                 if self.residuals else None}
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "Georeference":
-        return cls(data["scale"], np.asarray(data["rotation"]), np.asarray(data["translation"]), data["source"],
-                   data.get("approximate", False), data.get("residuals", {}))
 
 
 def umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = True):
