@@ -35,7 +35,8 @@ def test_six_surfaces_found_once_the_frame_is_fitted(observatory):
           f" residuals {np.round(fit.residuals, 2)} deg, mean {fit.mean_residual:.2f}")
     assert len(set(fit.matched.tolist())) == 6
     assert fit.rotation_angle < 10.0      # the cloud really is roughly in the paper's frame
-    assert fit.mean_residual < 3.0        # measured on this cloud: 2.68 deg
+    # measured on this cloud: 3.25 deg (2.68 with --no-merge, whose frame turns 6.5 deg, not 3.6)
+    assert fit.mean_residual < 3.5
     assert fit.residuals.max() < 6.0
 
 
@@ -43,7 +44,7 @@ def test_angles_between_the_six_surfaces_need_no_frame(observatory):
     fit = fit_frame_to_truth(observatory.normals, PAPER_NORMALS, candidates=30)
     error = np.abs(pairwise(observatory.normals[fit.matched]) - pairwise(PAPER_NORMALS))
     print(f"\nobservatory: angles between surfaces off by {error.mean():.2f} deg on average, {error.max():.2f} at most")
-    assert error.mean() < 4.0
+    assert error.mean() < 2.5             # measured: 1.84 deg (2.88 with --no-merge)
 
 
 def test_evaluate_fit_frame_on_the_paper_cloud(tmp_path, capsys):
@@ -54,7 +55,9 @@ def test_evaluate_fit_frame_on_the_paper_cloud(tmp_path, capsys):
     truth = __import__("pathlib").Path(__file__).parent / "data" / "paper_truth.csv"
     cloud = shared_file("observatory/dense_poisson_oc_6.ply")
     out = tmp_path / "obs"
-    assert main(["measure", str(cloud), "-o", str(out), "--frame", "paper", "--no-auto", "--zeta", "0.02", "-q"]) == 0
+    # the paper's own method: fixed parameters and no coplanar merge (with it: 3.90 / 3.01 deg)
+    assert main(["measure", str(cloud), "-o", str(out), "--frame", "paper", "--no-auto", "--zeta", "0.02",
+                 "--no-merge", "-q"]) == 0
     assert main(["evaluate", str(out), "--truth", str(truth), "--fit-frame", "-q"]) == 0
     assert "surface '4'" in capsys.readouterr().err
     summary = json.loads((out / "evaluation.json").read_text())

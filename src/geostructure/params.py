@@ -33,6 +33,7 @@ class Params:
     reference : region growing compares normals with the ``region`` plane or the ``seed``.
     max_gap : region-growing neighbours further than this many voxel edges are ignored.
     rectangle : ``exact`` (rotating calipers) or ``golden`` (the paper's search).
+    merge : join coplanar regions split by a small gap (not in the paper; see :mod:`.merge`).
     """
 
     zeta: float = 0.01
@@ -47,6 +48,7 @@ class Params:
     reference: str = "region"
     max_gap: float = 2.0
     rectangle: str = "exact"
+    merge: bool = True
 
     def __post_init__(self):
         checks = [

@@ -1,4 +1,5 @@
-"""The measuring pipeline: filter -> voxel fit -> region growing -> region planes -> orientation."""
+"""The measuring pipeline: filter -> voxel fit -> region growing (and coplanar merge) -> region
+planes -> orientation."""
 from __future__ import annotations
 
 import time
@@ -10,6 +11,7 @@ from .cloud import Cloud
 from .errors import GeoStructureError
 from .filter import FilterResult, filter_outliers
 from .orientation import Frame, Orientation, orientation_from_normals, upward
+from .merge import merge_coplanar
 from .params import Params
 from .rectangle import RegionPlane, region_plane
 from .regions import grow_regions
@@ -113,19 +115,23 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
     t = time.perf_counter()
     growth = grow_regions(voxels, params.theta, params.psi, params.k, reference=params.reference,
                           max_gap=params.max_gap, progress=lambda done: report("regions", done, len(voxels)))
+    region_of_voxel = growth.labels
+    if params.merge:
+        region_of_voxel, counts["merges"] = merge_coplanar(voxels, growth.labels, params.theta,
+                                                           params.psi * voxels.edge)
     seconds["regions"] = time.perf_counter() - t
 
     t = time.perf_counter()
     min_points = params.min_points or default_min_points(len(filtered))
     point_region = np.full(len(filtered), -1, dtype=np.int64)
     fitted = voxels.point_voxel >= 0
-    point_region[fitted] = growth.labels[voxels.point_voxel[fitted]]
-    planes, kept = _region_planes(filtered.local, point_region, growth.labels, min_points, params.rectangle, report)
+    point_region[fitted] = region_of_voxel[voxels.point_voxel[fitted]]
+    planes, kept = _region_planes(filtered.local, point_region, region_of_voxel, min_points, params.rectangle, report)
     labels = np.full(len(filtered), -1, dtype=np.int64)
     voxel_labels = np.full(len(voxels), -1, dtype=np.int64)
     for new_id, old_id in enumerate(kept):
         labels[point_region == old_id] = new_id
-        voxel_labels[growth.labels == old_id] = new_id
+        voxel_labels[region_of_voxel == old_id] = new_id
     counts["regions"] = growth.n_regions
     counts["planes"] = len(planes)
     counts["labelled_points"] = int((labels >= 0).sum())
