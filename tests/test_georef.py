@@ -4,8 +4,8 @@ import pytest
 from conftest import random_rotation, shared_file
 
 from geostructure.errors import GeoStructureError
-from geostructure.reconstruct.georef import (gps_from_exif, geodetic_to_enu, manual, read_gcp_csv, solve_gcp,
-                                             umeyama)
+from geostructure.reconstruct.georef import (gps_from_exif, geodetic_to_enu, manual, read_gcp, read_gcp_csv,
+                                             solve_gcp, umeyama)
 
 
 def test_umeyama_recovers_a_similarity_in_utm_sized_coordinates():
@@ -63,3 +63,79 @@ def test_gcp_csv_errors_name_the_file_and_the_problem(tmp_path):
     bad.write_text("name,E,N,Up,x,y,z\na,1,2,three,0,0,0\n")
     with pytest.raises(GeoStructureError, match="line 2"):
         read_gcp_csv(bad)
+
+
+def test_opensfm_gcp_json_of_the_berlin_set(tmp_path):
+    """WGS84 positions become local ENU metres; OpenSfM's normalised projections become pixels."""
+    path = shared_file("opensfm_berlin/ground_control_points.json")
+    world, observations, model, origin = read_gcp(path, path.parent / "images")
+    assert sorted(world) == ["0", "3"] and model == {}     # point 1 has no position
+    assert origin[0] == pytest.approx(52.51926, abs=1e-4) and origin[2] == 0.0
+    east_north = np.array([world["3"][:2]]) - np.array([world["0"][:2]])
+    assert np.linalg.norm(east_north) == pytest.approx(4.13, abs=0.01)
+    assert world["0"][2] == pytest.approx(14.946, abs=1e-3)        # Up stays the altitude
+    first = next(o for o in observations if o[:2] == ("0", "02.jpg"))
+    assert first[2] == pytest.approx(-0.015689 * 3264 + 1632) and first[3] == pytest.approx(-0.0625362 * 3264 + 1224)
+    broken = tmp_path / "gcp.json"
+    broken.write_text('{"points": [{"id": "a"}]}')
+    with pytest.raises(GeoStructureError, match="gcp.json: no control point has a position"):
+        read_gcp(broken, tmp_path)
+    broken.write_text("{not json")
+    with pytest.raises(GeoStructureError, match="gcp.json: not an OpenSfM"):
+        read_gcp(broken, tmp_path)
+
+
+class _Pose:
+    def __init__(self, matrix):
+        self._matrix = matrix
+
+    def inverse(self):
+        return _Pose(np.c_[self._matrix[:, :3].T, -self._matrix[:, :3].T @ self._matrix[:, 3]])
+
+    def matrix(self):
+        return self._matrix
+
+
+class _Image:
+    has_pose = True
+
+    def __init__(self, world_from_cam):
+        self._cam_from_world = _Pose(world_from_cam).inverse()
+
+    def cam_from_world(self):
+        return self._cam_from_world
+
+
+def _camera(heading_deg, pitch_deg, centre, model_from_world):
+    """A camera held without roll, looking along ``heading`` (clockwise from north), tilted up."""
+    h, p = np.radians(heading_deg), np.radians(pitch_deg)
+    view = np.array([np.sin(h) * np.cos(p), np.cos(h) * np.cos(p), np.sin(p)])
+    right = np.array([np.cos(h), -np.sin(h), 0.0])
+    down = np.cross(view, right)
+    world_from_cam = np.c_[right, down, view, centre]
+    return _Image(np.c_[model_from_world @ world_from_cam[:, :3], model_from_world @ centre])
+
+
+def test_camera_up_ignores_pitch_but_not_roll_free_headings():
+    from types import SimpleNamespace
+
+    from geostructure.reconstruct.georef import camera_up
+
+    rng = np.random.default_rng(5)
+    model_from_world = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    model_from_world *= np.sign(np.linalg.det(model_from_world))
+    cameras = [_camera(heading, 12.0, np.array([x, -20.0, 1.6]), model_from_world)
+               for heading, x in zip(np.linspace(-25, 25, 9), np.linspace(-10, 10, 9))]
+    model = SimpleNamespace(images={i: c for i, c in enumerate(cameras)})
+    up = camera_up(model)
+    true_up = model_from_world @ np.array([0.0, 0.0, 1.0])
+    mean_up = np.mean([-c.cam_from_world().inverse().matrix()[:, 1] for c in cameras], axis=0)
+    mean_up /= np.linalg.norm(mean_up)
+    assert np.degrees(np.arccos(up @ true_up)) < 0.5            # pitched 12 deg up, still found
+    assert np.degrees(np.arccos(mean_up @ true_up)) > 10.0      # what the mean camera up gives
+
+    # All facing one way: the x axes leave the pitch open, and the mean camera up stands in.
+    same = SimpleNamespace(images={i: _camera(0.0, 12.0, np.array([x, -20.0, 1.6]), model_from_world)
+                                   for i, x in enumerate(np.linspace(-10, 10, 5))})
+    fallback = camera_up(same)
+    assert np.degrees(np.arccos(fallback @ true_up)) == pytest.approx(12.0, abs=0.01)

@@ -33,11 +33,12 @@ def add_reconstruct_commands(sub) -> None:
     g.add_argument("--no-mesh", action="store_true", help="skip the Poisson surface: measure the dense cloud directly")
     g.add_argument("--poisson-depth", type=int, default=9, help="Poisson octree depth (default %(default)s)")
     e = r.add_argument_group("georeference (one is needed before strike and dip mean anything)")
-    e.add_argument("--gcp", type=Path, help="control points CSV: name,E,N,Up and image,u,v (pixels) or x,y,z (model)")
+    e.add_argument("--gcp", type=Path, help="control points: a CSV of name,E,N,Up with image,u,v (pixels) or x,y,z "
+                   "(model), or OpenSfM's ground_control_points.json (WGS84)")
     e.add_argument("--scale", type=float, default=1.0,
                    help="manual georeference: metres per model unit, with --up and --north given in model axes")
     e.add_argument("--assume-level", action="store_true",
-                   help="no control, no GPS: take up from the cameras (held level) and 'north' along their mean "
+                   help="no control, no GPS: take up from the cameras (held without roll) and 'north' along their mean "
                         "view; dips approximate, azimuths relative to the view")
     r.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
     r.add_argument("--report", action=argparse.BooleanOptionalAction, default=True, help="write report.html (default on)")

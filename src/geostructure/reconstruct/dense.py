@@ -73,8 +73,10 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
         workdir = undistort(sparse_dir, image_dir, workdir)
         points, pairs = _colmap(workdir, options, progress) if method == "colmap" else _sgbm(workdir, options, progress)
     if len(points) < 100:
-        raise GeoStructureError(f"the dense stage found {len(points)} points; the images may be too few or too far "
-                                "apart. Try --dense-neighbours 4 or measure the sparse cloud (--no-dense).")
+        raise GeoStructureError(f"the dense stage found {len(points)} points from {pairs} stereo pairs; the images may be "
+                                "too few, too far apart, or taken walking straight towards the scene (stereo "
+                                "needs sideways steps). Try --dense-neighbours 4, or measure the sparse cloud "
+                                "(--dense none).")
     return points, DenseReport(method, len(points), pairs, time.perf_counter() - t)
 
 

@@ -6,11 +6,13 @@ Three sources, best first:
   triangulated in the model) or given in model coordinates; solved as a similarity
   transform (Umeyama 1991) with each point's residual;
 - camera GPS from EXIF: camera centres against their GPS positions, with gravity taken
-  from the cameras' mean up direction (people hold cameras level); approximate;
+  from the cameras' horizontal x axes (people hold cameras without roll); approximate;
 - a manual frame: the model's up and north vectors and a scale.
 
-World coordinates are a local east-north-up frame in metres (or the GCPs' own projected
-coordinates), so the measuring stage's ``enu`` frame applies to the transformed cloud.
+World coordinates are the GCPs' own projected coordinates (E, N, Up), or, from WGS84
+positions (EXIF GPS, OpenSfM GCP JSON), a local east-north-up frame in metres about the mean
+latitude and longitude at altitude 0 (recorded as ``enu_origin``); either way the measuring
+stage's ``enu`` frame applies to the transformed cloud.
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ class Georeference:
     source: str                        # gcp | exif-gps | manual
     approximate: bool = False
     residuals: dict = field(default_factory=dict)   # control point -> residual (world units)
+    enu_origin: tuple | None = None    # (lat, lon, alt) that world (0, 0, 0) stands for, when from WGS84
 
     def apply(self, points: np.ndarray) -> np.ndarray:
         return self.scale * np.asarray(points, float) @ self.rotation.T + self.translation
@@ -41,6 +44,7 @@ class Georeference:
         return {"source": self.source, "approximate": self.approximate, "scale": float(self.scale),
                 "rotation": self.rotation.tolist(), "translation": self.translation.tolist(),
                 "residuals": {k: float(v) for k, v in self.residuals.items()},
+                "enu_origin": None if self.enu_origin is None else [float(v) for v in self.enu_origin],
                 "rms_residual": float(np.sqrt(np.mean(np.square(list(self.residuals.values())))))
                 if self.residuals else None}
 
@@ -123,6 +127,59 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
     return world, observations, model
 
 
+def read_gcp(path, image_dir=None) -> tuple[dict, list, dict, tuple | None]:
+    """Control points from our CSV or from OpenSfM's ``ground_control_points.json``.
+
+    Returns (world by name, pixel observations, model points by name, ENU origin or None);
+    the origin (latitude, longitude, altitude) is set when the file gives WGS84 positions,
+    which are turned into east-north-up metres about it.
+    """
+    if Path(path).suffix.lower() == ".json":
+        return read_opensfm_gcp(path, image_dir)
+    return (*read_gcp_csv(path), None)
+
+
+def read_opensfm_gcp(path, image_dir) -> tuple[dict, list, dict, tuple | None]:
+    """OpenSfM's GCP JSON: ``points`` with ``position`` {latitude, longitude, altitude} and
+    ``observations`` [{shot_id, projection}] in OpenSfM's normalised image coordinates
+    (pixel + 0.5 - size / 2, over the longer side); points without a position are skipped."""
+    import json
+
+    from PIL import Image
+
+    path = Path(path)
+    try:
+        points = json.loads(path.read_text())["points"]
+        located = [p for p in points if p.get("position")]
+        fixes = np.array([[p["position"]["latitude"], p["position"]["longitude"], p["position"].get("altitude", 0.0)]
+                          for p in located], float).reshape(-1, 3)
+    except FileNotFoundError:
+        raise GeoStructureError(f"{path}: no such file.") from None
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError) as exc:
+        raise GeoStructureError(f"{path}: not an OpenSfM ground_control_points.json ({exc}).") from None
+    if not len(located):
+        raise GeoStructureError(f"{path}: no control point has a position.")
+    origin = (float(fixes[:, 0].mean()), float(fixes[:, 1].mean()), 0.0)
+    enu = geodetic_to_enu(fixes[:, 0], fixes[:, 1], fixes[:, 2], origin)
+    world = {str(p["id"]): e.tolist() for p, e in zip(located, enu)}
+    sizes, observations = {}, []
+    for p in located:
+        for obs in p.get("observations", []):
+            shot = obs["shot_id"]
+            if shot not in sizes:
+                try:
+                    with Image.open(Path(image_dir or path.parent / "images") / shot) as image:
+                        sizes[shot] = image.size
+                except OSError:
+                    raise GeoStructureError(f"{path}: image {shot} of control point {p['id']} not found in "
+                                            f"{image_dir}.") from None
+            width, height = sizes[shot]
+            x, y = obs["projection"]
+            observations.append((str(p["id"]), shot, x * max(width, height) + width / 2,
+                                 y * max(width, height) + height / 2))
+    return world, observations, {}, origin
+
+
 def triangulate_observations(reconstruction, observations) -> dict:
     """Model coordinates of each control point seen in 2+ registered images (linear DLT on
     undistorted, normalised image coordinates)."""
@@ -179,16 +236,11 @@ def geodetic_to_enu(lat, lon, alt, origin) -> np.ndarray:
 
 
 def solve_exif_gps(reconstruction, image_dir) -> Georeference:
-    """Camera centres against EXIF GPS: up from the cameras' mean up direction, then heading,
+    """Camera centres against EXIF GPS: up from the cameras (:func:`camera_up`), then heading,
     scale and shift from the horizontal GPS track. Approximate (GPS is good to metres)."""
     centres, gps = [], []
-    ups = []
     for image in reconstruction.images.values():
-        if not image.has_pose:
-            continue
-        fix = gps_from_exif(Path(image_dir) / image.name)
-        world_from_cam = image.cam_from_world().inverse().matrix()
-        ups.append(-world_from_cam[:, 1])  # camera y points down in the image
+        fix = gps_from_exif(Path(image_dir) / image.name) if image.has_pose else None
         if fix is not None:
             centres.append(image.projection_center())
             gps.append(fix)
@@ -196,19 +248,44 @@ def solve_exif_gps(reconstruction, image_dir) -> Georeference:
         raise GeoStructureError(f"{image_dir}: {len(gps)} registered photo(s) carry GPS in EXIF; at least 3 are "
                                 "needed. Give --gcp control points or --up/--north/--scale instead.")
     gps = np.array(gps)
-    enu = geodetic_to_enu(gps[:, 0], gps[:, 1], gps[:, 2], gps[0])
-    up = np.mean(ups, axis=0)
-    up /= np.linalg.norm(up)
+    origin = (float(gps[:, 0].mean()), float(gps[:, 1].mean()), 0.0)  # so Up stays the GPS altitude
+    enu = geodetic_to_enu(gps[:, 0], gps[:, 1], gps[:, 2], origin)
+    up = camera_up(reconstruction)
     centres = np.array(centres)
     level = _rotation_between(up, np.array([0.0, 0.0, 1.0]))
     flat = centres @ level.T
     s, r2, _ = umeyama(np.c_[flat[:, :2], np.zeros(len(flat))], np.c_[enu[:, :2], np.zeros(len(enu))])
     rotation = r2 @ level
     translation = enu.mean(axis=0) - s * rotation @ centres.mean(axis=0)
-    geo = Georeference(s, rotation, translation, "exif-gps", approximate=True)
+    geo = Georeference(s, rotation, translation, "exif-gps", approximate=True, enu_origin=origin)
     residual = np.linalg.norm(geo.apply(centres) - enu, axis=1)
     geo.residuals = {f"camera {i}": float(v) for i, v in enumerate(residual)}
     return geo
+
+
+def camera_up(reconstruction, min_spread: float = 0.01) -> np.ndarray:
+    """Model up from the registered cameras, as OpenSfM's upright step does: people hold
+    cameras without roll, so each camera's x axis is horizontal and up is the direction most
+    nearly perpendicular to all of them. Pitch is not assumed level (people tilt cameras up at
+    a cliff or a facade). When the x axes barely turn (second eigenvalue of their scatter under
+    ``min_spread`` of the first: all cameras face one way), they leave the pitch open, and the
+    cameras' mean up direction, made perpendicular to them, stands in."""
+    xs, ups = [], []
+    for image in reconstruction.images.values():
+        if image.has_pose:
+            world_from_cam = image.cam_from_world().inverse().matrix()
+            xs.append(world_from_cam[:, 0])
+            ups.append(-world_from_cam[:, 1])  # camera y points down the image
+    if not xs:
+        raise GeoStructureError("no registered camera to take up from.")
+    xs, mean_up = np.array(xs), np.mean(ups, axis=0)
+    values, vectors = np.linalg.eigh(xs.T @ xs)
+    if values[1] >= min_spread * values[2]:
+        up = vectors[:, 0]
+    else:
+        up = mean_up - (mean_up @ vectors[:, 2]) * vectors[:, 2]
+    up /= np.linalg.norm(up)
+    return up if up @ mean_up > 0 else -up
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:

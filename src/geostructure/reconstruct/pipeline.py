@@ -143,12 +143,14 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
 
 def georeference_model(model, image_dir, options: ReconstructOptions):
     """GCPs if given, else a manual frame if given, else EXIF GPS; refuses when none exists."""
-    from .georef import manual, read_gcp_csv, solve_exif_gps, solve_gcp, triangulate_observations
+    from .georef import manual, read_gcp, solve_exif_gps, solve_gcp, triangulate_observations
 
     if options.gcp:
-        world, observations, model_points = read_gcp_csv(options.gcp)
+        world, observations, model_points, origin = read_gcp(options.gcp, image_dir)
         located = {**triangulate_observations(model, observations), **model_points}
-        return solve_gcp(located, world)
+        geo = solve_gcp(located, world)
+        geo.enu_origin = origin
+        return geo
     if options.up is not None or options.north is not None:
         if options.up is None or options.north is None:
             raise GeoStructureError("give both --up and --north (model axes), or neither.")
@@ -165,17 +167,12 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
 
 
 def level_from_cameras(model, scale: float = 1.0):
-    """Up as the cameras' mean up direction (people hold cameras level), north as their mean
+    """Up from the cameras (held without roll, :func:`~.georef.camera_up`), north as their mean
     horizontal viewing direction: dips approximate, azimuths relative to where they looked."""
-    from .georef import manual
+    from .georef import camera_up, manual
 
-    ups, views = [], []
-    for image in model.images.values():
-        if image.has_pose:
-            world_from_cam = image.cam_from_world().inverse().matrix()
-            ups.append(-world_from_cam[:, 1])
-            views.append(world_from_cam[:, 2])
-    geo = manual(np.mean(ups, axis=0), np.mean(views, axis=0), scale)
+    views = [image.cam_from_world().inverse().matrix()[:, 2] for image in model.images.values() if image.has_pose]
+    geo = manual(camera_up(model), np.mean(views, axis=0), scale)
     geo.source, geo.approximate = "cameras-level", True
     return geo
 

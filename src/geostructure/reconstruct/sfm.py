@@ -2,7 +2,8 @@
 
 Video frames are matched sequentially (each with its next ``overlap`` frames, plus loop
 detection off: the clip is one pass); photo sets up to ``EXHAUSTIVE_LIMIT`` images are
-matched exhaustively. The largest model is kept.
+matched exhaustively. The largest model is kept; when it holds fewer than half the images,
+mapping is tried again from a start that allows forward motion (walks along a street).
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from ..errors import GeoStructureError
 
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp"}
 EXHAUSTIVE_LIMIT = 60
+RELAXED_INIT_ANGLE = 4.0   # degrees; COLMAP's default 16 finds no start in forward-moving sequences
 
 
 @dataclass(frozen=True)
@@ -121,11 +123,18 @@ def _run_sfm(image_dir, workdir, options, progress):
     mapping.num_threads = options.threads
     mapping.random_seed = options.seed
     sparse = workdir / "sparse"
-    sparse.mkdir(exist_ok=True)
-    models = pycolmap.incremental_mapping(database, image_dir, sparse, mapping)
-    seconds["mapping"] = time.perf_counter() - t
-    best = max(models.values(), key=lambda r: r.num_reg_images(), default=None)
+    best = _map(database, image_dir, sparse, mapping)
     registered = best.num_reg_images() if best is not None else 0
+    if registered < max(3, len(images) // 2):
+        # A walk straight ahead (a street, a gallery) gives pairs that COLMAP's default start
+        # rejects as forward motion with small triangulation angles; start from such a pair.
+        mapping.mapper.init_max_forward_motion = 1.0
+        mapping.mapper.init_min_tri_angle = RELAXED_INIT_ANGLE
+        relaxed = _map(database, image_dir, workdir / "sparse_relaxed", mapping)
+        if relaxed is not None and relaxed.num_reg_images() > registered:
+            best, registered = relaxed, relaxed.num_reg_images()
+            matching += ", relaxed start"
+    seconds["mapping"] = time.perf_counter() - t
     if registered < 3:
         raise GeoStructureError(
             f"{image_dir}: SfM registered {registered} of {len(images)} images (at least 3 are needed). "
@@ -134,6 +143,15 @@ def _run_sfm(image_dir, workdir, options, progress):
     best.write(sparse)  # the kept model at sparse/, for the dense stage and for COLMAP's GUI
     return best, SfmReport(len(images), registered, best.num_points3D(), float(best.compute_mean_reprojection_error()),
                            matching, seconds)
+
+
+def _map(database, image_dir, folder, options):
+    """The model with the most registered images, or None."""
+    import pycolmap
+
+    folder.mkdir(exist_ok=True)
+    models = pycolmap.incremental_mapping(database, image_dir, folder, options)
+    return max(models.values(), key=lambda r: r.num_reg_images(), default=None)
 
 
 def sparse_points(reconstruction) -> np.ndarray:
