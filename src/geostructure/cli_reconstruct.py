@@ -27,9 +27,11 @@ def add_reconstruct_commands(sub) -> None:
     g.add_argument("--matching", choices=("auto", "sequential", "exhaustive"), default="auto",
                    help="SfM matching: sequential for video, exhaustive for photo sets (auto: by count)")
     g.add_argument("--max-image-size", type=int, default=1600, help="SfM features on images this large (px)")
-    g.add_argument("--dense", choices=("auto", "colmap", "sgbm", "none"), default="auto",
-                   help="dense stage: colmap (CUDA PatchMatch), sgbm (CPU), none (measure sparse points); auto: colmap with CUDA")
-    g.add_argument("--dense-neighbours", type=int, default=2, help="stereo partners per image (sgbm)")
+    g.add_argument("--dense", choices=("auto", "colmap", "sgbm", "sweep", "none"), default="auto",
+                   help="dense stage: colmap (CUDA PatchMatch), sgbm (CPU, rectified pairs), sweep (CPU plane "
+                        "sweep, for walks along the view), none (measure sparse points); auto: colmap with CUDA, "
+                        "else sgbm, or sweep when most images have no sideways partner")
+    g.add_argument("--dense-neighbours", type=int, default=2, help="stereo partners per image (sgbm, sweep)")
     g.add_argument("--no-mesh", action="store_true", help="skip the Poisson surface: measure the dense cloud directly")
     g.add_argument("--poisson-depth", type=int, default=9, help="Poisson octree depth (default %(default)s)")
     e = r.add_argument_group("georeference (one is needed before strike and dip mean anything)")

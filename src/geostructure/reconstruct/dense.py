@@ -6,7 +6,10 @@ Two paths on the same undistorted images (``pycolmap.undistort_images``):
 - ``sgbm`` (any machine): each image with its best neighbours, rectified pairwise, OpenCV
   semi-global block matching with its left-right check (``disp12MaxDiff``), triangulated;
   the pair clouds are then fused on a fine grid, keeping only cells that at least
-  ``min_pairs`` different pairs agree on (one pair's mismatch rarely repeats in another's).
+  ``min_pairs`` different pairs agree on (one pair's mismatch rarely repeats in another's);
+- ``sweep`` (any machine): a plane-sweep depth map per image (:mod:`.planesweep`), fused the
+  same way; for cameras that move along their view, which rectification cannot take.
+  ``auto`` without CUDA picks it when fewer than half the images have a sideways partner.
 """
 from __future__ import annotations
 
@@ -18,10 +21,12 @@ import numpy as np
 
 from ..errors import GeoStructureError
 
+SWEEP_MIN_ANGLE = 2.0   # degrees; forward steps give small angles on the shared points
+
 
 @dataclass(frozen=True)
 class DenseOptions:
-    method: str = "auto"            # auto (colmap with CUDA, else sgbm) | colmap | sgbm
+    method: str = "auto"            # auto (colmap with CUDA, else sgbm or sweep) | colmap | sgbm | sweep
     max_image_size: int = 1200      # matching resolution (px, longest side)
     neighbours: int = 2             # stereo partners per image
     min_angle: float = 5.0          # degrees of triangulation angle a pair needs
@@ -41,7 +46,8 @@ class DenseReport:
     seconds: float
 
     def summary(self) -> str:
-        return f"{self.points:,} dense points from {self.pairs} stereo pairs ({self.method}) in {self.seconds:.1f} s"
+        unit = "stereo pairs" if self.method == "sgbm" else "depth maps"
+        return f"{self.points:,} dense points from {self.pairs} {unit} ({self.method}) in {self.seconds:.1f} s"
 
 
 def undistort(sparse_dir, image_dir, workdir) -> Path:
@@ -60,18 +66,19 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
 
     t = time.perf_counter()
     method = options.method
-    if method == "auto":
-        method = "colmap" if pycolmap.has_cuda else "sgbm"
     if method == "colmap" and not pycolmap.has_cuda:
         raise GeoStructureError("--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a "
-                                "machine with an NVIDIA GPU); use --dense sgbm here.")
-    if method not in ("colmap", "sgbm"):
-        raise GeoStructureError(f"unknown dense method '{method}'; use auto, colmap or sgbm.")
+                                "machine with an NVIDIA GPU); use --dense sgbm or sweep here.")
+    if method not in ("auto", "colmap", "sgbm", "sweep"):
+        raise GeoStructureError(f"unknown dense method '{method}'; use auto, colmap, sgbm or sweep.")
     from .sfm import quiet_colmap
 
     with quiet_colmap():
         workdir = undistort(sparse_dir, image_dir, workdir)
-        points, pairs = _colmap(workdir, options, progress) if method == "colmap" else _sgbm(workdir, options, progress)
+        if method == "auto":
+            method = "colmap" if pycolmap.has_cuda else _cpu_method(workdir, options)
+        run = {"colmap": _colmap, "sgbm": _sgbm, "sweep": _sweep}[method]
+        points, pairs = run(workdir, options, progress)
     if len(points) < 100:
         raise GeoStructureError(f"the dense stage found {len(points)} points from {pairs} stereo pairs; the images may be "
                                 "too few, too far apart, or taken walking straight towards the scene (stereo "
@@ -117,11 +124,7 @@ def choose_pairs(reconstruction, options: DenseOptions, shared=None) -> list[tup
     for (a, b), pids in shared.items():
         if len(pids) < 30:
             continue
-        xyz = np.array([reconstruction.points3D[p].xyz for p in pids[:200]])
-        ra = xyz - images[a].projection_center()
-        rb = xyz - images[b].projection_center()
-        cos = np.einsum("ij,ij->i", ra, rb) / np.linalg.norm(ra, axis=1) / np.linalg.norm(rb, axis=1)
-        angle = np.degrees(np.median(np.arccos(np.clip(cos, -1, 1))))
+        angle = pair_angle(reconstruction, a, b, pids)
         if options.min_angle <= angle <= options.max_angle and _sideways(images[a], images[b]):
             scored.append((len(pids) * min(angle, options.best_angle) / options.best_angle, a, b))
     scored.sort(reverse=True)
@@ -134,6 +137,15 @@ def choose_pairs(reconstruction, options: DenseOptions, shared=None) -> list[tup
     return pairs
 
 
+def pair_angle(reconstruction, a: int, b: int, pids) -> float:
+    """Median triangulation angle (degrees) of two images on (up to 200 of) their shared points."""
+    xyz = np.array([reconstruction.points3D[p].xyz for p in pids[:200]])
+    ra = xyz - reconstruction.images[a].projection_center()
+    rb = xyz - reconstruction.images[b].projection_center()
+    cos = np.einsum("ij,ij->i", ra, rb) / np.linalg.norm(ra, axis=1) / np.linalg.norm(rb, axis=1)
+    return float(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1)))))
+
+
 def _sideways(img_a, img_b, min_ratio: float = 0.8) -> bool:
     """Whether b sits mostly beside a (not ahead or behind): pairs moving along the view
     axis rectify badly, their epipoles falling inside the images."""
@@ -142,6 +154,42 @@ def _sideways(img_a, img_b, min_ratio: float = 0.8) -> bool:
         if np.hypot(baseline[0], baseline[1]) < min_ratio * np.linalg.norm(baseline):
             return False
     return True
+
+
+def _cpu_method(workdir: Path, options: DenseOptions) -> str:
+    """sgbm when at least half the images have a partner beside them to rectify with, else
+    the plane sweep (a walk along the view: a street, towards a cliff)."""
+    import pycolmap
+
+    reconstruction = pycolmap.Reconstruction(workdir / "sparse")
+    paired = {i for pair in choose_pairs(reconstruction, options) for i in pair}
+    return "sgbm" if 2 * len(paired) >= reconstruction.num_reg_images() else "sweep"
+
+
+def _sweep(workdir: Path, options: DenseOptions, progress):
+    import pycolmap
+
+    from .planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
+
+    report = progress or (lambda stage, done, total: None)
+    reconstruction = pycolmap.Reconstruction(workdir / "sparse")
+    sweep = SweepOptions(partners=options.neighbours)
+    partners = sweep_partners(reconstruction, shared_points(reconstruction), sweep.partners,
+                              SWEEP_MIN_ANGLE, options.best_angle, options.max_angle)
+    clouds, footprints = [], []
+    for n, (ref, others) in enumerate(sorted(partners.items())):
+        report("dense", n, len(partners))
+        depths = seen_depths(reconstruction, ref)
+        if len(depths) < 10:
+            continue
+        points, footprint = depth_map(reconstruction, ref, others, depths, workdir / "images", sweep)
+        clouds.append(points)
+        footprints.append(footprint)
+    report("dense", len(partners), len(partners))
+    if not any(len(c) for c in clouds):
+        return np.zeros((0, 3)), len(clouds)
+    cell = options.cell_pixels * float(np.nanmedian(footprints))
+    return fuse(clouds, cell, options.min_pairs), len(clouds)
 
 
 def _sgbm(workdir: Path, options: DenseOptions, progress):
