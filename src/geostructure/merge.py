@@ -37,9 +37,11 @@ def summarise_regions(voxels: VoxelPlanes, labels: np.ndarray, n_regions: int) -
     centroid = np.stack([np.bincount(lab, w * c[:, a], n_regions) for a in range(3)], axis=1)
     centroid /= np.maximum(total, 1e-300)[:, None]
     d = c - centroid[lab]
-    spread = w[:, None, None] * (d[:, :, None] * d[:, None, :] + (r ** 2)[:, None, None] * n[:, :, None] * n[:, None, :])
-    scatter = np.zeros((n_regions, 3, 3))
-    np.add.at(scatter, lab, spread)
+    scatter = np.empty((n_regions, 3, 3))
+    for i in range(3):
+        for j in range(i, 3):
+            entry = w * (d[:, i] * d[:, j] + r ** 2 * n[:, i] * n[:, j])
+            scatter[:, i, j] = scatter[:, j, i] = np.bincount(lab, entry, n_regions)
     _, vectors = np.linalg.eigh(scatter)
     lo = np.full((n_regions, 3), np.inf)
     hi = np.full((n_regions, 3), -np.inf)
@@ -61,7 +63,7 @@ def merge_coplanar(voxels: VoxelPlanes, labels: np.ndarray, theta: float, offset
     theta : float
         Largest angle between the two regions' normals, degrees.
     offset_limit : float
-        Largest distance of either region's centroid from the other's plane (cloud units).
+        Largest distance between the two centroids along the pair's mean normal (cloud units).
     min_voxels : int
         Regions with fewer voxels have no reliable plane and are left alone.
 
@@ -82,7 +84,9 @@ def merge_coplanar(voxels: VoxelPlanes, labels: np.ndarray, theta: float, offset
     weight = np.bincount(labels[labels >= 0], voxels.count[labels >= 0], n_regions)[regions]
     pairs = _coplanar_pairs(normal, centroid, weight, np.cos(np.radians(theta)), offset_limit)
     joined = DisjointSet(range(n_regions))
-    members = {r: voxels.centroid[labels == r] for r in regions[np.unique(pairs)]} if len(pairs) else {}
+    order = np.argsort(labels, kind="stable")
+    starts = np.searchsorted(labels[order], np.arange(n_regions + 1))
+    members = {r: voxels.centroid[order[starts[r]:starts[r + 1]]] for r in regions[np.unique(pairs)]}
     trees = {r: cKDTree(pts) for r, pts in members.items()}
     merges = 0
     for i, j in pairs:
