@@ -4,8 +4,8 @@ import pytest
 from conftest import random_rotation, shared_file
 
 from geostructure.errors import GeoStructureError
-from geostructure.reconstruct.georef import (gps_from_exif, geodetic_to_enu, manual, read_gcp, read_gcp_csv,
-                                             solve_gcp, umeyama)
+from geostructure.geodesy import enu_to_geodetic, geodetic_to_enu
+from geostructure.reconstruct.georef import gps_from_exif, manual, read_gcp, read_gcp_csv, solve_gcp, umeyama
 
 
 def test_umeyama_recovers_a_similarity_in_utm_sized_coordinates():
@@ -47,6 +47,15 @@ def test_geodetic_to_enu_small_steps():
     enu = geodetic_to_enu(np.array([48.78 + 1e-4, 48.78]), np.array([2.30, 2.30 + 1e-4]), np.array([100.0, 105.0]), origin)
     assert enu[0, 1] == pytest.approx(11.12, abs=0.02) and abs(enu[0, 0]) < 1e-6    # 1e-4 deg of latitude
     assert enu[1, 0] == pytest.approx(7.34, abs=0.02) and enu[1, 2] == pytest.approx(5.0, abs=0.01)
+
+
+def test_enu_to_geodetic_inverts_geodetic_to_enu():
+    origin = (55.7, 13.19, 0.0)
+    enu = np.array([[100.0, -250.0, 35.0], [2000.0, 3000.0, -10.0], [0.0, 0.0, 0.0]])
+    geodetic = enu_to_geodetic(enu, origin)
+    assert np.allclose(geodetic[2], origin, atol=1e-9)
+    assert np.abs(geodetic_to_enu(*geodetic.T, origin) - enu).max() < 1e-6    # sub-micrometre
+    assert geodetic[1, 0] > origin[0] and geodetic[1, 1] > origin[1]          # north-east is north-east
 
 
 def test_gps_from_exif_of_a_real_photo():

@@ -53,3 +53,19 @@ def test_geojson_names_the_crs_of_a_georeferenced_input():
     assert data["features"] and ("crs" in data or "Lambert" in data.get("crs_wkt", ""))
     x, y, _ = data["features"][0]["geometry"]["coordinates"][0][0]
     assert x > 600_000 and y > 800_000  # in the input's own coordinates
+
+
+def test_geojson_of_a_gps_referenced_cloud_is_in_longitude_and_latitude(scene):
+    from dataclasses import replace
+
+    from geostructure.geodesy import geodetic_to_enu
+
+    origin = (55.7, 13.19, 40.0)
+    cloud = replace(scene.cloud, enu_origin=origin)
+    result = measure(cloud, Params())
+    data = geojson(result)
+    ring = np.array(data["features"][0]["geometry"]["coordinates"][0])
+    lon, lat, alt = ring[0]
+    assert 13.18 < lon < 13.20 and 55.69 < lat < 55.71     # a building-sized scene about the origin
+    back = geodetic_to_enu(ring[:-1, 1], ring[:-1, 0], ring[:-1, 2], origin)
+    assert np.allclose(back, result.planes[0].corners + cloud.offset, atol=1e-6)

@@ -102,6 +102,6 @@ def run_run(args) -> int:
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     with StageProgress(enabled=not args.quiet) as progress:
         made = reconstruct(args.source, args.outdir, options, progress, log)
-    cloud = Cloud.from_points(made.points, source=made.cloud_path)
+    cloud = Cloud.from_points(made.points, source=made.cloud_path, enu_origin=made.georeference.enu_origin)
     extra = {"reconstruction": {k: v for k, v in made.records.items()}}
     return measure_cloud(cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra)

@@ -23,6 +23,9 @@ class Cloud:
         Normals stored in the input (used only to break the tie for vertical planes).
     source : str
         Where the points came from, for messages and ``run.json``.
+    enu_origin : (lat, lon, alt) or None
+        Set when the coordinates are local east-north-up metres about this WGS84 point (a
+        reconstruction georeferenced from GPS), so outputs can be written in longitude and latitude.
     """
 
     local: np.ndarray
@@ -30,6 +33,7 @@ class Cloud:
     crs: str | None = None
     normals: np.ndarray | None = None
     source: str = "<memory>"
+    enu_origin: tuple | None = None
 
     def __post_init__(self):
         self.local = np.ascontiguousarray(self.local, dtype=np.float64).reshape(-1, 3)
@@ -38,14 +42,14 @@ class Cloud:
             self.normals = np.asarray(self.normals, dtype=np.float64).reshape(-1, 3)
 
     @classmethod
-    def from_points(cls, points, *, source="<memory>", crs=None, normals=None) -> "Cloud":
+    def from_points(cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         finite = points[np.isfinite(points).all(axis=1)]  # readers report NaN/inf rows by count
         offset = (finite.min(axis=0) + finite.max(axis=0)) / 2 if len(finite) else np.zeros(3)
         # Round the offset so it prints cleanly and survives float32 writers (E57, LAS scale).
         offset = np.round(offset, 0) + 0.0  # + 0.0 turns -0.0 into 0.0
-        return cls(points - offset, offset, crs=crs, normals=normals, source=str(source))
+        return cls(points - offset, offset, crs=crs, normals=normals, source=str(source), enu_origin=enu_origin)
 
     @property
     def points(self) -> np.ndarray:
@@ -58,7 +62,7 @@ class Cloud:
     def subset(self, mask: np.ndarray) -> "Cloud":
         """The cloud restricted to ``mask`` (boolean or index array)."""
         normals = None if self.normals is None else self.normals[mask]
-        return Cloud(self.local[mask], self.offset, self.crs, normals, self.source)
+        return Cloud(self.local[mask], self.offset, self.crs, normals, self.source, self.enu_origin)
 
     @property
     def name(self) -> str:

@@ -130,6 +130,7 @@ def run_record(result, extra: dict | None = None) -> dict:
         "input": str(result.cloud.source),
         "offset": result.cloud.offset.tolist(),
         "crs": result.cloud.crs,
+        "enu_origin": None if result.cloud.enu_origin is None else list(result.cloud.enu_origin),
         "params": result.params.to_dict(),
         "frame": {"name": result.frame.name, "rotation": [list(r) for r in result.frame.rotation],
                   "declination": result.frame.declination},

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
+from ..geodesy import geodetic_to_enu
 
 
 @dataclass
@@ -216,23 +217,6 @@ def gps_from_exif(path) -> tuple[float, float, float] | None:
     lon = sum(float(v) / 60 ** i for i, v in enumerate(gps[4])) * (-1 if gps.get(3) == "W" else 1)
     alt = float(gps.get(6, 0.0)) * (-1 if gps.get(5) == b"\x01" else 1)
     return lat, lon, alt
-
-
-def geodetic_to_enu(lat, lon, alt, origin) -> np.ndarray:
-    """WGS84 latitude/longitude/altitude to east-north-up metres about ``origin`` (lat, lon, alt)."""
-    def ecef(lat, lon, alt):
-        a, e2 = 6378137.0, 6.69437999014e-3
-        lat, lon = np.radians(lat), np.radians(lon)
-        n = a / np.sqrt(1 - e2 * np.sin(lat) ** 2)
-        return np.stack([(n + alt) * np.cos(lat) * np.cos(lon), (n + alt) * np.cos(lat) * np.sin(lon),
-                         (n * (1 - e2) + alt) * np.sin(lat)], axis=-1)
-
-    lat0, lon0 = np.radians(origin[0]), np.radians(origin[1])
-    d = ecef(np.asarray(lat), np.asarray(lon), np.asarray(alt)) - ecef(*origin)
-    east = np.array([-np.sin(lon0), np.cos(lon0), 0])
-    north = np.array([-np.sin(lat0) * np.cos(lon0), -np.sin(lat0) * np.sin(lon0), np.cos(lat0)])
-    up = np.array([np.cos(lat0) * np.cos(lon0), np.cos(lat0) * np.sin(lon0), np.sin(lat0)])
-    return d @ np.vstack([east, north, up]).T
 
 
 def solve_exif_gps(reconstruction, image_dir) -> Georeference:

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..geodesy import enu_to_geodetic
 from ..io.writers import atomic_path, write_table_csv
 
 
@@ -21,12 +22,18 @@ def write_dips_csv(result, path) -> Path:
 def geojson(result) -> dict:
     """The region rectangles as 3-D polygons with their orientation as properties.
 
-    Coordinates are the input's own; the CRS is named when the input declared one.
+    Coordinates are the input's own, and the CRS is named when the input declared one;
+    a cloud in local east-north-up metres about a WGS84 origin (a GPS-referenced
+    reconstruction) is written as GeoJSON proper: longitude, latitude, altitude.
     """
     o = result.orientation
+    origin = result.cloud.enu_origin
     features = []
     for i, plane in enumerate(result.planes):
-        ring = (plane.corners + result.cloud.offset).tolist()
+        corners = plane.corners + result.cloud.offset
+        if origin is not None:
+            corners = enu_to_geodetic(corners, origin)[:, [1, 0, 2]]
+        ring = corners.tolist()
         features.append({
             "type": "Feature",
             "geometry": {"type": "Polygon", "coordinates": [ring + [ring[0]]]},
