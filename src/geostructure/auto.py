@@ -77,9 +77,11 @@ def choose_zeta(points: np.ndarray, target: float = TARGET_POINTS) -> tuple[floa
     return float(grid[-1]), occupancy
 
 
-def surface_noise(points: np.ndarray, zeta: float, neighbours: int = 6) -> tuple[float, float]:
-    """Median angle (deg) between neighbouring voxel normals and median neighbour offset (voxel edges)."""
-    voxels = fit_voxels(points, zeta, max_curvature=1 / 3)
+def surface_noise(points: np.ndarray, zeta: float, neighbours: int = 6, voxels=None) -> tuple[float, float]:
+    """Median angle (deg) between neighbouring voxel normals and median neighbour offset (voxel
+    edges); ``voxels`` (fitted at ``zeta`` with any planarity) saves fitting them again."""
+    if voxels is None:
+        voxels = fit_voxels(points, zeta, max_curvature=1 / 3)
     if len(voxels) < neighbours + 1:
         return 5.0, 0.1
     _, idx = cKDTree(voxels.centroid).query(voxels.centroid, k=neighbours + 1, workers=-1)
@@ -96,12 +98,15 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     ``points`` are local (offset-centred) coordinates; fields of ``base`` other than
     zeta, theta and psi are kept.
     """
-    zeta, occupancy = choose_zeta(points)
-    sigma = float(np.median(fit_voxels(points, zeta, max_curvature=1 / 3).residual))
+    density_zeta, occupancy = choose_zeta(points)
+    voxels = fit_voxels(points, density_zeta, max_curvature=1 / 3)
+    sigma = float(np.median(voxels.residual))
     extent = voxel_edge(points, 1.0)
-    zeta = float(np.clip(max(zeta, sigma / (MAX_NOISE_RATIO * extent)), *ZETA_RANGE))
-    occupancy = typical_occupancy(points, zeta)
-    angle, offset = surface_noise(points, zeta)
+    zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), *ZETA_RANGE))
+    if zeta != density_zeta:  # noise made the voxels coarser: measure the noise at that size
+        occupancy = typical_occupancy(points, zeta)
+        voxels = None
+    angle, offset = surface_noise(points, zeta, voxels=voxels)
     theta = float(np.clip(1.5 * angle, *THETA_RANGE))
     psi = float(np.clip(3.0 * offset, *PSI_RANGE))
     import warnings
