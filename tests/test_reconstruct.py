@@ -71,7 +71,7 @@ def test_unreferenced_model_is_not_measured(run_dir, outcrop, capsys):
     video, _, _ = outcrop
     assert main(["run", str(video), "-o", str(run_dir), "-q", "--no-report"]) == 2
     err = capsys.readouterr().err
-    assert "not georeferenced" in err and "--gcp" in err and "Traceback" not in err
+    assert "not georeferenced" in err and "--gcp" in err and "--assume-level" in err and "Traceback" not in err
 
 
 def test_frame_selection_drops_blurred_and_still_frames(outcrop, tmp_path):

@@ -230,7 +230,7 @@ def solve_exif_gps(reconstruction, image_dir) -> Georeference:
             gps.append(fix)
     if len(gps) < 3:
         raise GeoStructureError(f"{image_dir}: {len(gps)} registered photo(s) carry GPS in EXIF; at least 3 are "
-                                "needed. Give --gcp control points or --up/--north/--scale instead.")
+                                "needed.")
     gps = np.array(gps)
     origin = (float(gps[:, 0].mean()), float(gps[:, 1].mean()), 0.0)  # so Up stays the GPS altitude
     enu = geodetic_to_enu(gps[:, 0], gps[:, 1], gps[:, 2], origin)

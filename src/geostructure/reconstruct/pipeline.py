@@ -161,9 +161,10 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
         return solve_exif_gps(model, image_dir)
     except GeoStructureError as exc:
         raise GeoStructureError(
-            f"the model is not georeferenced, so strike and dip would mean nothing: {exc} The cloud is "
-            "reconstructed; run again with --gcp GCP.csv, or --up X Y Z --north X Y Z [--scale S] in model axes "
-            "(the work done so far is kept).") from None
+            f"the model is not georeferenced, so strike and dip would mean nothing ({exc}) The cloud is "
+            "reconstructed and kept; run the same command again with --gcp GCP.csv (control points), or "
+            "--up X Y Z --north X Y Z [--scale S] (in model axes), or --assume-level for a quick look (up from "
+            "the cameras: dips approximate, azimuths relative to the view).") from None
 
 
 def level_from_cameras(model, scale: float = 1.0):
