@@ -28,7 +28,7 @@ class ReconstructOptions:
     sfm: SfmOptions = SfmOptions()
     dense: DenseOptions = DenseOptions()
     surface: SurfaceOptions = SurfaceOptions()
-    use_dense: bool = True             # False: measure the sparse SfM points
+    use_dense: bool = True             # False: measure the sparse SfM points (no mesh either)
     mesh: bool = True                  # False (--no-mesh): measure the dense cloud directly
     gcp: str | None = None             # ground control CSV
     up: tuple | None = None            # manual frame, in model axes
@@ -117,7 +117,7 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
             finish("dense", opts, {"summary": report.summary(), **asdict(report)})
         points = np.load(dense_path)
 
-    if options.mesh:
+    if options.mesh and options.use_dense:  # a Poisson surface over a sparse cloud is mostly invented
         opts = {**asdict(options.surface), "dense": options.use_dense}
         sampled_path, mesh_path = work / "surface_points.npy", outdir / "surface.ply"
         if done("surface", opts, sampled_path, mesh_path):
