@@ -8,6 +8,7 @@ interrupted run resumes from the last finished stage.
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -90,9 +91,11 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
             if image_dir.exists():
                 for old in image_dir.glob("frame_*.jpg"):
                     old.unlink()
+            t = time.perf_counter()
             report = extract_frames(source, image_dir, options.frames, progress)
             log(f"frames: {report.summary()}")
-            finish("frames", opts, {"summary": report.summary(), "kept": len(report.paths), "decoded": report.decoded})
+            finish("frames", opts, {"summary": report.summary(), "kept": len(report.paths), "decoded": report.decoded,
+                                    "seconds": time.perf_counter() - t})
 
     opts = {"images": str(image_dir.resolve()), **asdict(options.sfm), "after": state.get("frames", {}).get("summary")}
     if done("sfm", opts, work / "sparse" / "images.bin"):

@@ -148,15 +148,16 @@ def write_video(path, frames, fps: float = 10.0) -> Path:
     return path
 
 
-def write_scene_video(outdir, n_frames: int = 36, fps: float = 10.0, seed: int = 0):
-    """Render the outcrop into ``outdir/outcrop.mp4``, with ``gcp_frames.csv`` (pixel
-    observations, by the name ``frames`` gives the frame: ``frame_000012.jpg`` for the
-    13th) and ``truth.csv``; returns their paths."""
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
+def approach_path(n_frames: int, start: float = -6.0, end: float = 1.0, height: float = 2.0):
+    """Walking straight at the outcrop's middle: the views move along their axis."""
+    target = np.array([0.0, 8.5, 1.6])
+    return [look_at(np.array([0.2, y, height]), target) for y in np.linspace(start, end, n_frames)]
+
+
+def _render_scene(outdir: Path, cameras, seed: int):
+    """Frames of ``cameras``, the control marks each sees (rows for gcp.csv), and truth.csv."""
     scene_faces = faces()
     scene_textures = textures(len(scene_faces), seed=seed)
-    cameras = camera_path(n_frames)
     frames, observations = [], []
     marks = control_points(scene_faces)
     for index, camera in enumerate(cameras):
@@ -165,17 +166,44 @@ def write_scene_video(outdir, n_frames: int = 36, fps: float = 10.0, seed: int =
         uv, z = camera.project(np.array(list(marks.values())))
         for name, (u, v), zz in zip(marks, uv, z):
             if 0 <= u < camera.width and 0 <= v < camera.height and zz > 0 and zz <= depth[int(v), int(u)] + 0.05:
-                observations.append((name, *marks[name], f"frame_{index:06d}.jpg", u, v))
-    video = write_video(outdir / "outcrop.mp4", frames, fps)
-    gcp = outdir / "gcp.csv"
-    with open(gcp, "w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(["name", "E", "N", "Up", "image", "u", "v"])
-        writer.writerows(observations)
+                observations.append((name, *marks[name], f"frame_{index:06d}", u, v))
     truth = outdir / "truth.csv"
     with open(truth, "w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(["surface", "dip", "dip_direction", "center_x", "center_y", "center_z"])
         for f in scene_faces:
             writer.writerow([f.name, f.dip, f.dip_direction, *f.centre])
-    return video, gcp, truth
+    return frames, observations, truth
+
+
+def _write_gcp(path: Path, observations, suffix: str) -> Path:
+    with open(path, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["name", "E", "N", "Up", "image", "u", "v"])
+        writer.writerows((*row[:4], row[4] + suffix, *row[5:]) for row in observations)
+    return path
+
+
+def write_scene_video(outdir, n_frames: int = 36, fps: float = 10.0, seed: int = 0):
+    """Render the outcrop into ``outdir/outcrop.mp4``, with ``gcp.csv`` (pixel observations,
+    by the name ``frames`` gives the frame: ``frame_000012.jpg`` for the 13th) and
+    ``truth.csv``; returns their paths."""
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    frames, observations, truth = _render_scene(outdir, camera_path(n_frames), seed)
+    video = write_video(outdir / "outcrop.mp4", frames, fps)
+    return video, _write_gcp(outdir / "gcp.csv", observations, ".jpg"), truth
+
+
+def write_scene_photos(outdir, cameras, seed: int = 0):
+    """Render the outcrop from ``cameras`` as ``outdir/photos/frame_NNNNNN.png``, with
+    ``gcp.csv`` and ``truth.csv``; returns (photo folder, gcp, truth)."""
+    import cv2
+
+    outdir = Path(outdir)
+    photos = outdir / "photos"
+    photos.mkdir(parents=True, exist_ok=True)
+    frames, observations, truth = _render_scene(outdir, cameras, seed)
+    for index, image in enumerate(frames):
+        cv2.imwrite(str(photos / f"frame_{index:06d}.png"), image)
+    return photos, _write_gcp(outdir / "gcp.csv", observations, ".png"), truth
