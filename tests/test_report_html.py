@@ -86,6 +86,24 @@ def test_report_is_self_contained_and_lists_every_plane(measured, scene_result):
     assert data["scene"]["data"][3]["type"] == "mesh3d" and len(data["stereonet"]["data"]) >= 4
 
 
+def test_report_warns_when_a_reconstruction_is_only_approximately_referenced(tmp_path, scene_result):
+    from geostructure.reconstruct.georef import manual
+
+    plain = tmp_path / "plain"
+    write_outputs(scene_result, plain)
+    assert payload(build_report(plain, max_points=1_000).read_text())["meta"]["georeference"] is None
+    level = manual([0, 0, 1], [0, 1, 0]).to_dict() | {"source": "cameras-level", "approximate": True}
+    gcp = manual([0, 0, 1], [0, 1, 0]).to_dict() | {"source": "gcp", "residuals": {"a": 0.01}, "rms_residual": 0.01}
+    for record, warned in ((level, True), (gcp, False)):
+        out = tmp_path / record["source"]
+        write_outputs(scene_result, out, extra={"reconstruction": {"georef": record}})
+        note = payload(build_report(out, max_points=1_000).read_text())["meta"]["georeference"]
+        assert note["text"].startswith(record["source"])
+        assert (note["warning"] is not None) is warned
+        if warned:
+            assert "azimuths relative to the view" in note["warning"]
+
+
 def test_decimation_keeps_regions_and_is_seeded(measured):
     a, b = load_scene(measured, max_points=2_000), load_scene(measured, max_points=2_000)
     np.testing.assert_array_equal(a.points, b.points)

@@ -50,6 +50,14 @@ class Georeference:
                 if self.residuals else None}
 
 
+def describe_georeference(record: dict) -> str:
+    """One line for a georeference record (``Georeference.to_dict``), for logs and the report."""
+    text = f"{record['source']}, scale {record['scale']:.4g}"
+    if record.get("rms_residual") is not None:
+        text += f", RMS residual {record['rms_residual']:.3g} over {len(record['residuals'])} points"
+    return text + (" (approximate)" if record.get("approximate") else "")
+
+
 def umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = True):
     """Least-squares similarity (s, R, t) with target ~ s R source + t (Umeyama 1991)."""
     source, target = np.asarray(source, float), np.asarray(target, float)

@@ -17,6 +17,7 @@ import numpy as np
 from ..errors import GeoStructureError
 from .dense import DenseOptions
 from .frames import VIDEO_SUFFIXES, FrameOptions
+from .georef import describe_georeference
 from .sfm import SfmOptions
 from .surface import SurfaceOptions
 
@@ -136,7 +137,7 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
         points = np.load(sampled_path)
 
     georeference = georeference_model(model, image_dir, options)
-    log(f"georeference: {describe(georeference)}")
+    log(f"georeference: {describe_georeference(georeference.to_dict())}")
     state["georef"] = georeference.to_dict()
     write_json(state, state_path)
     world = georeference.apply(points)
@@ -179,14 +180,6 @@ def level_from_cameras(model, scale: float = 1.0):
     geo = manual(camera_up(model), np.mean(views, axis=0), scale)
     geo.source, geo.approximate = "cameras-level", True
     return geo
-
-
-def describe(georeference) -> str:
-    d = georeference.to_dict()
-    text = f"{d['source']}, scale {d['scale']:.4g}"
-    if d["rms_residual"] is not None:
-        text += f", RMS residual {d['rms_residual']:.3g} over {len(d['residuals'])} points"
-    return text + (" (approximate)" if d["approximate"] else "")
 
 
 def write_cloud_ply(points: np.ndarray, path) -> Path:

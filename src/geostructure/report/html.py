@@ -45,6 +45,22 @@ def build_report(outdir, path=None, *, max_points: int | None = None, title: str
     return path
 
 
+def _georeference_note(record: dict | None) -> dict | None:
+    """What the reader must know about a reconstruction's tie to the world: the method, and a
+    warning when its angles are approximate."""
+    if not record:
+        return None
+    from ..reconstruct.georef import describe_georeference
+
+    warning = None
+    if record.get("source") == "cameras-level":
+        warning = ("up from the cameras (--assume-level): dips approximate, azimuths relative to the view, "
+                   "not to north")
+    elif record.get("approximate"):
+        warning = "approximate: up from the cameras, heading from GPS; give control points for true angles"
+    return {"text": describe_georeference(record), "warning": warning}
+
+
 def render(scene: ReportScene, title: str) -> str:
     from plotly.offline import get_plotlyjs
 
@@ -60,7 +76,8 @@ def render(scene: ReportScene, title: str) -> str:
         + ([{"key": "truth_error", "label": "Truth error (°)", "digits": 2}] if scene.truth else []),
         "meta": {"source": scene.source, "crs": scene.crs, "offset": scene.offset.tolist(),
                  "frame": scene.frame_name, "points_total": scene.n_points_total,
-                 "points_shown": len(scene.points), "n_planes": len(scene.planes)},
+                 "points_shown": len(scene.points), "n_planes": len(scene.planes),
+                 "georeference": _georeference_note(scene.georeference)},
     }
     data = json.dumps(payload, default=_json_default, separators=(",", ":")).replace("</", "<\\/")
     assets = resources.files("geostructure.report") / "assets"

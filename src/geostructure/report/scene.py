@@ -40,6 +40,7 @@ class ReportScene:
     crs: str | None
     source: str
     truth: dict = field(default_factory=dict)   # region id -> evaluation row
+    georeference: dict | None = None              # how a reconstruction was tied to the world
 
 
 def load_scene(outdir, max_points: int = MAX_DISPLAY_POINTS, max_voxels: int = MAX_DISPLAY_VOXELS,
@@ -63,7 +64,8 @@ def load_scene(outdir, max_points: int = MAX_DISPLAY_POINTS, max_voxels: int = M
     return ReportScene(points, point_region[0], total, vox, voxel_normals, voxel_region,
                        float(run.get("voxel_edge", 0.0)), planes,
                        np.asarray(run["frame"]["rotation"], dtype=np.float64), run["frame"]["name"],
-                       offset, run.get("crs"), str(run.get("input", "")), _read_truth(outdir / "evaluation.csv"))
+                       offset, run.get("crs"), str(run.get("input", "")), _read_truth(outdir / "evaluation.csv"),
+                       run.get("reconstruction", {}).get("georef"))
 
 
 def _read_run(path: Path) -> dict:

@@ -15,7 +15,15 @@
     `${m.n_planes} planes · ${m.points_total.toLocaleString("en-US")} filtered points ` +
     `(${m.points_shown.toLocaleString("en-US")} drawn) · frame ${m.frame}` +
     (m.crs ? ` · CRS ${m.crs.length > 40 ? m.crs.slice(0, 40) + "…" : m.crs}` : "") +
-    ` · 3D coordinates are relative to offset (${m.offset.map(v => v.toFixed(2)).join(", ")})`;
+    ` · 3D coordinates are relative to offset (${m.offset.map(v => v.toFixed(2)).join(", ")})` +
+    (m.georeference ? ` · georeference: ${m.georeference.text}` : "");
+  if (m.georeference && m.georeference.warning) {
+    const note = document.createElement("p");
+    note.id = "georef-warning";
+    note.className = "warning";
+    note.textContent = `Angles are approximate: ${m.georeference.warning}.`;
+    document.getElementById("meta").after(note);
+  }
 
   const scene = document.getElementById("scene3d");
   const net = document.getElementById("stereonet");
