@@ -29,7 +29,7 @@ class SweepOptions:
     window: int = 7             # ZNCC window (px)
     min_score: float = 0.6      # mean ZNCC over the partners
     min_texture: float = 4.0    # grey-level standard deviation in the window
-    min_sweep_px: float = 12.0  # how far the sweep carries a pixel across the best partner
+    min_sweep_px: float = 12.0  # how far the sweep must carry a pixel across every partner
     partners: int = 2
 
 
