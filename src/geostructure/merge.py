@@ -52,7 +52,7 @@ def summarise_regions(voxels: VoxelPlanes, labels: np.ndarray, n_regions: int) -
 
 
 def merge_coplanar(voxels: VoxelPlanes, labels: np.ndarray, theta: float, offset_limit: float,
-                   min_voxels: int = 3) -> tuple[np.ndarray, int]:
+                   min_voxels: int = 3, max_rounds: int = 5) -> tuple[np.ndarray, int]:
     """Relabel voxel regions so that coplanar regions separated by a small gap share a label.
 
     Parameters
@@ -73,7 +73,21 @@ def merge_coplanar(voxels: VoxelPlanes, labels: np.ndarray, theta: float, offset
         Regions numbered 0..m-1 again.
     merges : int
         How many joins were made.
+
+    Rounds repeat on the merged regions until none joins: a wall that region growing cut into
+    several small pieces is first put together, and only then, as one large region with a
+    well-determined plane, can it reach across a gap wider than any of its pieces.
     """
+    total = 0
+    for _ in range(max_rounds):
+        labels, merges = _merge_round(voxels, labels, theta, offset_limit, min_voxels)
+        total += merges
+        if not merges:
+            break
+    return labels, total
+
+
+def _merge_round(voxels, labels, theta, offset_limit, min_voxels):
     n_regions = int(labels.max()) + 1 if len(labels) and labels.max() >= 0 else 0
     if n_regions < 2:
         return labels.copy(), 0
