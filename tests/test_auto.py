@@ -17,9 +17,9 @@ def test_auto_lands_near_the_best_the_sweep_finds(variant, seed, size):
     assert check.auto_ok, check
 
 
-@pytest.mark.parametrize("variant,seed", [("noisy (8 cm)", 11), ("sparse and noisy", 12)])
-def test_the_fixed_defaults_do_not(variant, seed):
-    check = check_variant(variant, seed, 0.5 if variant.startswith("noisy") else 1.0)
+def test_the_fixed_defaults_do_not_on_a_noisy_scene():
+    # sparse scenes no longer defeat them: the coplanar merge puts their pieces back together
+    check = check_variant("noisy (8 cm)", 11, 0.5)
     assert not check.default_ok, check
 
 
