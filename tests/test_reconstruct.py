@@ -34,13 +34,18 @@ def normal(dip, dip_direction):
     return np.array([np.sin(d) * np.sin(dd), np.sin(d) * np.cos(dd), np.cos(d)])
 
 
-def check_true_dips(measured, limit=2.0) -> dict:
-    """Each face's plane (the largest whose centroid lies near it), its dip and dip direction
-    checked within ``limit`` degrees of the truth."""
+def check_true_dips(measured, limit=2.0, min_points=500) -> dict:
+    """Each face's plane (the largest whose centroid lies on the face: within 0.3 m of its
+    plane and inside its rectangle), its dip and dip direction checked within ``limit``
+    degrees of the truth."""
     found = {}
     for face in faces():
-        near = [p for p in measured if abs((np.array([p["centroid_x"], p["centroid_y"], p["centroid_z"]]) - face.centre)
-                                           @ face.normal) < 0.3 and p["n_points"] > 500]
+        def on_face(p):
+            offset = np.array([p["centroid_x"], p["centroid_y"], p["centroid_z"]]) - face.centre
+            return (abs(offset @ face.normal) < 0.3 and abs(offset @ face.u) <= face.width / 2
+                    and abs(offset @ face.v) <= face.height / 2)
+
+        near = [p for p in measured if on_face(p) and p["n_points"] > min_points]
         assert near, f"{face.name} not found"
         best = max(near, key=lambda p: p["n_points"])
         found[face.name] = best
@@ -135,4 +140,6 @@ def test_walking_straight_at_the_outcrop_uses_the_plane_sweep(tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["run", str(photos), "-o", str(out), "--gcp", str(gcp), "--no-report"]) == 0
     assert "(sweep)" in capsys.readouterr().out
-    check_true_dips(planes(out))   # measured: normals within 0.08 to 0.52 deg
+    # the face walked at sits around the epipole, where a pixel barely moves: it gets the
+    # fewest points (about 700 against thousands), but its plane must still be true
+    check_true_dips(planes(out), min_points=200)   # measured: normals within 0.08 to 1.3 deg
