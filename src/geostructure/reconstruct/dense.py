@@ -75,12 +75,22 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
 
     with quiet_colmap():
         workdir = undistort(sparse_dir, image_dir, workdir)
-        if method == "auto":
-            method = "colmap" if pycolmap.has_cuda else _cpu_method(workdir, options)
-        run = {"colmap": _colmap, "sgbm": _sgbm, "sweep": _sweep}[method]
-        points, pairs = run(workdir, options, progress)
+        if method == "colmap" or (method == "auto" and pycolmap.has_cuda):
+            method, (points, pairs) = "colmap", _colmap(workdir, options, progress)
+        else:  # the CPU paths share the model and the points each pair of images sees
+            model = pycolmap.Reconstruction(workdir / "sparse")
+            shared = shared_points(model)
+            chosen = choose_pairs(model, options, shared)
+            if method == "auto":
+                # sgbm when at least half the images have a partner beside them to rectify
+                # with, else the plane sweep (a walk along the view: a street, towards a cliff)
+                paired = {i for pair in chosen for i in pair}
+                method = "sgbm" if 2 * len(paired) >= model.num_reg_images() else "sweep"
+            run = _sgbm if method == "sgbm" else _sweep
+            points, pairs = run(model, shared, chosen, workdir / "images", options, progress)
     if len(points) < 100:
-        raise GeoStructureError(f"the dense stage found {len(points)} points from {pairs} stereo pairs; the images may be "
+        unit = "stereo pairs" if method == "sgbm" else "depth maps"
+        raise GeoStructureError(f"the dense stage found {len(points)} points from {pairs} {unit}; the images may be "
                                 "too few, too far apart, or taken walking straight towards the scene (stereo "
                                 "needs sideways steps). Try --dense-neighbours 4, or measure the sparse cloud "
                                 "(--dense none).")
@@ -156,33 +166,20 @@ def _sideways(img_a, img_b, min_ratio: float = 0.8) -> bool:
     return True
 
 
-def _cpu_method(workdir: Path, options: DenseOptions) -> str:
-    """sgbm when at least half the images have a partner beside them to rectify with, else
-    the plane sweep (a walk along the view: a street, towards a cliff)."""
-    import pycolmap
-
-    reconstruction = pycolmap.Reconstruction(workdir / "sparse")
-    paired = {i for pair in choose_pairs(reconstruction, options) for i in pair}
-    return "sgbm" if 2 * len(paired) >= reconstruction.num_reg_images() else "sweep"
-
-
-def _sweep(workdir: Path, options: DenseOptions, progress):
-    import pycolmap
-
+def _sweep(reconstruction, shared, _pairs, image_dir: Path, options: DenseOptions, progress):
     from .planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
 
     report = progress or (lambda stage, done, total: None)
-    reconstruction = pycolmap.Reconstruction(workdir / "sparse")
     sweep = SweepOptions(partners=options.neighbours)
-    partners = sweep_partners(reconstruction, shared_points(reconstruction), sweep.partners,
-                              SWEEP_MIN_ANGLE, options.best_angle, options.max_angle)
+    partners = sweep_partners(reconstruction, shared, sweep.partners, SWEEP_MIN_ANGLE, options.best_angle,
+                              options.max_angle)
     clouds, footprints = [], []
     for n, (ref, others) in enumerate(sorted(partners.items())):
         report("dense", n, len(partners))
         depths = seen_depths(reconstruction, ref)
         if len(depths) < 10:
             continue
-        points, footprint = depth_map(reconstruction, ref, others, depths, workdir / "images", sweep)
+        points, footprint = depth_map(reconstruction, ref, others, depths, image_dir, sweep)
         clouds.append(points)
         footprints.append(footprint)
     report("dense", len(partners), len(partners))
@@ -192,18 +189,13 @@ def _sweep(workdir: Path, options: DenseOptions, progress):
     return fuse(clouds, cell, options.min_pairs), len(clouds)
 
 
-def _sgbm(workdir: Path, options: DenseOptions, progress):
-    import pycolmap
-
+def _sgbm(reconstruction, shared, pairs, image_dir: Path, options: DenseOptions, progress):
     report = progress or (lambda stage, done, total: None)
-    reconstruction = pycolmap.Reconstruction(workdir / "sparse")
-    shared = shared_points(reconstruction)
-    pairs = choose_pairs(reconstruction, options, shared)
     clouds, footprints = [], []
     for n, (a, b) in enumerate(pairs):
         report("dense", n, len(pairs))
         xyz = np.array([reconstruction.points3D[p].xyz for p in shared[(a, b)]]).reshape(-1, 3)
-        points, footprint = pair_points(reconstruction, a, b, xyz, workdir / "images", options)
+        points, footprint = pair_points(reconstruction, a, b, xyz, image_dir, options)
         clouds.append(points)
         footprints.append(footprint)
     report("dense", len(pairs), len(pairs))
