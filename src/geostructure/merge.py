@@ -20,11 +20,13 @@ from .voxel import VoxelPlanes
 
 @dataclass
 class RegionSummary:
-    """Plane of each region from its voxels: centroid, unit normal, diameter (cloud units)."""
+    """Plane of each region from its voxels: centroid, unit normal, diameter (cloud units) and
+    weight (points)."""
 
     centroid: np.ndarray
     normal: np.ndarray
     diameter: np.ndarray
+    weight: np.ndarray
 
 
 def summarise_regions(voxels: VoxelPlanes, labels: np.ndarray, n_regions: int) -> RegionSummary:
@@ -48,7 +50,7 @@ def summarise_regions(voxels: VoxelPlanes, labels: np.ndarray, n_regions: int) -
     np.minimum.at(lo, lab, c)
     np.maximum.at(hi, lab, c)
     diameter = np.linalg.norm(np.where(np.isfinite(hi - lo), hi - lo, 0.0), axis=1)
-    return RegionSummary(centroid, vectors[:, :, 0], diameter)
+    return RegionSummary(centroid, vectors[:, :, 0], diameter, total)
 
 
 def merge_coplanar(voxels: VoxelPlanes, labels: np.ndarray, theta: float, offset_limit: float,
@@ -94,8 +96,8 @@ def _merge_round(voxels, labels, theta, offset_limit, min_voxels):
     size = np.bincount(labels[labels >= 0], minlength=n_regions)
     regions = np.flatnonzero(size >= min_voxels)
     summary = summarise_regions(voxels, labels, n_regions)
-    normal, centroid, diameter = summary.normal[regions], summary.centroid[regions], summary.diameter[regions]
-    weight = np.bincount(labels[labels >= 0], voxels.count[labels >= 0], n_regions)[regions]
+    normal, centroid = summary.normal[regions], summary.centroid[regions]
+    diameter, weight = summary.diameter[regions], summary.weight[regions]
     pairs = _coplanar_pairs(normal, centroid, weight, np.cos(np.radians(theta)), offset_limit)
     joined = DisjointSet(range(n_regions))
     order = np.argsort(labels, kind="stable")

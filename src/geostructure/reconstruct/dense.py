@@ -86,8 +86,10 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
                 # with, else the plane sweep (a walk along the view: a street, towards a cliff)
                 paired = {i for pair in chosen for i in pair}
                 method = "sgbm" if 2 * len(paired) >= model.num_reg_images() else "sweep"
-            run = _sgbm if method == "sgbm" else _sweep
-            points, pairs = run(model, shared, chosen, workdir / "images", options, progress)
+            if method == "sgbm":
+                points, pairs = _sgbm(model, shared, chosen, workdir / "images", options, progress)
+            else:
+                points, pairs = _sweep(model, shared, workdir / "images", options, progress)
     if len(points) < 100:
         unit = "stereo pairs" if method == "sgbm" else "depth maps"
         raise GeoStructureError(f"the dense stage found {len(points)} points from {pairs} {unit}; the images may be "
@@ -166,7 +168,7 @@ def _sideways(img_a, img_b, min_ratio: float = 0.8) -> bool:
     return True
 
 
-def _sweep(reconstruction, shared, _pairs, image_dir: Path, options: DenseOptions, progress):
+def _sweep(reconstruction, shared, image_dir: Path, options: DenseOptions, progress):
     from .planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
 
     report = progress or (lambda stage, done, total: None)
