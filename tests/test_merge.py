@@ -4,6 +4,7 @@ import pytest
 
 from geostructure.cloud import Cloud
 from geostructure.merge import merge_coplanar, summarise_regions
+from geostructure.orientation import angle_between_normals
 from geostructure.params import Params
 from geostructure.pipeline import measure
 from geostructure.synthetic import Surface, sample_rectangle
@@ -52,7 +53,7 @@ def test_the_two_halves_of_a_wall_are_one_plane_only_when_merging(scene, merge):
     assert (left == right) is merge
     assert not bay & left and not far & left  # a step 0.6 m proud, and a look-alike 30 m away
     wall = result.normals[next(iter(left))]
-    assert np.degrees(np.arccos(abs(wall @ SOUTH))) < 0.5
+    assert angle_between_normals(wall, SOUTH)[0] < 0.5
     if merge:
         assert result.counts["merges"] >= 1
 

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from geostructure.cli import main
+from geostructure.orientation import angle_between_normals
 from geostructure.reconstruct.frames import FrameOptions, decode, extract_frames
 from geostructure.reconstruct.render import faces, write_scene_video, write_video
 
@@ -60,9 +61,9 @@ def test_rendered_video_gives_true_dips_after_georeferencing(run_dir):
     truth = {f.name: f.normal for f in faces()}
     for i, a in enumerate(names):           # angles between planes need no georeference
         for b in names[i + 1:]:
-            got = np.degrees(np.arccos(abs(normal(found[a]["dip"], found[a]["dip_direction"])
-                                           @ normal(found[b]["dip"], found[b]["dip_direction"]))))
-            want = np.degrees(np.arccos(abs(truth[a] @ truth[b])))
+            got = angle_between_normals(normal(found[a]["dip"], found[a]["dip_direction"]),
+                                        normal(found[b]["dip"], found[b]["dip_direction"]))[0]
+            want = angle_between_normals(truth[a], truth[b])[0]
             assert abs(got - want) < 1, (a, b, got, want)
     record = json.loads((run_dir / "reconstruct.json").read_text())
     assert record["georef"]["source"] == "gcp" and record["georef"]["rms_residual"] < 0.05

@@ -8,7 +8,7 @@ from geostructure.cli import main
 from geostructure.io.readers import read_cloud
 from geostructure.params import Params
 from geostructure.pipeline import measure
-from geostructure.report.exports import geojson
+from geostructure.io.exports import geojson
 from geostructure.report.stereonet import stereonet_figure
 
 

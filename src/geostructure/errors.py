@@ -1,8 +1,22 @@
-"""The one exception type for mistakes a user can fix (bad file, bad parameter)."""
+"""Exceptions for mistakes a user can fix: a bad file, a bad parameter, an unusable folder.
+
+Every one is a :class:`GeoStructureError`, whose message is one sentence naming the file or
+the value; the command line prints it without a traceback and exits with status 2. Catch
+a subclass to handle one kind of failure only.
+"""
 
 
 class GeoStructureError(Exception):
-    """A user-facing error: the message is one sentence that names the file or the value.
+    """A user-facing error: the message is one sentence that names the file or the value."""
 
-    The command line prints it without a traceback and exits with status 2.
-    """
+
+class InputError(GeoStructureError):
+    """An input file cannot be used: missing, unreadable, malformed, or without a plane in it."""
+
+
+class ParameterError(GeoStructureError, ValueError):
+    """A parameter or option value is impossible (not finite, out of range, the wrong shape)."""
+
+
+class OutputError(GeoStructureError):
+    """The output folder cannot be written, or holds a set of files that is not one run's."""

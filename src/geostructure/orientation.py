@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import GeoStructureError
+from .errors import GeoStructureError, ParameterError
 
 #: Below this |up| component (about 0.06 degrees from vertical) a plane counts as vertical
 #: and its dip direction is settled by the face's outward side instead of by up >= 0.
@@ -36,6 +36,14 @@ class Frame:
     def matrix(self) -> np.ndarray:
         return np.asarray(self.rotation, dtype=np.float64)
 
+    def __post_init__(self):
+        if not np.isfinite(self.declination):
+            raise ParameterError(f"declination must be a finite number of degrees, not {self.declination}.")
+        m = np.asarray(self.rotation, dtype=np.float64)
+        if m.shape != (3, 3) or not np.isfinite(m).all() or not np.allclose(m @ m.T, np.eye(3), atol=1e-6):
+            raise ParameterError("a frame's rotation must be three orthonormal rows of finite numbers "
+                                 "(east, north, up).")
+
     @classmethod
     def named(cls, name: str, declination: float = 0.0) -> "Frame":
         """``enu`` (x=E, y=N, z=Up) or ``paper`` (x=N, y=W, z=Up)."""
@@ -43,25 +51,55 @@ class Frame:
             return cls(declination=declination, name="enu")
         if name == "paper":
             return cls(((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)), declination, "paper")
-        raise GeoStructureError(f"unknown frame '{name}'; use 'enu', 'paper' or give --up and --north.")
+        raise ParameterError(f"unknown frame '{name}'; use 'enu' or 'paper', or give up and north vectors.")
 
     @classmethod
     def from_up_north(cls, up, north, declination: float = 0.0) -> "Frame":
         """A frame from an up vector and a (roughly horizontal) north vector, both in cloud axes.
 
         North is made orthogonal to up (Gram-Schmidt); east = north x up.
+
+        Examples
+        --------
+        >>> Frame.from_up_north([0, 0, 2], [0, 1, 0.1]).rotation[0]
+        (1.0, 0.0, 0.0)
         """
         up = np.asarray(up, dtype=np.float64)
         north = np.asarray(north, dtype=np.float64)
-        if up.shape != (3,) or north.shape != (3,) or np.linalg.norm(up) == 0:
-            raise GeoStructureError("--up and --north each need three numbers, and up must not be zero.")
+        if up.shape != (3,) or north.shape != (3,):
+            raise ParameterError("up and north each need three numbers.")
+        if not (np.isfinite(up).all() and np.isfinite(north).all()):
+            raise ParameterError(f"up and north must be finite numbers, not up {up.tolist()}, north {north.tolist()}.")
+        if np.linalg.norm(up) == 0:
+            raise ParameterError("up must not be the zero vector.")
         up = up / np.linalg.norm(up)
         north = north - (north @ up) * up
         if np.linalg.norm(north) < 1e-6:
-            raise GeoStructureError("--north must not be parallel to --up.")
+            raise ParameterError("north must not be parallel to up.")
         north = north / np.linalg.norm(north)
         east = np.cross(north, up)
         return cls(tuple(map(tuple, np.vstack([east, north, up]).tolist())), declination, "custom")
+
+    def to_dict(self) -> dict:
+        """The frame as ``run.json`` records it.
+
+        Examples
+        --------
+        >>> Frame.from_dict(Frame.named("paper", 2.5).to_dict()) == Frame.named("paper", 2.5)
+        True
+        """
+        return {"name": self.name, "rotation": [list(r) for r in self.rotation], "declination": self.declination}
+
+    @classmethod
+    def from_dict(cls, record: dict) -> "Frame":
+        """The frame of a ``run.json`` record; :class:`ParameterError` if it is not one."""
+        try:
+            rotation = tuple(tuple(float(v) for v in row) for row in record["rotation"])
+            return cls(rotation, float(record["declination"]), str(record["name"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            if isinstance(exc, ParameterError):
+                raise
+            raise ParameterError("not a frame record (name, rotation, declination).") from None
 
     def to_enu(self, vectors: np.ndarray) -> np.ndarray:
         """Express cloud-axis vectors (N, 3) in (east, north, up)."""
@@ -137,11 +175,24 @@ def azimuth_difference(a, b) -> np.ndarray:
     return np.minimum(d, 360.0 - d)
 
 
-def angle_between_normals(n1, n2) -> np.ndarray:
-    """Angle between planes in degrees, arccos(|n1 . n2|): the sign of a normal does not matter."""
-    a = np.atleast_2d(np.asarray(n1, dtype=np.float64))
-    b = np.atleast_2d(np.asarray(n2, dtype=np.float64))
+def angle_between_vectors(v1, v2) -> np.ndarray:
+    """Angle between directions in degrees, in [0, 180]; the cosine is clipped to [-1, 1], so
+    a dot product that rounds to 1.0000000000000002 gives 0, not NaN.
+
+    Examples
+    --------
+    >>> a = np.array([0.6, 0.8, 0.0])
+    >>> float(angle_between_vectors(a, a)[0]), float(angle_between_vectors(a, -a)[0])
+    (0.0, 180.0)
+    """
+    a = np.atleast_2d(np.asarray(v1, dtype=np.float64))
+    b = np.atleast_2d(np.asarray(v2, dtype=np.float64))
     a = a / np.linalg.norm(a, axis=1, keepdims=True)
     b = b / np.linalg.norm(b, axis=1, keepdims=True)
-    cos = np.abs(np.einsum("ij,ij->i", a, b))
-    return np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))
+    return np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0)))
+
+
+def angle_between_normals(n1, n2) -> np.ndarray:
+    """Angle between planes in degrees, arccos(|n1 . n2|): the sign of a normal does not matter."""
+    angle = angle_between_vectors(n1, n2)
+    return np.minimum(angle, 180.0 - angle)

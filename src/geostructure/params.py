@@ -4,7 +4,10 @@ from __future__ import annotations
 import warnings
 from dataclasses import asdict, dataclass, replace
 
-from .errors import GeoStructureError
+import math
+import numbers
+
+from .errors import ParameterError
 from .filter import METHODS as FILTER_METHODS
 from .rectangle import METHODS as RECTANGLE_METHODS
 from .regions import REFERENCES
@@ -51,6 +54,15 @@ class Params:
     merge: bool = True
 
     def __post_init__(self):
+        for name in ("zeta", "theta", "psi", "filter_sigma", "max_curvature", "max_gap"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise ParameterError(f"{name} must be a finite number, not {value!r}.")
+        for name in ("k", "min_points", "min_voxel_points"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)
+                                      or not math.isfinite(value) or int(value) != value):
+                raise ParameterError(f"{name} must be a whole number, not {value!r}.")
         checks = [
             (0 < self.zeta < 1, f"zeta must lie between 0 and 1 (a fraction of the cloud's extent), got {self.zeta}"),
             (0 <= self.theta <= 90, f"theta must lie between 0 and 90 degrees, got {self.theta}"),
@@ -67,7 +79,7 @@ class Params:
         ]
         for ok, message in checks:
             if not ok:
-                raise GeoStructureError(message + ".")
+                raise ParameterError(message + ".")
         object.__setattr__(self, "k", int(self.k))
         for name, (lo, hi, _) in TABLE1.items():
             value = getattr(self, name)

@@ -6,6 +6,7 @@ the timings themselves matter more than the wall clock.
 """
 from __future__ import annotations
 
+import math
 import multiprocessing
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -20,6 +21,8 @@ from .params import TABLE1, Params
 from .pipeline import measure
 
 FACTORS = ("zeta", "theta", "psi", "k")
+#: Runs of one factor at most: a sweep is a plot, and a mistyped step must not run for days.
+MAX_RUNS = 500
 
 
 @dataclass
@@ -42,14 +45,21 @@ def factor_values(factor: str, start=None, end=None, step=None) -> np.ndarray:
         raise GeoStructureError(f"unknown factor '{factor}'; use one of {', '.join(FACTORS)} or all.")
     lo, hi, st = TABLE1[factor]
     start, end, step = (lo if start is None else start), (hi if end is None else end), (st if step is None else step)
+    if not all(np.isfinite(v) for v in (start, end, step)):
+        raise GeoStructureError(f"start, end and step must be finite numbers, got {start}, {end}, {step}.")
     if step <= 0 or end < start:
-        raise GeoStructureError(f"--start, --end, --step must give a rising range, got {start}, {end}, {step}.")
+        raise GeoStructureError(f"start, end and step must give a rising range, got {start}, {end}, {step}.")
+    runs = math.floor((end - start) / step + 1e-6) + 1
+    if runs > MAX_RUNS:
+        raise GeoStructureError(f"{factor} from {start} to {end} in steps of {step} makes {runs:,} runs; "
+                                f"at most {MAX_RUNS} are allowed, so take a larger step.")
     values = np.arange(start, end + step * 1e-6, step)
     return np.round(values).astype(int) if factor == "k" else np.round(values, 6)
 
 
 def params_for(base: Params, factor: str, value) -> Params:
-    """``base`` with one factor changed; values the pipeline cannot use are nudged (theta 0 stays 0)."""
+    """``base`` with one factor changed, without the out-of-range warning (a sweep walks the
+    paper's ranges on purpose)."""
     import warnings
 
     with warnings.catch_warnings():
@@ -137,7 +147,7 @@ def plot_sweep(rows: list[SweepRow], stem) -> list:
     fig.tight_layout()
     from pathlib import Path
 
-    from .io.writers import atomic_path
+    from .io.atomic import atomic_path
 
     paths = []
     for suffix in (".png", ".svg"):

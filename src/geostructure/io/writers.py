@@ -1,21 +1,18 @@
-"""Writers: planes.csv, regions.ply, voxel_planes.ply and run.json, each written atomically.
+"""Writers: planes.csv, regions.ply, voxel_planes.ply and run.json.
 
-Every file goes to a temporary name in the output folder first and is renamed into place
-only when complete, so an interrupted or failed run never leaves a partial file behind.
+Each writer writes one file atomically (:mod:`.atomic`); :func:`write_outputs` writes the
+whole set through :mod:`.outdir`, so it appears in the folder together or not at all.
 """
 from __future__ import annotations
 
-import csv
-import json
-import os
 import platform
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError
+from .atomic import atomic_path, write_json, write_table_csv
+from .exports import write_dips_csv, write_geojson
+from .outdir import EVALUATION_FILES, OutputSet, output_set
 
 #: The stable contract other tools and issues read; more columns may follow these.
 PLANE_COLUMNS = ("region_id", "n_points", "area_m2", "centroid_x", "centroid_y", "centroid_z",
@@ -23,39 +20,6 @@ PLANE_COLUMNS = ("region_id", "n_points", "area_m2", "centroid_x", "centroid_y",
 EXTRA_COLUMNS = ("rect_width", "rect_height", "fit_residual", "n_voxels", "normal_scatter_deg",
                  "normal_uncertainty_deg", "rect_center_x", "rect_center_y", "rect_center_z",
                  "rect_u_x", "rect_u_y", "rect_u_z")
-
-
-def _file_mode() -> int:
-    """The mode an ordinary new file gets under the current umask (mkstemp would give 0600)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
-@contextmanager
-def atomic_path(path):
-    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    os.chmod(tmp, _file_mode())
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def prepare_outdir(outdir) -> Path:
-    outdir = Path(outdir)
-    try:
-        outdir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise GeoStructureError(f"{outdir}: cannot create the output folder ({exc.strerror}).") from None
-    if not os.access(outdir, os.W_OK):
-        raise GeoStructureError(f"{outdir}: the output folder is not writable.")
-    return outdir
 
 
 def plane_rows(result) -> list[dict]:
@@ -72,15 +36,14 @@ def plane_rows(result) -> list[dict]:
     return rows
 
 
-def _format(value) -> str:
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    return f"{float(value):.10g}"
-
-
 def write_planes_csv(result, path) -> Path:
     """``planes.csv``: one row per plane, largest first, in the input's own coordinates."""
     return write_table_csv(plane_rows(result), path, columns=PLANE_COLUMNS + EXTRA_COLUMNS)
+
+
+def _ascii(text: str) -> str:
+    """A PLY comment must be ASCII: other characters are written as escapes (café -> caf\\xe9)."""
+    return text.encode("ascii", "backslashreplace").decode("ascii")
 
 
 def write_regions_ply(result, path) -> Path:
@@ -96,7 +59,7 @@ def write_regions_ply(result, path) -> Path:
     vertex["region_id"] = result.labels
     with atomic_path(path) as tmp:
         PlyData([PlyElement.describe(vertex, "vertex")], text=False,
-                comments=["written by geostructure", f"source {Path(result.cloud.source).name}"]).write(str(tmp))
+                comments=["written by geostructure", f"source {_ascii(Path(result.cloud.source).name)}"]).write(str(tmp))
     return Path(path)
 
 
@@ -144,54 +107,41 @@ def run_record(result, extra: dict | None = None) -> dict:
     return record
 
 
-def write_json(data: dict, path) -> Path:
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
-    return Path(path)
+def write_result(result, outputs: OutputSet, extra: dict | None = None) -> dict[str, Path]:
+    """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`."""
+    files = {"planes": "planes.csv", "dips": "planes_dips.csv", "geojson": "planes.geojson",
+             "regions": "regions.ply", "voxels": "voxel_planes.ply"}
+    write_planes_csv(result, outputs.path(files["planes"]))
+    write_dips_csv(result, outputs.path(files["dips"]))
+    write_geojson(result, outputs.path(files["geojson"]))
+    write_regions_ply(result, outputs.path(files["regions"]))
+    write_voxel_planes_ply(result, outputs.path(files["voxels"]))
+    outputs.record = run_record(result, extra)
+    outputs.write_record()
+    return {key: outputs.final(name) for key, name in {**files, "run": "run.json"}.items()}
 
 
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-def write_outputs(result, outdir, extra: dict | None = None) -> dict[str, Path]:
+def write_outputs(result, outdir, extra: dict | None = None, *, inputs=()) -> dict[str, Path]:
     """Write planes.csv, planes_dips.csv, planes.geojson, regions.ply, voxel_planes.ply and
-    run.json into ``outdir``; returns their paths."""
-    from ..report.exports import write_dips_csv, write_geojson
-
-    outdir = prepare_outdir(outdir)
-    return {
-        "planes": write_planes_csv(result, outdir / "planes.csv"),
-        "dips": write_dips_csv(result, outdir / "planes_dips.csv"),
-        "geojson": write_geojson(result, outdir / "planes.geojson"),
-        "regions": write_regions_ply(result, outdir / "regions.ply"),
-        "voxels": write_voxel_planes_ply(result, outdir / "voxel_planes.ply"),
-        "run": write_json(run_record(result, extra), outdir / "run.json"),
-    }
+    run.json into ``outdir``, all or none, replacing the folder's previous set; returns
+    their paths. ``inputs`` are files the run read, which are refused if they are outputs."""
+    with output_set(outdir, inputs=inputs) as outputs:
+        paths = write_result(result, outputs, extra)
+    return paths
 
 
-def write_table_csv(rows: list[dict], path, columns=None) -> Path:
-    """A list of same-keyed dicts as CSV; the header is ``columns`` or the first row's keys,
-    so a table with no rows still has its header when ``columns`` is given."""
-    header = list(columns) if columns is not None else (list(rows[0]) if rows else [])
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", newline="") as fh:
-            writer = csv.writer(fh)
-            if header:
-                writer.writerow(header)
-            for row in rows:
-                writer.writerow([v if isinstance(v, str) else _format(v) for v in row.values()])
-    return Path(path)
+def write_evaluation_files(evaluation, folder, extra: dict | None = None) -> dict[str, Path]:
+    """``evaluation.csv`` (one row per ground-truth surface) and ``evaluation.json`` (scores)
+    in ``folder``, as they are (see :func:`write_evaluation` for an output folder)."""
+    from dataclasses import asdict
+
+    folder = Path(folder)
+    return {"evaluation_csv": write_table_csv([asdict(s) for s in evaluation.surfaces], folder / "evaluation.csv"),
+            "evaluation_json": write_json({**evaluation.summary(), **(extra or {})}, folder / "evaluation.json")}
 
 
 def write_evaluation(evaluation, outdir, extra: dict | None = None) -> dict[str, Path]:
-    """``evaluation.csv`` (one row per ground-truth surface) and ``evaluation.json`` (scores)."""
-    from dataclasses import asdict
-
-    outdir = prepare_outdir(outdir)
-    return {"evaluation_csv": write_table_csv([asdict(s) for s in evaluation.surfaces], outdir / "evaluation.csv"),
-            "evaluation_json": write_json({**evaluation.summary(), **(extra or {})}, outdir / "evaluation.json")}
+    """Add the evaluation files to a measured output folder, as one set with its outputs."""
+    with output_set(outdir, replace=False, rewrites=EVALUATION_FILES) as outputs:
+        write_evaluation_files(evaluation, outputs.staging, extra)
+    return {"evaluation_csv": outputs.final("evaluation.csv"), "evaluation_json": outputs.final("evaluation.json")}

@@ -93,8 +93,8 @@ def manual(up, north, scale: float = 1.0) -> Georeference:
     """The user's word on which model directions are up and north, and the model's scale."""
     from ..orientation import Frame
 
-    if not scale > 0:
-        raise GeoStructureError(f"--scale must be positive, not {scale}.")
+    if not (np.isfinite(scale) and scale > 0):
+        raise GeoStructureError(f"scale must be a positive finite number, not {scale}.")
     frame = Frame.from_up_north(up, north)
     return Georeference(float(scale), frame.matrix, np.zeros(3), "manual", approximate=False)
 
@@ -107,7 +107,7 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
     """
     path = Path(path)
     try:
-        with open(path, newline="") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             rows = list(csv.DictReader(fh))
     except FileNotFoundError:
         raise GeoStructureError(f"{path}: no such file.") from None
@@ -131,8 +131,12 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
                 observations.append((name, get("image"), float(get("u")), float(get("v"))))
             if has_model and get("x"):
                 model[name] = [float(get("x")), float(get("y")), float(get("z"))]
-        except (ValueError, TypeError):
-            raise GeoStructureError(f"{path}, line {line}: a coordinate is not a number.") from None
+        except (ValueError, TypeError, AttributeError):
+            raise GeoStructureError(f"{path}, line {line}: a coordinate is missing or not a number.") from None
+        values = world[name] + (list(observations[-1][2:]) if observations and observations[-1][0] == name else []) \
+            + model.get(name, [])
+        if not np.isfinite(values).all():
+            raise GeoStructureError(f"{path}, line {line}: a coordinate is NaN or infinite.")
     return world, observations, model
 
 
@@ -168,6 +172,8 @@ def read_opensfm_gcp(path, image_dir) -> tuple[dict, list, dict, tuple | None]:
         raise GeoStructureError(f"{path}: not an OpenSfM ground_control_points.json ({exc}).") from None
     if not len(located):
         raise GeoStructureError(f"{path}: no control point has a position.")
+    if not np.isfinite(fixes).all():
+        raise GeoStructureError(f"{path}: a control point's latitude, longitude or altitude is NaN or infinite.")
     origin = (float(fixes[:, 0].mean()), float(fixes[:, 1].mean()), 0.0)
     enu = geodetic_to_enu(fixes[:, 0], fixes[:, 1], fixes[:, 2], origin)
     world = {str(p["id"]): e.tolist() for p, e in zip(located, enu)}

@@ -54,7 +54,8 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
     """Run (or resume) the reconstruction stages; ``log`` gets one line per stage."""
     import pycolmap
 
-    from ..io.writers import prepare_outdir, write_json
+    from ..io.atomic import write_json
+    from ..io.outdir import prepare_outdir
     from .dense import dense_cloud
     from .frames import extract_frames
     from .sfm import list_images, run_sfm, sparse_points
@@ -186,7 +187,7 @@ def write_cloud_ply(points: np.ndarray, path) -> Path:
     """The georeferenced points, double precision, for measuring and for other tools."""
     from plyfile import PlyData, PlyElement
 
-    from ..io.writers import atomic_path
+    from ..io.atomic import atomic_path
 
     vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
     vertex["x"], vertex["y"], vertex["z"] = np.asarray(points, float).T

@@ -33,7 +33,7 @@ def palette(n: int) -> list[str]:
 
 def build_report(outdir, path=None, *, max_points: int | None = None, title: str | None = None) -> Path:
     """Write ``report.html`` for a measured output folder; returns its path."""
-    from ..io.writers import atomic_path
+    from ..io.atomic import atomic_path
     from .scene import MAX_DISPLAY_POINTS
 
     outdir = Path(outdir)
@@ -64,7 +64,7 @@ def _georeference_note(record: dict | None) -> dict | None:
 def render(scene: ReportScene, title: str) -> str:
     from plotly.offline import get_plotlyjs
 
-    from ..io.writers import _json_default
+    from ..io.atomic import plain
 
     payload = {
         "title": title,
@@ -79,7 +79,7 @@ def render(scene: ReportScene, title: str) -> str:
                  "points_shown": len(scene.points), "n_planes": len(scene.planes),
                  "georeference": _georeference_note(scene.georeference)},
     }
-    data = json.dumps(payload, default=_json_default, separators=(",", ":")).replace("</", "<\\/")
+    data = json.dumps(plain(payload), separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
     assets = resources.files("geostructure.report") / "assets"
     page = (assets / "report.html").read_text(encoding="utf-8")
     return (page.replace("{{TITLE}}", _escape(title))

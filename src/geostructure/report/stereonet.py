@@ -54,7 +54,7 @@ def rose_figure(strike, *, bin_width: float = 10.0):
 def save(fig, stem, formats=("png", "svg")) -> list[Path]:
     import matplotlib.pyplot as plt
 
-    from ..io.writers import atomic_path
+    from ..io.atomic import atomic_path
 
     paths = []
     for fmt in formats:

@@ -1,13 +1,12 @@
 """Exports for other tools: Dips/Stereonet CSV and GeoJSON of the region rectangles."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from ..geodesy import enu_to_geodetic
-from ..io.writers import atomic_path, write_table_csv
+from .atomic import atomic_path, json_text, write_table_csv
 
 
 def write_dips_csv(result, path) -> Path:
@@ -53,5 +52,5 @@ def geojson(result) -> dict:
 
 def write_geojson(result, path) -> Path:
     with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(geojson(result), default=lambda v: v.item() if isinstance(v, np.generic) else str(v)))
+        tmp.write_text(json_text(geojson(result), indent=None), encoding="utf-8")
     return Path(path)

@@ -1,0 +1,119 @@
+"""Atomic single files and strict JSON: the lowest layer every writer uses.
+
+A file goes to a temporary name beside its target and is renamed into place only when
+complete, so an interrupted write never leaves half a file under the real name. JSON is
+written strictly (RFC 8259 has no NaN): non-finite floats become ``null``.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+#: Temporary names made by :func:`atomic_path`: ``.<name>.<random>.tmp``.
+TEMP_PATTERN = re.compile(r"^\.(?P<name>.+)\.[A-Za-z0-9_]{8}\.tmp$")
+
+
+def _file_mode() -> int:
+    """The mode an ordinary new file gets under the current umask (mkstemp would give 0600)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+@contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "a.txt"
+    >>> with atomic_path(target) as tmp:
+    ...     _ = tmp.write_text("done")
+    >>> target.read_text()
+    'done'
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    os.chmod(tmp, _file_mode())
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def plain(value):
+    """``value`` as plain JSON types: numpy scalars and arrays unwrapped, non-finite floats None.
+
+    Examples
+    --------
+    >>> plain({"a": np.float64("nan"), "b": np.arange(2), "c": (1.5, float("inf"))})
+    {'a': None, 'b': [0, 1], 'c': [1.5, None]}
+    """
+    if isinstance(value, dict):
+        return {str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def json_text(data, indent: int | None = 2) -> str:
+    """Strict JSON text of ``data`` (see :func:`plain`); never ``NaN`` or ``Infinity``."""
+    return json.dumps(plain(data), indent=indent, allow_nan=False)
+
+
+def write_json(data: dict, path) -> Path:
+    """Write ``data`` as strict JSON to ``path``, atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(json_text(data) + "\n", encoding="utf-8")
+    return Path(path)
+
+
+def format_number(value) -> str:
+    """A CSV cell: integers as such, floats in the shortest form that reads back to the same
+    float64 (``repr``), so UTM coordinates keep every bit.
+
+    Examples
+    --------
+    >>> format_number(np.int64(3)), format_number(4650000.123456789), format_number(0.1)
+    ('3', '4650000.123456789', '0.1')
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return str(bool(value)).lower()
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    return repr(float(value))
+
+
+def write_table_csv(rows: list[dict], path, columns=None) -> Path:
+    """A list of same-keyed dicts as CSV, atomically; the header is ``columns`` or the first
+    row's keys, so a table with no rows still has its header when ``columns`` is given."""
+    import csv
+
+    header = list(columns) if columns is not None else (list(rows[0]) if rows else [])
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh)
+            if header:
+                writer.writerow(header)
+            for row in rows:
+                writer.writerow([v if isinstance(v, str) else format_number(v) for v in row.values()])
+    return Path(path)

@@ -1,0 +1,307 @@
+"""The result folder: one run's outputs appear together or not at all.
+
+Every command that writes into an output folder does it through :func:`output_set`, a
+small transaction:
+
+1. the files are written into a hidden staging folder inside OUTDIR (same file system, so
+   a full disk or a crash there leaves OUTDIR as it was);
+2. the run record (``run.json``, or ``sweep.json``) gets a manifest, ``outputs``, naming
+   every file of the set with its size and SHA-256, and is staged too;
+3. a journal, ``COMMIT.json``, is written into the staging folder: the commit point;
+4. the files are renamed into OUTDIR, the record last, and files of the previous set that
+   the new one does not replace are removed (only those whose size and hash prove this
+   program wrote them); then the staging folder goes.
+
+A run killed before step 3 leaves the previous set untouched; one killed during step 4 is
+finished by the next command that opens the folder (:func:`recover`). Readers trust a
+folder only after :func:`verified_record` has checked every file against the manifest, so
+a folder holding a mixture (a hand-copied ``planes.csv``, a crash of an older version)
+is refused instead of reported on.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import GeoStructureError, OutputError
+from .atomic import TEMP_PATTERN, write_json
+
+STAGING = ".geostructure-staging"
+JOURNAL = "COMMIT.json"
+LOCK = ".geostructure-lock"
+
+MEASURE_FILES = ("planes.csv", "planes_dips.csv", "planes.geojson", "regions.ply", "voxel_planes.ply", "run.json")
+EVALUATION_FILES = ("evaluation.csv", "evaluation.json")
+REPORT_FILES = ("report.html", "stereonet.png", "stereonet.svg", "rose.png")
+SWEEP_FILES = ("sweep.csv", "sweep.json") + tuple(
+    f"sweep_{factor}.{fmt}" for factor in ("zeta", "theta", "psi", "k", "all") for fmt in ("png", "svg"))
+#: Every name GeoStructure writes into an output folder; no other file there is ever touched.
+OWNED = frozenset(MEASURE_FILES + EVALUATION_FILES + REPORT_FILES + SWEEP_FILES)
+
+
+def check_outdir(outdir) -> Path:
+    """Refuse an output folder that cannot be used, before any work, creating nothing.
+
+    Examples
+    --------
+    >>> check_outdir("/dev/null")
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.OutputError: /dev/null: is a file, not a folder; give a folder for the outputs.
+    """
+    outdir = Path(outdir)
+    if outdir.exists() and not outdir.is_dir():
+        raise OutputError(f"{outdir}: is a file, not a folder; give a folder for the outputs.")
+    existing = outdir
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise OutputError(f"{outdir}: cannot be created, since {existing} is a file.")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputError(f"{outdir}: the output folder is not writable." if existing == outdir
+                          else f"{outdir}: cannot be created in {existing} (not writable).")
+    return outdir
+
+
+def prepare_outdir(outdir) -> Path:
+    """Check OUTDIR (:func:`check_outdir`) and create it; for stages that keep their own files."""
+    outdir = check_outdir(outdir)
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{outdir}: cannot create the output folder ({exc.strerror}).") from None
+    return outdir
+
+
+def check_inputs_not_outputs(outdir, inputs) -> None:
+    """Refuse an input file that a run would overwrite or remove: one of OUTDIR's output names."""
+    outdir = Path(outdir)
+    if not outdir.is_dir():
+        return
+    for source in inputs:
+        if source is None or not Path(source).is_file():
+            continue
+        for name in sorted(OWNED):
+            target = outdir / name
+            if target.exists() and os.path.samefile(source, target):
+                raise OutputError(f"{source}: is the output {name} of {outdir}, which this run would overwrite; "
+                                  f"copy it elsewhere or choose another output folder.")
+
+
+def file_entry(path: Path) -> dict:
+    """Size and SHA-256 of one file, as the manifest records them."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return {"bytes": path.stat().st_size, "sha256": digest.hexdigest()}
+
+
+def _matches(path: Path, entry) -> bool:
+    try:
+        return (isinstance(entry, dict) and path.is_file() and path.stat().st_size == entry.get("bytes")
+                and file_entry(path)["sha256"] == entry.get("sha256"))
+    except OSError:
+        return False
+
+
+def _read_record(path: Path) -> dict | None:
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
+def verified_record(outdir, record_name: str = "run.json", command: str = "geostructure measure",
+                    ignore=()) -> dict:
+    """The run record of OUTDIR, after checking every file it lists is the one it wrote.
+
+    Raises :class:`OutputError` naming the first file that is missing or changed, so no
+    reader ever works from a mixture of two runs. Files named in ``ignore`` (about to be
+    rewritten) are not checked.
+    """
+    outdir = Path(outdir)
+    path = outdir / record_name
+    if not path.is_file():
+        if any((outdir / name).exists() for name in OWNED):
+            raise OutputError(f"{outdir}: holds outputs but no {record_name}, so they are an incomplete set; "
+                              f"run '{command}' again.")
+        raise OutputError(f"{path}: no such file; run '{command}' first.")
+    record = _read_record(path)
+    if record is None:
+        raise OutputError(f"{path}: not a GeoStructure run record (not a JSON object).")
+    outputs = record.get("outputs")
+    if not isinstance(outputs, dict):
+        raise OutputError(f"{path}: lists no outputs (written by an older GeoStructure or by hand), so the folder "
+                          f"cannot be trusted as one run; run '{command}' again.")
+    for name, entry in sorted(outputs.items()):
+        if name in ignore:
+            continue
+        if name not in OWNED or "/" in name:
+            raise OutputError(f"{path}: lists '{name}', which GeoStructure never writes; run '{command}' again.")
+        if not (outdir / name).is_file():
+            raise OutputError(f"{outdir}: {name} is missing although {record_name} lists it, so the folder holds an "
+                              f"incomplete set; run '{command}' again.")
+        if not _matches(outdir / name, entry):
+            raise OutputError(f"{outdir}: {name} is not the file {record_name} lists (changed since, or left by "
+                              f"another run), so the folder mixes two sets; run '{command}' again.")
+    return record
+
+
+@dataclass
+class OutputSet:
+    """A transaction over one output folder; write each file to :meth:`path`, then commit."""
+
+    outdir: Path
+    staging: Path
+    record_name: str
+    replace: bool
+    record: dict = field(default_factory=dict)
+    kept: dict = field(default_factory=dict)      # manifest entries carried over (add mode)
+    stale: list = field(default_factory=list)     # previous files this set replaces (replace mode)
+
+    def path(self, name: str) -> Path:
+        """Where to write output ``name`` (in the staging folder until the commit)."""
+        if name not in OWNED:
+            raise ValueError(f"'{name}' is not a GeoStructure output name")
+        return self.staging / name
+
+    def final(self, name: str) -> Path:
+        """Where output ``name`` will be once committed."""
+        return self.outdir / name
+
+    def write_record(self) -> Path:
+        """Stage the record as it stands (for readers inside the transaction, such as the report)."""
+        return write_json(self.record, self.staging / self.record_name)
+
+
+@contextmanager
+def output_set(outdir, *, record_name: str = "run.json", replace: bool = True, inputs=(),
+               command: str = "geostructure measure", rewrites=()):
+    """Open OUTDIR for one all-or-nothing set of outputs.
+
+    ``replace=True`` (a measure, a sweep): the new set replaces the previous one, whose
+    files the new one does not rewrite are removed. ``replace=False`` (report, evaluate):
+    the files are added to the folder's verified set, and the record is the folder's own;
+    the files it will rewrite (``rewrites``) need not verify, as they are replaced.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = tempfile.mkdtemp()
+    >>> with output_set(out) as outputs:
+    ...     _ = outputs.path("planes.csv").write_text("region_id\\n")
+    ...     outputs.record = {"input": "example"}
+    >>> sorted(verified_record(out)["outputs"])
+    ['planes.csv']
+    """
+    check_inputs_not_outputs(outdir, inputs)
+    outdir = prepare_outdir(outdir)
+    with _locked(outdir):
+        recover(outdir)
+        outputs = OutputSet(outdir, outdir / STAGING, record_name, replace)
+        if replace:
+            previous = _read_record(outdir / record_name) or {}
+            manifest = previous.get("outputs") if isinstance(previous.get("outputs"), dict) else {}
+            outputs.stale = [n for n, e in sorted(manifest.items()) if n in OWNED and _matches(outdir / n, e)]
+        else:
+            outputs.record = verified_record(outdir, record_name, command, ignore=rewrites)
+            outputs.kept = {n: e for n, e in outputs.record.pop("outputs").items() if n not in rewrites}
+        outputs.staging.mkdir()
+        try:
+            yield outputs
+            _commit(outputs)
+        except BaseException as exc:
+            if (outputs.staging / JOURNAL).exists():
+                raise  # committed: the next command finishes the move (recover)
+            shutil.rmtree(outputs.staging, ignore_errors=True)
+            if isinstance(exc, OSError):  # a full disk, a quota, a file system gone read-only
+                raise OutputError(f"{outdir}: cannot write the outputs ({exc.strerror or exc}); the folder "
+                                  f"holds what it held before.") from None
+            raise
+
+
+def _commit(outputs: OutputSet) -> None:
+    staged = sorted(p.name for p in outputs.staging.iterdir() if p.name != outputs.record_name)
+    stray = [n for n in staged if n not in OWNED]
+    if stray:
+        raise ValueError(f"staged files GeoStructure does not own: {stray}")
+    manifest = {**outputs.kept, **{n: file_entry(outputs.staging / n) for n in staged}}
+    outputs.record = {**outputs.record, "outputs": manifest}
+    outputs.write_record()
+    for name in staged + [outputs.record_name]:
+        _fsync(outputs.staging / name)
+    remove = [n for n in outputs.stale if n not in manifest and n != outputs.record_name]
+    write_json({"files": staged + [outputs.record_name], "remove": remove}, outputs.staging / JOURNAL)
+    _fsync(outputs.staging)
+    _roll_forward(outputs.outdir)
+
+
+def _roll_forward(outdir: Path) -> None:
+    """Finish a committed set: move its files into place (the record last), drop the stale ones."""
+    staging = outdir / STAGING
+    journal = _read_record(staging / JOURNAL) or {}
+    for name in journal.get("files", []):
+        if name in OWNED and (staging / name).exists():
+            os.replace(staging / name, outdir / name)
+    for name in journal.get("remove", []):
+        if name in OWNED:
+            (outdir / name).unlink(missing_ok=True)
+    _fsync(outdir)
+    shutil.rmtree(staging, ignore_errors=True)
+
+
+def recover(outdir) -> None:
+    """Clean what a killed run left: finish a committed set, drop an uncommitted one and any
+    temporary file of an output name."""
+    outdir = Path(outdir)
+    staging = outdir / STAGING
+    if staging.is_dir():
+        if _read_record(staging / JOURNAL) is not None:
+            _roll_forward(outdir)
+        else:
+            shutil.rmtree(staging, ignore_errors=True)
+    for entry in outdir.iterdir():
+        match = TEMP_PATTERN.match(entry.name)
+        if match and match.group("name") in OWNED and entry.is_file():
+            entry.unlink(missing_ok=True)
+
+
+def _fsync(path: Path) -> None:
+    """Flush a file or folder to disk, so a power cut after the commit cannot lose the set."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # some file systems cannot sync a folder; the rename order still holds
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def _locked(outdir: Path):
+    """One writer per folder: a second command writing to the same OUTDIR is refused."""
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no lock, the journal still keeps sets whole
+        yield
+        return
+    with open(outdir / LOCK, "a") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise OutputError(f"{outdir}: another geostructure command is writing to this folder; "
+                              f"wait for it to finish.") from None
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)

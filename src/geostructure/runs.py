@@ -1,0 +1,133 @@
+"""Saving a measurement and what is made from it (evaluation, report), each as one set.
+
+These are the functions the command line calls after measuring, and a Python user can call
+the same: every one writes through :func:`~geostructure.io.outdir.output_set`, so the
+files of one call appear in the folder together or not at all, and what a call reads
+from a folder is checked against the folder's manifest first.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from .evaluate import Evaluation, PlaneSet, evaluate
+from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
+from .io.outdir import EVALUATION_FILES, REPORT_FILES, OutputSet, output_set
+from .io.truth import GroundTruth, read_truth
+from .io.writers import write_evaluation_files, write_result
+from .orientation import Frame, orientation_from_normals
+
+
+def save_measurement(result, outdir, *, extra: dict | None = None, evaluation: Evaluation | None = None,
+                     evaluation_extra: dict | None = None, report: bool = False, max_points: int | None = None,
+                     inputs=()) -> dict[str, Path]:
+    """Write a measurement's files, and optionally its evaluation and report, as one set.
+
+    Parameters
+    ----------
+    result : Result
+        What :func:`~geostructure.measure` found.
+    outdir : str or Path
+        The output folder; its previous GeoStructure set is replaced as a whole.
+    extra : dict, optional
+        More entries for ``run.json`` (the automatic choice, a reconstruction's record).
+    evaluation : Evaluation, optional
+        Scores against ground truth, written as ``evaluation.csv`` and ``evaluation.json``.
+    report : bool
+        Also write ``report.html``, the stereonet and the rose diagram.
+    inputs : sequence of paths
+        Files the run read: refused if they are among the outputs it would overwrite.
+
+    Returns
+    -------
+    dict
+        Output kind -> final path.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from geostructure import measure
+    >>> from geostructure.synthetic import observatory_scene
+    >>> result = measure(observatory_scene(30_000, seed=1).cloud)
+    >>> paths = save_measurement(result, tempfile.mkdtemp())
+    >>> sorted(paths)[:3]
+    ['dips', 'geojson', 'planes']
+    """
+    with output_set(outdir, inputs=inputs) as outputs:
+        paths = write_result(result, outputs, extra)
+        if evaluation is not None:
+            paths.update(_stage_evaluation(outputs, evaluation, evaluation_extra))
+        if report:
+            paths.update(_stage_report(outputs, outputs.staging, max_points))
+    return paths
+
+
+def add_report(outdir, *, max_points: int | None = None) -> dict[str, Path]:
+    """Write ``report.html``, ``stereonet.png/.svg`` and ``rose.png`` for a measured folder.
+
+    The folder is checked against its manifest first, so a report is never drawn from a
+    mixture of two runs.
+    """
+    with output_set(outdir, replace=False, rewrites=REPORT_FILES) as outputs:
+        paths = _stage_report(outputs, outputs.outdir, max_points)
+    return paths
+
+
+def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Evaluation, dict, dict[str, Path]]:
+    """Score a measured folder against a ground-truth CSV and add the evaluation files.
+
+    With ``fit_frame`` (an unreferenced cloud), the frame is first fitted to the truth
+    planes and the scores are taken in that frame; the fit is returned and recorded.
+
+    Returns
+    -------
+    evaluation, fit record (empty without ``fit_frame``), paths
+    """
+    with output_set(outdir, replace=False, rewrites=EVALUATION_FILES, inputs=[truth_path]) as outputs:
+        frame = Frame.from_dict(outputs.record.get("frame") or {})
+        planes = PlaneSet.from_csv(outputs.final("planes.csv"))
+        truth = read_truth(truth_path, frame)
+        extra, matched = {}, None
+        if fit_frame:
+            planes, truth, extra = refit_frame(planes, truth, frame, truth_path)
+            matched = extra["frame_fit"]["matched_regions"]
+        evaluation = evaluate(planes, truth, matched=matched)
+        paths = _stage_evaluation(outputs, evaluation, extra)
+    return evaluation, extra, paths
+
+
+def refit_frame(planes: PlaneSet, truth: GroundTruth, frame: Frame, truth_path):
+    """Planes and truth re-expressed in the frame fitted from the truth itself (see framefit)."""
+    order = np.argsort(-planes.n_points, kind="stable")
+    fit = fit_frame_to_truth(planes.normals[order], truth.normals, candidates=30)
+    fit.matched = order[fit.matched]
+    new = fitted_frame(frame, fit)
+    o = orientation_from_normals(planes.normals, new)
+    planes = replace(planes, strike=o.strike, dip=o.dip, dip_direction=o.dip_direction)
+    truth = read_truth(truth_path, new)
+    pairwise = pairwise_angle_error(planes.normals[fit.matched], truth.normals)
+    record = {"rotation_deg": fit.rotation_angle, "residuals_deg": fit.residuals.tolist(),
+              "mean_residual_deg": fit.mean_residual, "matched_regions": fit.matched.tolist(),
+              "pairwise_mean_deg": float(pairwise.mean()), "pairwise_max_deg": float(pairwise.max()),
+              "frame_rotation": [list(r) for r in new.rotation]}
+    return planes, truth, {"frame_fit": record}
+
+
+def _stage_evaluation(outputs: OutputSet, evaluation: Evaluation, extra: dict | None) -> dict[str, Path]:
+    write_evaluation_files(evaluation, outputs.staging, extra)
+    return {"evaluation_csv": outputs.final("evaluation.csv"), "evaluation_json": outputs.final("evaluation.json")}
+
+
+def _stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> dict[str, Path]:
+    """Draw the report from the files in ``source`` (the staged set, or a verified folder)."""
+    from .report.html import build_report  # plotly and matplotlib load only when a report is asked for
+    from .report.stereonet import rose_figure, save, stereonet_figure
+
+    planes = PlaneSet.from_csv(Path(source) / "planes.csv")
+    build_report(source, outputs.path("report.html"), max_points=max_points)
+    save(stereonet_figure(planes.strike, planes.dip)[0], outputs.staging / "stereonet")
+    save(rose_figure(planes.strike)[0], outputs.staging / "rose", formats=("png",))
+    return {"report": outputs.final("report.html"), "stereonet_png": outputs.final("stereonet.png"),
+            "stereonet_svg": outputs.final("stereonet.svg"), "rose": outputs.final("rose.png")}
