@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 import warnings
@@ -18,6 +17,7 @@ from .orientation import Frame
 from .params import ParameterWarning, Params
 from .pipeline import measure
 from .progress import StageProgress
+from .cli_types import finite_float, positive_float, whole
 from .runs import add_evaluation, add_report, save_measurement
 from .tables import print_evaluation, print_match, print_planes, print_sweep
 
@@ -47,38 +47,6 @@ def main(argv=None) -> int:
             print("geostructure: interrupted; the output folder keeps its previous set (no half-written files).",
                   file=sys.stderr)
             return 130
-
-
-def finite_float(text: str) -> float:
-    """An option's number: NaN and infinity are refused here, before any work."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"'{text}' is not a finite number")
-    return value
-
-
-def positive_float(text: str) -> float:
-    value = finite_float(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"{text} is not positive")
-    return value
-
-
-def whole(minimum: int):
-    """An argparse type: a whole number of at least ``minimum``."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"{value} is less than {minimum}")
-        return value
-    parse.__name__ = f"whole number >= {minimum}"
-    return parse
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):

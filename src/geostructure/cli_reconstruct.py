@@ -5,6 +5,8 @@ import argparse
 import time
 from pathlib import Path
 
+from .cli_types import non_negative_float, positive_float, whole
+
 
 def add_reconstruct_commands(sub) -> None:
     from .reconstruct.frames import FrameOptions
@@ -26,18 +28,18 @@ def add_reconstruct_commands(sub) -> None:
     add_frame_options(g, defaults)
     g.add_argument("--matching", choices=("auto", "sequential", "exhaustive"), default="auto",
                    help="SfM matching: sequential for video, exhaustive for photo sets (auto: by count)")
-    g.add_argument("--max-image-size", type=int, default=1600, help="SfM features on images this large (px)")
+    g.add_argument("--max-image-size", type=whole(64), default=1600, help="SfM features on images this large (px)")
     g.add_argument("--dense", choices=("auto", "colmap", "sgbm", "sweep", "none"), default="auto",
                    help="dense stage: colmap (CUDA PatchMatch), sgbm (CPU, rectified pairs), sweep (CPU plane "
                         "sweep, for walks along the view), none (measure sparse points); auto: colmap with CUDA, "
                         "else sgbm, or sweep when most images have no sideways partner")
-    g.add_argument("--dense-neighbours", type=int, default=2, help="stereo partners per image (sgbm, sweep)")
+    g.add_argument("--dense-neighbours", type=whole(1), default=2, help="stereo partners per image (sgbm, sweep)")
     g.add_argument("--no-mesh", action="store_true", help="skip the Poisson surface: measure the dense cloud directly")
-    g.add_argument("--poisson-depth", type=int, default=9, help="Poisson octree depth (default %(default)s)")
+    g.add_argument("--poisson-depth", type=whole(4), default=9, help="Poisson octree depth (default %(default)s)")
     e = r.add_argument_group("georeference (one is needed before strike and dip mean anything)")
     e.add_argument("--gcp", type=Path, help="control points: a CSV of name,E,N,Up with image,u,v (pixels) or x,y,z "
                    "(model), or OpenSfM's ground_control_points.json (WGS84)")
-    e.add_argument("--scale", type=float, default=1.0,
+    e.add_argument("--scale", type=positive_float, default=1.0,
                    help="manual georeference: metres per model unit, with --up and --north given in model axes")
     e.add_argument("--assume-level", action="store_true",
                    help="no control, no GPS: take up from the cameras (held without roll) and 'north' along their mean "
@@ -49,11 +51,11 @@ def add_reconstruct_commands(sub) -> None:
 
 
 def add_frame_options(parser, defaults) -> None:
-    parser.add_argument("--fps", type=float, default=None, help="decode rate (default: the video's own)")
+    parser.add_argument("--fps", type=positive_float, default=None, help="decode rate (default: the video's own)")
     parser.add_argument("--all-frames", action="store_true", help="keep every decoded frame (no sharpness/motion test)")
-    parser.add_argument("--min-motion", type=float, default=defaults.min_motion,
+    parser.add_argument("--min-motion", type=non_negative_float, default=defaults.min_motion,
                         help="keep a frame once the view moved this fraction of the width (default %(default)s)")
-    parser.add_argument("--max-frames", type=int, default=None, help="stop after this many kept frames")
+    parser.add_argument("--max-frames", type=whole(1), default=None, help="stop after this many kept frames")
 
 
 def frame_options(args):
@@ -69,6 +71,7 @@ def run_frames(args) -> int:
     from .progress import StageProgress
     from .reconstruct.frames import extract_frames
 
+    require_reconstruction_extra(needs_video=True, needs_mesh=False)
     with StageProgress(enabled=not args.quiet) as progress:
         report = extract_frames(args.video, args.outdir, frame_options(args), progress)
     if not args.quiet:
@@ -77,8 +80,11 @@ def run_frames(args) -> int:
 
 
 def run_run(args) -> int:
-    from .cli import frame_from, measure_cloud, params_from
+    from .cli import base_params, check_before_work, frame_from, measure_cloud
     from .cloud import Cloud
+    from .errors import GeoStructureError
+    from .io.truth import read_truth
+    from .reconstruct.georef import read_gcp, read_gcp_csv
     from .progress import StageProgress
     from .reconstruct.dense import DenseOptions
     from .reconstruct.pipeline import ReconstructOptions, reconstruct
@@ -89,7 +95,19 @@ def run_run(args) -> int:
 
     frame_from(args)  # refuse a half-given --up/--north before hours of reconstruction
     frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up
-    params_from(args)
+    base_params(args)
+    require_reconstruction_extra(needs_video=args.source.is_file(), needs_mesh=not args.no_mesh and args.dense != "none")
+    check_before_work(args, [args.truth, args.gcp])
+    if not args.source.exists():
+        raise GeoStructureError(f"{args.source}: no such file or folder.")
+    if args.gcp:  # a bad control file is found now, not after SfM, dense and meshing
+        if args.gcp.suffix.lower() != ".json":
+            read_gcp_csv(args.gcp)
+        elif args.source.is_dir():  # OpenSfM's JSON names the photos, so it is checked against them
+            read_gcp(args.gcp, args.source)
+        elif not args.gcp.is_file():
+            raise GeoStructureError(f"{args.gcp}: no such file.")
+    truth = read_truth(args.truth, frame) if args.truth else None
     options = ReconstructOptions(
         frames=frame_options(args),
         sfm=SfmOptions(matching=args.matching, max_image_size=args.max_image_size),
@@ -104,4 +122,26 @@ def run_run(args) -> int:
         made = reconstruct(args.source, args.outdir, options, progress, log)
     cloud = Cloud.from_points(made.points, source=made.cloud_path, enu_origin=made.georeference.enu_origin)
     extra = {"reconstruction": {k: v for k, v in made.records.items()}}
-    return measure_cloud(cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra)
+    return measure_cloud(cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra, truth=truth,
+                         inputs=[args.truth, args.gcp])
+
+
+#: What ``run`` needs beyond the measuring core, by import name, and the package it comes in.
+RECONSTRUCT_MODULES = {"pycolmap": "pycolmap", "cv2": "opencv-python-headless", "PIL": "pillow"}
+
+
+def require_reconstruction_extra(needs_video: bool, needs_mesh: bool) -> None:
+    """Say which extra to install when a reconstruction package is missing, before any work."""
+    import importlib.util
+
+    from .errors import GeoStructureError
+
+    modules = dict(RECONSTRUCT_MODULES)
+    if needs_video:
+        modules["av"] = "av"
+    if needs_mesh:
+        modules["open3d"] = "open3d"
+    missing = [package for module, package in modules.items() if importlib.util.find_spec(module) is None]
+    if missing:
+        raise GeoStructureError(f"reconstruction needs {', '.join(missing)}, which is not installed; "
+                                f"install it with: pip install 'geostructure[reconstruct]'.")

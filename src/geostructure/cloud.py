@@ -6,6 +6,28 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import ParameterError
+
+
+def as_points(values, name: str = "points") -> np.ndarray:
+    """``values`` as an (N, 3) float64 array; anything else is refused, never reshaped.
+
+    Examples
+    --------
+    >>> as_points([[0, 1, 2]]).dtype
+    dtype('float64')
+    >>> as_points(np.zeros((5, 4)))
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.ParameterError: points must be an (N, 3) array of x, y, z; got shape (5, 4).
+    """
+    array = np.asarray(values)
+    if array.dtype.kind not in "biuf":
+        raise ParameterError(f"{name} must be real numbers; got an array of dtype {array.dtype}.")
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ParameterError(f"{name} must be an (N, 3) array of x, y, z; got shape {array.shape}.")
+    return np.ascontiguousarray(array, dtype=np.float64)
+
 
 @dataclass
 class Cloud:
@@ -36,15 +58,21 @@ class Cloud:
     enu_origin: tuple | None = None
 
     def __post_init__(self):
-        self.local = np.ascontiguousarray(self.local, dtype=np.float64).reshape(-1, 3)
-        self.offset = np.asarray(self.offset, dtype=np.float64).reshape(3)
+        self.local = as_points(self.local, "local")
+        offset = np.asarray(self.offset, dtype=np.float64)
+        if offset.shape != (3,) or not np.isfinite(offset).all():
+            raise ParameterError(f"offset must be three finite numbers; got {offset.tolist()}.")
+        self.offset = offset
         if self.normals is not None:
-            self.normals = np.asarray(self.normals, dtype=np.float64).reshape(-1, 3)
+            self.normals = as_points(self.normals, "normals")
+            if len(self.normals) != len(self.local):
+                raise ParameterError(f"normals must have one row per point: {len(self.normals)} rows for "
+                                     f"{len(self.local)} points.")
 
     @classmethod
     def from_points(cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
-        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        points = as_points(points)
         finite = points[np.isfinite(points).all(axis=1)]  # readers report NaN/inf rows by count
         offset = (finite.min(axis=0) + finite.max(axis=0)) / 2 if len(finite) else np.zeros(3)
         # Round the offset so it prints cleanly and survives float32 writers (E57, LAS scale).

@@ -59,8 +59,11 @@ class PlaneSet:
         path = Path(path)
         if not path.is_file():
             raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.")
-        with open(path, newline="") as fh:
-            rows = list(csv.DictReader(fh))
+        try:
+            with open(path, newline="", encoding="utf-8") as fh:
+                rows = list(csv.DictReader(fh))
+        except (UnicodeDecodeError, csv.Error):
+            raise GeoStructureError(f"{path}: not a GeoStructure planes.csv (not a text table).") from None
         try:
             def col(*names):
                 return np.array([[float(r[n]) for n in names] for r in rows]).reshape(len(rows), len(names))
@@ -69,8 +72,9 @@ class PlaneSet:
                        col("normal_x", "normal_y", "normal_z"), col("strike")[:, 0], col("dip")[:, 0],
                        col("dip_direction")[:, 0], col("rect_center_x", "rect_center_y", "rect_center_z"),
                        col("rect_u_x", "rect_u_y", "rect_u_z"), col("rect_width", "rect_height"))
-        except (KeyError, ValueError) as exc:
-            raise GeoStructureError(f"{path}: not a GeoStructure planes.csv ({exc}).") from None
+        except (KeyError, ValueError, TypeError):
+            raise GeoStructureError(f"{path}: not a GeoStructure planes.csv (a row is short, or a cell is not "
+                                    f"a number).") from None
 
 
 def distance_to_rectangles(point, planes: PlaneSet) -> np.ndarray:

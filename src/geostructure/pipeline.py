@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cloud import Cloud
-from .errors import GeoStructureError
+from .errors import GeoStructureError, InputError, ParameterError
 from .filter import FilterResult, filter_outliers
 from .orientation import Frame, Orientation, orientation_from_normals, upward
 from .merge import merge_coplanar
@@ -60,7 +60,14 @@ def default_min_points(n_points: int) -> int:
 
 
 def check_measurable(cloud: Cloud) -> None:
-    """Refuse clouds no plane can be measured in: too few points, one spot, one line."""
+    """Refuse clouds no plane can be measured in: not a Cloud, NaN, too few points, one spot, one line."""
+    if not isinstance(cloud, Cloud):
+        raise ParameterError(f"measure needs a Cloud (Cloud.from_points(array) for an (N, 3) array, or "
+                             f"read_cloud(path)), not {type(cloud).__name__}.")
+    bad = ~np.isfinite(cloud.local).all(axis=1)
+    if bad.any():
+        raise InputError(f"{cloud.source}: {int(bad.sum())} point(s) have NaN or infinite coordinates "
+                         f"(the first is point {int(np.flatnonzero(bad)[0])}).")
     if len(cloud) < 3:
         raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
     extent = np.ptp(cloud.local, axis=0)

@@ -6,6 +6,7 @@ file and what is wrong, and checks the points are finite and numerous enough to 
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -238,8 +239,10 @@ def read_text(path: Path) -> Cloud:
     header = not all(_NUMBER.match(f) for f in _split(first_lines[0][1], delimiter)[:3])
     skip = first_lines[0][0] if header else first_lines[0][0] - 1
     try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
-        points = np.loadtxt(path, dtype=np.float64, delimiter=delimiter, usecols=(0, 1, 2),
-                            comments=("#", "//"), skiprows=skip, ndmin=2, encoding="utf-8")
+        with warnings.catch_warnings():  # "input contained no data": said below in our words
+            warnings.simplefilter("ignore", UserWarning)
+            points = np.loadtxt(path, dtype=np.float64, delimiter=delimiter, usecols=(0, 1, 2),
+                                comments=("#", "//"), skiprows=skip, ndmin=2, encoding="utf-8-sig")
     except UnicodeDecodeError:
         raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):
@@ -252,7 +255,7 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
     """The first ``n`` non-blank, non-comment lines with their 1-based numbers."""
     found = []
     try:
-        with open(path, "r", encoding="utf-8") as fh:
+        with open(path, "r", encoding="utf-8-sig") as fh:  # -sig: a byte-order mark is not data
             for number, line in enumerate(fh, start=1):
                 if line.strip() and not line.lstrip().startswith(("#", "//")):
                     found.append((number, line))
@@ -264,7 +267,7 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
 
 
 def _raise_bad_line(path: Path, delimiter: str | None, skip: int) -> None:
-    with open(path, "r", encoding="utf-8") as fh:
+    with open(path, "r", encoding="utf-8-sig") as fh:
         for number, line in enumerate(fh, start=1):
             if number <= skip or not line.strip() or line.lstrip().startswith(("#", "//")):
                 continue

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, InputError
 from ..orientation import Frame, angle_between_normals, azimuth_difference, normal_from_orientation
 
 QUADRANTS = {"N": 0, "NNE": 22.5, "NE": 45, "ENE": 67.5, "E": 90, "ESE": 112.5, "SE": 135, "SSE": 157.5, "S": 180,
@@ -79,12 +79,20 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
     path = Path(path)
     if not path.is_file():
         raise GeoStructureError(f"{path}: no such ground-truth file.")
-    with open(path, newline="", encoding="utf-8") as fh:
-        rows = list(csv.reader(fh))
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's byte-order mark
+            rows = list(csv.reader(fh))
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: is not a text CSV (not UTF-8); save the ground truth as UTF-8 CSV.") from None
+    except csv.Error as exc:
+        raise InputError(f"{path}: is not a readable CSV ({exc}).") from None
     rows = [(i, r) for i, r in enumerate(rows, start=1) if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if len(rows) < 2:
         raise GeoStructureError(f"{path}: needs a header row and at least one surface.")
     header = [c.strip().lower() for c in rows[0][1]]
+    repeated = sorted({h for h in header if h and header.count(h) > 1})
+    if repeated:
+        raise InputError(f"{path}: the header names column '{repeated[0]}' more than once; keep one.")
     if "surface" not in header:
         raise GeoStructureError(f"{path}: the header has no 'surface' column.")
     names, dips, dds, normals, centres = [], [], [], [], []
@@ -105,9 +113,12 @@ def _number(cell: dict, key: str, path, line: int) -> float:
     if not text:
         return float("nan")
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
-        raise GeoStructureError(f"{path}: line {line}: {key} '{text}' is not a number.") from None
+        raise InputError(f"{path}: line {line}: {key} '{text}' is not a number.") from None
+    if not np.isfinite(value):
+        raise InputError(f"{path}: line {line}: {key} '{text}' is not a finite number.")
+    return value
 
 
 def _row_orientation(cell, frame, path, line, name):

@@ -109,6 +109,9 @@ def extract_frames(video, outdir, options: FrameOptions = FrameOptions(), progre
     from collections import deque
 
     report = progress or (lambda stage, done, total: None)
+    if not Path(video).is_file():
+        raise GeoStructureError(f"{video}: no such file." if not Path(video).exists() else
+                                f"{video}: is a folder, not a video file.")
     video_fps = video_rate(video)
     sample_fps = min(options.fps or video_fps, video_fps)
     outdir = Path(outdir)

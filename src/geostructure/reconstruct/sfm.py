@@ -66,7 +66,21 @@ def list_images(folder) -> list[Path]:
     images = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
     if not images:
         raise GeoStructureError(f"{folder}: holds no images (.jpg, .png or .tif); give a folder of photos or a video.")
+    check_images(images)
     return images
+
+
+def check_images(images) -> None:
+    """Refuse a file that is not an image before SfM spends minutes on it (PIL reads headers only)."""
+    from PIL import Image, UnidentifiedImageError
+
+    for path in images:
+        try:
+            with Image.open(path) as image:
+                image.verify()
+        except (UnidentifiedImageError, OSError, SyntaxError, ValueError):
+            raise GeoStructureError(f"{path}: is not an image that can be read (damaged, or not a photo); "
+                                    f"remove it from the folder.") from None
 
 
 def run_sfm(image_dir, workdir, options: SfmOptions = SfmOptions(), progress=None):

@@ -97,11 +97,11 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
 
 def _read_planes(path: Path, offset) -> list[dict]:
     try:
-        with open(path, newline="") as fh:
+        with open(path, newline="", encoding="utf-8") as fh:
             rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
     except FileNotFoundError:
         raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
-    except (ValueError, TypeError):
+    except (ValueError, TypeError, UnicodeDecodeError, csv.Error):
         raise GeoStructureError(f"{path}: not a GeoStructure planes table.") from None
     for row in rows:
         row["region_id"] = int(row["region_id"])
