@@ -100,7 +100,7 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     """
     density_zeta, occupancy = choose_zeta(points)
     voxels = fit_voxels(points, density_zeta, max_curvature=1 / 3)
-    sigma = float(np.median(voxels.residual))
+    sigma = float(np.median(voxels.residual)) if len(voxels) else 0.0  # no voxel plane: no noise to read
     extent = voxel_edge(points, 1.0)
     zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), *ZETA_RANGE))
     if zeta != density_zeta:  # noise made the voxels coarser: measure the noise at that size

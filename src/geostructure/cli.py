@@ -8,13 +8,13 @@ import warnings
 from pathlib import Path
 
 from . import __version__
-from .errors import GeoStructureError
+from .errors import GeoStructureError, GeoStructureWarning
 from .evaluate import PlaneSet, evaluate
 from .io.outdir import check_inputs_not_outputs, check_outdir
 from .io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from .io.truth import read_truth
 from .orientation import Frame
-from .params import ParameterWarning, Params
+from .params import Params
 from .pipeline import measure
 from .progress import StageProgress
 from .cli_types import finite_float, positive_float, whole
@@ -32,8 +32,7 @@ def main(argv=None) -> int:
         return EXIT_USER_ERROR
     with warnings.catch_warnings():
         warnings.simplefilter("always")
-        warnings.filterwarnings("once", category=ParameterWarning)  # one warning per value, however often checked
-        warnings.showwarning = _show_warning
+        warnings.showwarning = _warning_printer()
         try:
             return args.run(args) or 0
         except GeoStructureError as exc:
@@ -49,8 +48,21 @@ def main(argv=None) -> int:
             return 130
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None):
-    print(f"geostructure: warning: {message}", file=sys.stderr)
+def _warning_printer():
+    """``warnings.showwarning`` for one command: each message once, however often a value is
+    checked (warnings' own "once" forgets whenever a filter changes)."""
+    shown = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if str(message) in shown:
+            return
+        shown.add(str(message))
+        if issubclass(category, GeoStructureWarning):
+            print(f"geostructure: warning: {message}", file=sys.stderr)
+        else:  # a library's own warning got past us: our defect, said as such, never passed off as advice
+            print(f"geostructure: internal warning (please report it): {category.__name__} at "
+                  f"{Path(filename).name}:{lineno}: {message}", file=sys.stderr)
+    return show
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -85,6 +85,7 @@ def run_run(args) -> int:
     from .errors import GeoStructureError
     from .io.truth import read_truth
     from .reconstruct.georef import read_gcp, read_gcp_csv
+    from .reconstruct.sfm import list_images
     from .progress import StageProgress
     from .reconstruct.dense import DenseOptions
     from .reconstruct.pipeline import ReconstructOptions, reconstruct
@@ -108,6 +109,8 @@ def run_run(args) -> int:
         elif not args.gcp.is_file():
             raise GeoStructureError(f"{args.gcp}: no such file.")
     truth = read_truth(args.truth, frame) if args.truth else None
+    if args.source.is_dir():
+        list_images(args.source)  # every photo is an image, before any folder is made
     options = ReconstructOptions(
         frames=frame_options(args),
         sfm=SfmOptions(matching=args.matching, max_image_size=args.max_image_size),
@@ -119,7 +122,7 @@ def run_run(args) -> int:
     t = time.perf_counter()
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     with StageProgress(enabled=not args.quiet) as progress:
-        made = reconstruct(args.source, args.outdir, options, progress, log)
+        made = _resumable(lambda: reconstruct(args.source, args.outdir, options, progress, log), args.outdir)
     cloud = Cloud.from_points(made.points, source=made.cloud_path, enu_origin=made.georeference.enu_origin)
     extra = {"reconstruction": {k: v for k, v in made.records.items()}}
     return measure_cloud(cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra, truth=truth,
@@ -145,3 +148,22 @@ def require_reconstruction_extra(needs_video: bool, needs_mesh: bool) -> None:
     if missing:
         raise GeoStructureError(f"reconstruction needs {', '.join(missing)}, which is not installed; "
                                 f"install it with: pip install 'geostructure[reconstruct]'.")
+
+
+def _resumable(stages, outdir: Path):
+    """Run the reconstruction; on failure say what is kept and whether the same command resumes."""
+    from .errors import GeoStructureError
+
+    existed = outdir.exists()
+    try:
+        return stages()
+    except GeoStructureError as exc:
+        if not existed and outdir.is_dir() and not (outdir / "reconstruct.json").exists():
+            import shutil
+
+            shutil.rmtree(outdir, ignore_errors=True)  # nothing finished: leave no half-made folder
+            raise GeoStructureError(f"{exc} Nothing was kept.") from None
+        if (outdir / "reconstruct.json").exists():
+            raise GeoStructureError(f"{exc} The finished stages are kept in {outdir}; the same command "
+                                    f"resumes after them.") from None
+        raise

@@ -20,3 +20,9 @@ class ParameterError(GeoStructureError, ValueError):
 
 class OutputError(GeoStructureError):
     """The output folder cannot be written, or holds a set of files that is not one run's."""
+
+
+class GeoStructureWarning(UserWarning):
+    """Something the user should know that does not stop the run; the command line prints
+    these as ``geostructure: warning: ...``. A warning of any other class reaching the
+    command line is a defect of this program and is labelled so."""

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, replace
 import math
 import numbers
 
-from .errors import ParameterError
+from .errors import GeoStructureWarning, ParameterError
 from .filter import METHODS as FILTER_METHODS
 from .rectangle import METHODS as RECTANGLE_METHODS
 from .regions import REFERENCES
@@ -16,7 +16,7 @@ from .regions import REFERENCES
 TABLE1 = {"zeta": (0.01, 0.07, 0.006), "theta": (0.0, 30.0, 3.0), "psi": (0.01, 0.6, 0.06), "k": (1, 20, 2)}
 
 
-class ParameterWarning(UserWarning):
+class ParameterWarning(GeoStructureWarning):
     """A parameter lies outside the range the paper tested."""
 
 

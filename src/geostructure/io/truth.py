@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError, InputError
+from ..errors import GeoStructureError, GeoStructureWarning, InputError
 from ..orientation import Frame, angle_between_normals, azimuth_difference, normal_from_orientation
 
 QUADRANTS = {"N": 0, "NNE": 22.5, "NE": 45, "ENE": 67.5, "E": 90, "ESE": 112.5, "SE": 135, "SSE": 157.5, "S": 180,
@@ -28,7 +28,7 @@ QUADRANTS = {"N": 0, "NNE": 22.5, "NE": 45, "ENE": 67.5, "E": 90, "ESE": 112.5, 
 _DIP = re.compile(r"^\s*([+-]?\d+(?:\.\d*)?)\s*\(?\s*([NSEW]{0,3})\s*\)?\s*$", re.I)
 
 
-class TruthWarning(UserWarning):
+class TruthWarning(GeoStructureWarning):
     """A ground-truth row is inconsistent with itself."""
 
 

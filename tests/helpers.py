@@ -1,0 +1,57 @@
+"""Helpers the reliability, fuzz and kill tests share: small clouds on disk, a CLI runner,
+and the checks of the error contract (one sentence, exit 2, the input untouched)."""
+from __future__ import annotations
+
+import hashlib
+import re
+from pathlib import Path
+
+import numpy as np
+
+from geostructure.cli import main
+from geostructure.synthetic import observatory_scene
+
+#: An error line: the prefix, then one sentence (ending in a full stop; no second line).
+ERROR_LINE = re.compile(r"^geostructure: error: .+[.)]$")
+
+
+def digest(path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def folder_digests(folder) -> dict[str, str]:
+    """Name -> SHA-256 of every file in a folder, hidden ones included (what a run left)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return {}
+    return {str(p.relative_to(folder)): digest(p) for p in sorted(folder.rglob("*")) if p.is_file()
+            and p.name != ".geostructure-lock"}
+
+
+def scene_points(n: int = 20_000, seed: int = 0, offset=(0.0, 0.0, 0.0)) -> np.ndarray:
+    return observatory_scene(n, seed=seed).cloud.points + np.asarray(offset, dtype=np.float64)
+
+
+def write_xyz(path, points, *, header: str | None = None, delimiter: str = " ", bom: bool = False) -> Path:
+    """A text cloud written with 17 significant digits, so it reads back bit for bit."""
+    lines = [delimiter.join(repr(float(v)) for v in row) for row in points]
+    text = ((header + "\n") if header else "") + "\n".join(lines) + "\n"
+    Path(path).write_bytes((b"\xef\xbb\xbf" if bom else b"") + text.encode())
+    return Path(path)
+
+
+def run_cli(capsys, *argv) -> tuple[int, str, str]:
+    """Run the command line in this process; returns (exit status, stdout, stderr)."""
+    code = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def assert_one_sentence(err: str, *names) -> None:
+    """The whole of stderr is one error line, naming each of ``names``; no traceback, no
+    library's warning (raw or labelled as ours to fix)."""
+    lines = [line for line in err.strip().splitlines() if not line.startswith("geostructure: warning:")]
+    assert "Traceback" not in err and "internal warning" not in err, err
+    assert len(lines) == 1 and ERROR_LINE.match(lines[0]), err
+    for name in names:
+        assert str(name) in lines[0], (name, err)

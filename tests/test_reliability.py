@@ -1,0 +1,375 @@
+"""The reliability issue's defects, one test each (numbered as in the issue): nothing lost,
+nothing silently wrong, and every bad input one sentence with exit status 2."""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import assert_one_sentence, digest, folder_digests, run_cli, scene_points, write_xyz
+
+from geostructure import Cloud, Frame, GeoStructureError, measure
+from geostructure.errors import InputError, OutputError, ParameterError
+from geostructure.evaluate import PlaneSet
+from geostructure.io.atomic import json_text
+from geostructure.io.outdir import output_set, verified_record
+
+FIXED = ["--no-auto", "--zeta", "0.02", "-q"]
+
+
+@pytest.fixture(scope="module")
+def cloud_file(tmp_path_factory):
+    return write_xyz(tmp_path_factory.mktemp("cloud") / "scene.xyz", scene_points())
+
+
+@pytest.fixture
+def measured(tmp_path, cloud_file, capsys):
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "measure", cloud_file, "-o", out, *FIXED)
+    assert code == 0, err
+    return out
+
+
+# 1. The input is never overwritten, even when it lies in OUTDIR under an output's name.
+@pytest.mark.parametrize("name", ["regions.ply", "voxel_planes.ply", "planes.csv"])
+def test_an_input_that_is_an_output_is_refused_before_any_work(measured, capsys, name):
+    source = measured / name
+    if name == "planes.csv":  # a text cloud that happens to carry the name
+        write_xyz(source, scene_points(3000, seed=1), delimiter=",")
+    before = folder_digests(measured)
+    code, _, err = run_cli(capsys, "measure", source, "-o", measured, "-q")
+    assert code == 2
+    assert_one_sentence(err, name)
+    assert folder_digests(measured) == before
+
+
+def test_a_truth_file_that_is_an_output_is_refused(measured, capsys, cloud_file):
+    truth = measured / "evaluation.csv"
+    truth.write_text("surface,dip,dip_direction\na,40,90\n")
+    code, _, err = run_cli(capsys, "measure", cloud_file, "-o", measured, "--truth", truth, "-q")
+    assert code == 2 and "evaluation.csv" in err and truth.read_text().startswith("surface")
+
+
+# 2. Non-finite frame values never reach the numbers; JSON is strict.
+@pytest.mark.parametrize("option", [["--up", "nan", "0", "1", "--north", "0", "1", "0"],
+                                    ["--up", "inf", "0", "1", "--north", "0", "1", "0"],
+                                    ["--up", "0", "0", "1", "--north", "nan", "1", "0"],
+                                    ["--declination", "nan"], ["--declination", "inf"], ["--zeta", "nan"],
+                                    ["--theta", "inf"], ["--psi", "inf"], ["--sigma", "nan"]])
+def test_non_finite_options_exit_2_before_reading(tmp_path, capsys, option):
+    with pytest.raises(SystemExit) as stop:
+        run_cli(capsys, "measure", tmp_path / "missing.xyz", "-o", tmp_path / "out", *option)
+    assert stop.value.code == 2
+    assert "finite" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+def test_the_api_refuses_non_finite_frames_and_parameters():
+    with pytest.raises(ParameterError, match="declination"):
+        Frame.named("enu", float("nan"))
+    with pytest.raises(ParameterError, match="finite"):
+        Frame.from_up_north([np.inf, 0, 1], [0, 1, 0])
+    with pytest.raises(ParameterError, match="psi"):
+        from geostructure import Params
+        Params(psi=float("inf"))
+
+
+def test_json_never_holds_nan():
+    text = json_text({"a": float("nan"), "b": [np.float64("inf"), 1.5]})
+    assert json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in JSON")) == {"a": None, "b": [None, 1.5]}
+
+
+# 3. Coordinates round-trip float64: a cloud at a 1e7 offset gives the origin's centroids plus the offset.
+def test_planes_csv_keeps_utm_precision(tmp_path, capsys):
+    points = scene_points(20_000, seed=4)
+    offset = np.array([1e7, 1e7, 1e3])
+    rows = {}
+    for name, shift in (("origin", np.zeros(3)), ("utm", offset)):
+        path = write_xyz(tmp_path / f"{name}.xyz", points + shift)
+        code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / name, *FIXED)
+        assert code == 0, err
+        rows[name] = list(csv.DictReader(open(tmp_path / name / "planes.csv")))
+    assert len(rows["origin"]) == len(rows["utm"]) >= 6
+    for a, b in zip(rows["origin"], rows["utm"]):
+        for i, axis in enumerate("xyz"):
+            assert float(b[f"centroid_{axis}"]) - offset[i] == pytest.approx(float(a[f"centroid_{axis}"]), abs=1e-6)
+
+
+def test_regions_ply_gives_back_the_input_coordinates_bit_for_bit(tmp_path, capsys):
+    from plyfile import PlyData
+
+    points = scene_points(20_000, seed=5) + np.array([500_123.456789, 4_650_987.654321, 312.5])
+    path = write_xyz(tmp_path / "utm.xyz", points)
+    assert run_cli(capsys, "measure", path, "-o", tmp_path / "out", *FIXED)[0] == 0
+    vertex = PlyData.read(str(tmp_path / "out" / "regions.ply"))["vertex"]
+    written = np.column_stack([vertex["x"], vertex["y"], vertex["z"]])
+    given = {tuple(p) for p in points.tolist()}
+    assert all(tuple(p) in given for p in written.tolist())
+
+
+# 5. A run owns its folder's outputs: it removes those of the previous set it did not make,
+# and never a file it did not write.
+def test_a_rerun_removes_the_previous_sets_stale_files_and_nothing_else(measured, capsys, cloud_file):
+    assert run_cli(capsys, "report", measured, "-q")[0] == 0
+    assert run_cli(capsys, "evaluate", measured, "--truth", _truth(measured.parent), "-q")[0] == 0
+    (measured / "notes.txt").write_text("field notes")
+    (measured / "rose.png").write_bytes(b"a figure the user redrew")  # no longer the file we wrote
+    assert run_cli(capsys, "measure", cloud_file, "-o", measured, *FIXED)[0] == 0
+    names = {p.name for p in measured.iterdir() if not p.name.startswith(".")}
+    assert names == {"planes.csv", "planes_dips.csv", "planes.geojson", "regions.ply", "voxel_planes.ply",
+                     "run.json", "notes.txt", "rose.png"}
+    assert sorted(verified_record(measured)["outputs"]) == sorted(names - {"run.json", "notes.txt", "rose.png"})
+
+
+def _truth(folder: Path) -> Path:
+    path = folder / "truth.csv"
+    path.write_text("surface,dip,dip_direction\nslope,40,89\n")
+    return path
+
+
+# 4 (the folder half). report and evaluate refuse a folder whose files are not one run's.
+def test_report_and_evaluate_refuse_a_mixed_folder(measured, tmp_path, capsys, cloud_file):
+    other = tmp_path / "other"
+    points = scene_points(15_000, seed=9)
+    assert run_cli(capsys, "measure", write_xyz(tmp_path / "b.xyz", points), "-o", other, *FIXED)[0] == 0
+    (measured / "planes.csv").write_bytes((other / "planes.csv").read_bytes())
+    before = folder_digests(measured)
+    for argv in (["report", measured], ["evaluate", measured, "--truth", _truth(tmp_path)]):
+        code, _, err = run_cli(capsys, *argv)
+        assert code == 2
+        assert_one_sentence(err, "planes.csv")
+        assert folder_digests(measured) == before
+
+
+def test_a_folder_without_a_manifest_is_not_trusted(measured, capsys):
+    record = json.loads((measured / "run.json").read_text())
+    del record["outputs"]
+    (measured / "run.json").write_text(json.dumps(record))
+    code, _, err = run_cli(capsys, "report", measured)
+    assert code == 2 and "lists no outputs" in err
+
+
+# 6. Wrong shapes are refused at the API, never reshaped.
+@pytest.mark.parametrize("shape", [(100, 4), (100, 2), (300,), (10, 3, 1)])
+def test_cloud_refuses_wrong_shapes(shape):
+    with pytest.raises(ParameterError, match=r"\(N, 3\)"):
+        Cloud.from_points(np.zeros(shape))
+    with pytest.raises(ParameterError, match=r"\(N, 3\)"):
+        Cloud(np.zeros(shape))
+
+
+def test_measure_on_an_array_says_what_to_pass_and_nan_is_the_files_error():
+    with pytest.raises(ParameterError, match="Cloud.from_points"):
+        measure(np.zeros((100, 3)))
+    points = scene_points(5000)
+    points[7, 1] = np.nan
+    with pytest.raises(InputError, match="NaN or infinite coordinates"):
+        measure(Cloud.from_points(points))
+    with pytest.raises(ParameterError, match="real numbers"):
+        Cloud.from_points(np.array([["a", "b", "c"]]))
+
+
+# 7. Silently wrong values.
+def test_a_byte_order_mark_does_not_cost_the_first_point(tmp_path):
+    from geostructure import read_cloud
+
+    points = scene_points(2000, seed=2)
+    for delimiter in (" ", ","):
+        cloud = read_cloud(write_xyz(tmp_path / f"bom{delimiter.strip()}.csv", points, delimiter=delimiter, bom=True))
+        assert len(cloud) == 2000 and np.array_equal(cloud.points[0], points[0])
+
+
+@pytest.mark.parametrize("text, words", [
+    ("surface,dip,dip,dip_direction\na,40,50,90\n", ["'dip'", "more than once"]),
+    ("surface,dip,dip_direction\na,40,inf\n", ["dip_direction", "finite"]),
+    ("surface,dip,strike\na,40,nan\n", ["strike", "finite"]),
+    ("surface,dip,dip_direction,center_x,center_y,center_z\na,40,90,1,inf,2\n", ["center_y", "finite"]),
+])
+def test_truth_values_are_used_as_written_or_refused(tmp_path, text, words):
+    from geostructure.io.truth import read_truth
+
+    path = tmp_path / "truth.csv"
+    path.write_text(text)
+    with pytest.raises(InputError) as error:
+        read_truth(path)
+    assert all(w in str(error.value) for w in words), error.value
+
+
+# 8. A non-ASCII file name.
+def test_a_non_ascii_file_name_measures(tmp_path, capsys):
+    from plyfile import PlyData
+
+    path = write_xyz(tmp_path / "café.xyz", scene_points(8000))
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out", *FIXED)
+    assert code == 0, err
+    assert len(verified_record(tmp_path / "out")["outputs"]) == 5
+    assert "caf" in " ".join(PlyData.read(str(tmp_path / "out" / "regions.ply")).comments)
+
+
+# 9. A full disk: one sentence naming the folder, and the previous set untouched.
+def test_a_full_disk_leaves_the_previous_set(measured, cloud_file):
+    before = folder_digests(measured)
+
+    def small_files():  # the kernel refuses writes past 300 kB, as a full disk would
+        import resource
+
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (300_000, 300_000))
+
+    done = subprocess.run([sys.executable, "-m", "geostructure", "measure", str(cloud_file), "-o", str(measured),
+                           "--no-auto", "--zeta", "0.03", "-q"], capture_output=True, text=True,
+                          preexec_fn=small_files, timeout=300)
+    assert done.returncode == 2, done.stderr
+    assert_one_sentence(done.stderr, str(measured), "holds what it held before")
+    assert folder_digests(measured) == before
+
+
+def test_no_space_left_during_staging_is_an_output_error(tmp_path):
+    with pytest.raises(OutputError, match="No space left on device"):
+        with output_set(tmp_path / "out") as outputs:
+            outputs.path("planes.csv").write_text("partial")
+            raise OSError(28, "No space left on device")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".geostructure-lock"]
+
+
+# 10. A truth CSV that is not UTF-8, for evaluate and measure --truth.
+def test_truth_that_is_not_utf8(measured, tmp_path, capsys, cloud_file):
+    truth = tmp_path / "latin1.csv"
+    truth.write_bytes("surface,dip,dip_direction\nfalaise é,40,90\n".encode("latin-1"))
+    for argv in (["evaluate", measured, "--truth", truth], ["measure", cloud_file, "-o", tmp_path / "new",
+                                                             "--truth", truth, "-q"]):
+        code, _, err = run_cli(capsys, *argv)
+        assert code == 2
+        assert_one_sentence(err, "latin1.csv", "UTF-8")
+    assert not (tmp_path / "new").exists()  # 16: checked before any measuring
+
+
+# 11. A hand-edited planes.csv.
+@pytest.mark.parametrize("content", [b"region_id,n_points\n0\n", b"\x00\xff\xfe binary \x89PNG\r\n"])
+def test_a_damaged_planes_csv(measured, capsys, content):
+    (measured / "planes.csv").write_bytes(content)
+    for command in ("report", "evaluate"):
+        extra = ["--truth", _truth(measured.parent)] if command == "evaluate" else []
+        code, _, err = run_cli(capsys, command, measured, *extra)
+        assert code == 2
+        assert_one_sentence(err, "planes.csv")
+    with pytest.raises(GeoStructureError, match="not a GeoStructure planes.csv"):
+        PlaneSet.from_csv(measured / "planes.csv")
+
+
+# 12 and 16. run: bad control points found before any reconstruction.
+@pytest.mark.parametrize("row", ["A,nan,2,3,1,1,1", "A,1,2,inf,1,1,1", "A,1,2"])
+def test_run_checks_control_points_first(tmp_path, capsys, row):
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    gcp = tmp_path / "gcp.csv"
+    gcp.write_text(f"name,E,N,Up,x,y,z\n{row}\nB,1,2,3,4,5,6\n")
+    code, _, err = run_cli(capsys, "run", photos, "-o", tmp_path / "out", "--gcp", gcp, "-q")
+    assert code == 2
+    assert_one_sentence(err, "gcp.csv")
+    assert not (tmp_path / "out").exists()
+
+
+# 13. sweep ranges.
+@pytest.mark.parametrize("option, code", [(["--step", "nan"], "exit"), (["--end", "inf"], "exit"),
+                                          (["--step", "1e-12"], 2)])
+def test_sweep_refuses_impossible_ranges(tmp_path, capsys, option, code):
+    argv = ["sweep", "--demo", "--factor", "zeta", "-o", tmp_path / "s", *option]
+    if code == "exit":
+        with pytest.raises(SystemExit) as stop:
+            run_cli(capsys, *argv)
+        assert stop.value.code == 2 and "finite" in capsys.readouterr().err
+    else:
+        status, _, err = run_cli(capsys, *argv)
+        assert status == 2
+        assert_one_sentence(err, "runs")
+    assert not (tmp_path / "s").exists()
+
+
+# 14. run without the reconstruction extra.
+def test_run_without_pycolmap_names_the_extra(tmp_path, capsys, monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "pycolmap" else real(name, *a))
+    code, _, err = run_cli(capsys, "run", tmp_path, "-o", tmp_path / "out", "-q")
+    assert code == 2
+    assert_one_sentence(err, "pycolmap", "pip install 'geostructure[reconstruct]'")
+
+
+# 15. No library warning reaches the user on tiny clouds.
+@pytest.mark.parametrize("points", [np.random.default_rng(0).random((10, 3)) * [1, 1, 0],
+                                    np.random.default_rng(1).random((6, 3)) * [1, 1, 1e-3],
+                                    np.random.default_rng(2).random((50, 3)),
+                                    np.outer(np.arange(100.0), [1, 2, 3])])
+def test_tiny_clouds_give_no_raw_warning(tmp_path, capsys, points):
+    code, _, err = run_cli(capsys, "measure", write_xyz(tmp_path / "tiny.xyz", points), "-o", tmp_path / "o", "-q")
+    assert code in (0, 2) and "internal warning" not in err and "Traceback" not in err, err
+    if code == 2:
+        assert_one_sentence(err, "tiny.xyz")
+
+
+def test_a_header_only_csv_gives_no_loadtxt_warning(tmp_path, capsys):
+    path = tmp_path / "header.csv"
+    path.write_text("x,y,z\n")
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "o")
+    assert code == 2
+    assert_one_sentence(err, "header.csv", "holds no points")
+
+
+# 16. Cheap checks before expensive work.
+def test_an_output_folder_that_is_a_file_is_refused_before_reading(tmp_path, capsys, cloud_file):
+    target = tmp_path / "taken"
+    target.write_text("a file")
+    code, _, err = run_cli(capsys, "measure", tmp_path / "missing.xyz", "-o", target)
+    assert code == 2
+    assert_one_sentence(err, "taken", "is a file")
+
+
+# 17. Clear messages.
+@pytest.mark.parametrize("argv, words", [
+    (["measure", "x.xyz", "-o", "o", "--mesh-samples", "-5"], "--mesh-samples: -5 is less than 0"),
+    (["frames", "v.mp4", "-o", "o", "--max-frames", "0"], "--max-frames: 0 is less than 1"),
+    (["frames", "v.mp4", "-o", "o", "--min-motion", "-1"], "--min-motion: -1 is negative"),
+])
+def test_impossible_counts_are_refused_by_the_parser(capsys, argv, words):
+    with pytest.raises(SystemExit) as stop:
+        run_cli(capsys, *argv)
+    assert stop.value.code == 2 and words in capsys.readouterr().err
+
+
+def test_frames_on_a_missing_file_says_so(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "frames", tmp_path / "gone.mp4", "-o", tmp_path / "f")
+    assert code == 2
+    assert_one_sentence(err, "gone.mp4", "no such file")
+
+
+def test_random_bytes_named_jpg_are_named_before_sfm(tmp_path, capsys):
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for i in range(3):
+        (photos / f"img{i}.jpg").write_bytes(os.urandom(2000))
+    code, _, err = run_cli(capsys, "run", photos, "-o", tmp_path / "out", "--assume-level", "-q")
+    assert code == 2
+    assert_one_sentence(err, "img0.jpg", "not an image")
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_out_of_range_value_is_warned_about_once(tmp_path, capsys, cloud_file):
+    code, _, err = run_cli(capsys, "measure", cloud_file, "-o", tmp_path / "o", "--theta", "45", "-q")
+    assert code == 0 and err.count("theta=45.0 is outside") == 1, err
+
+
+def test_every_command_leaves_no_partial_output_on_bad_input(tmp_path, capsys):
+    bad = tmp_path / "bad.xyz"
+    bad.write_text("1 2 3\n4 five 6\n")
+    before = digest(bad)
+    code, _, err = run_cli(capsys, "measure", bad, "-o", tmp_path / "out")
+    assert code == 2
+    assert_one_sentence(err, "bad.xyz", "line 2")
+    assert not (tmp_path / "out").exists() and digest(bad) == before
