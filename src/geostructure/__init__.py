@@ -2,22 +2,41 @@
 
 The public API::
 
-    from geostructure import read_cloud, measure, Params, Frame
+    from geostructure import read_cloud, measure, save_measurement, Params, Frame
     cloud = read_cloud("outcrop.laz")
     result = measure(cloud, Params(theta=5), Frame.named("enu"))
-    write_outputs(result, "out/")
+    save_measurement(result, "out/")
+
+Names are imported on first use (PEP 562), so ``import geostructure`` and the command
+line's start stay fast, and an interrupt while starting is answered without a traceback.
 """
+from __future__ import annotations
+
+import importlib
+
 __version__ = "0.1.0"
 
-from .auto import choose_params
-from .cloud import Cloud
-from .errors import GeoStructureError
-from .io.readers import read_cloud
-from .io.writers import write_outputs
-from .orientation import Frame, Orientation, angle_between_normals, azimuth_difference, orientation_from_normals
-from .params import Params
-from .pipeline import Result, measure
+#: Public name -> the module that defines it.
+_PUBLIC = {
+    "choose_params": "auto", "Cloud": "cloud", "GeoStructureError": "errors", "InputError": "errors",
+    "OutputError": "errors", "ParameterError": "errors", "GeoStructureWarning": "errors",
+    "read_cloud": "io.readers", "write_outputs": "io.writers", "verified_record": "io.outdir",
+    "Frame": "orientation", "Orientation": "orientation", "angle_between_normals": "orientation",
+    "angle_between_vectors": "orientation", "azimuth_difference": "orientation",
+    "orientation_from_normals": "orientation", "Params": "params", "Result": "pipeline", "measure": "pipeline",
+    "save_measurement": "runs", "add_report": "runs", "add_evaluation": "runs",
+}
 
-__all__ = ["choose_params", "Cloud", "Frame", "GeoStructureError", "Orientation", "Params", "Result", "angle_between_normals",
-           "azimuth_difference", "measure", "orientation_from_normals", "read_cloud", "write_outputs",
-           "__version__"]
+__all__ = sorted(_PUBLIC) + ["__version__"]
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(f".{_PUBLIC[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'geostructure' has no attribute '{name}'")
+
+
+def __dir__():
+    return __all__

@@ -1,5 +1,16 @@
+"""``python -m geostructure`` and the ``geostructure`` command: the command line, with an
+interrupt during start-up (while numpy and friends load) answered as one during work."""
 import sys
 
-from .cli import main
 
-sys.exit(main())
+def run() -> int:
+    try:
+        from .cli import main
+    except KeyboardInterrupt:
+        print("geostructure: interrupted while starting; nothing was written.", file=sys.stderr)
+        return 130
+    return main()
+
+
+if __name__ == "__main__":
+    sys.exit(run())
