@@ -8,6 +8,10 @@ import numpy as np
 
 from .errors import ParameterError
 
+#: Largest coordinate accepted: beyond it float64 no longer resolves a millimetre (UTM northings
+#: are 1e7, geocentric ones 6e6), so a larger value is a damaged file, not a survey.
+MAX_COORDINATE = 1e12
+
 
 def as_points(values, name: str = "points") -> np.ndarray:
     """``values`` as an (N, 3) float64 array; anything else is refused, never reshaped.

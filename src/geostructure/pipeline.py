@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cloud import Cloud
+from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
 from .filter import FilterResult, filter_outliers
 from .orientation import Frame, Orientation, orientation_from_normals, upward
@@ -70,6 +70,9 @@ def check_measurable(cloud: Cloud) -> None:
                          f"(the first is point {int(np.flatnonzero(bad)[0])}).")
     if len(cloud) < 3:
         raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
+    if np.abs(cloud.local).max() > MAX_COORDINATE:
+        raise InputError(f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
+                         f"no survey uses; the data may be damaged.")
     extent = np.ptp(cloud.local, axis=0)
     if extent.max() <= 0:
         raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import ParameterError
+
 #: Index pairs of the 6 distinct entries of a symmetric 3x3 matrix.
 _I, _J = np.triu_indices(3)
 
@@ -60,8 +62,17 @@ def voxel_edge(points: np.ndarray, zeta: float) -> float:
     return zeta * extent
 
 
+#: Voxels along one axis at most: three such indices pack into one int64 code (unique_keys).
+MAX_CELLS_PER_AXIS = 2**20
+
+
 def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarray:
     """Integer voxel index (i, j, k) of every point."""
+    if len(points):
+        cells = float(np.max(points.max(axis=0) - np.asarray(origin, float))) / edge if edge > 0 else np.inf
+        if not cells <= MAX_CELLS_PER_AXIS:
+            raise ParameterError(f"a voxel edge of {edge:.3g} is too small for a cloud this size (more than "
+                                 f"{MAX_CELLS_PER_AXIS:,} voxels along an axis); take a larger zeta.")
     return np.floor((points - origin) / edge).astype(np.int64)
 
 

@@ -11,12 +11,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import Cloud
+from ..cloud import MAX_COORDINATE, Cloud
 from ..errors import GeoStructureError
 
 TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
 SUFFIXES = (".ply", ".las", ".laz", ".e57") + TEXT_SUFFIXES
 
+#: Points read from a LAS/LAZ file at a time.
+LAS_CHUNK = 2_000_000
 #: Points sampled on a mesh's faces when a PLY carries triangles (see :func:`sample_mesh`).
 DEFAULT_MESH_SAMPLES = 200_000
 
@@ -70,7 +72,9 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
         raise
     except PermissionError:
         raise GeoStructureError(f"{path}: permission denied.") from None
-    except (MemoryError, KeyboardInterrupt):
+    except MemoryError:
+        raise GeoStructureError(f"{path}: does not fit in memory ({path.stat().st_size:,} bytes on disk).") from None
+    except KeyboardInterrupt:
         raise
     except Exception as exc:  # a library's parse error: the user's file is at fault
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
@@ -89,6 +93,11 @@ def check_points(points: np.ndarray, path) -> None:
         raise GeoStructureError(
             f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {first})."
         )
+    far = np.abs(points).max(axis=1) > MAX_COORDINATE
+    if far.any():
+        first = int(np.flatnonzero(far)[0])
+        raise GeoStructureError(f"{path}: point {first} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
+                                f"uses (float64 keeps no millimetres there); the file may be damaged.")
     if len(points) < 3:
         raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
 
@@ -113,7 +122,11 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     faces = _ply_faces(data, len(points), path)
     if mesh_samples and faces is not None and len(faces):
         check_points(points, path)
-        points, normals = sample_mesh(points, faces, mesh_samples, seed=seed)
+        with np.errstate(all="ignore"):  # coordinates near float64's limit overflow: said below
+            try:
+                points, normals = sample_mesh(points, faces, mesh_samples, seed=seed)
+            except OverflowError:
+                raise GeoStructureError(f"{path}: the mesh's coordinates are too large to sample its faces.") from None
     return Cloud.from_points(points, source=str(path), normals=normals)
 
 
@@ -176,6 +189,8 @@ def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, *, seed: int = 
     a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
     cross = np.cross(b - a, c - a)
     area = 0.5 * np.linalg.norm(cross, axis=1)
+    if not np.isfinite(area.sum()):
+        raise OverflowError("a face's area is not a finite number")
     if area.sum() <= 0:
         return vertices, None
     chosen = rng.choice(len(faces), size=n, p=area / area.sum())
@@ -191,15 +206,33 @@ def read_las(path: Path) -> Cloud:
     """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared."""
     import laspy
 
+    _check_las_header(path)
     with laspy.open(str(path)) as reader:
-        expected = reader.header.point_count
-        las = reader.read()
-    if len(las.points) < expected:
-        raise GeoStructureError(
-            f"{path}: the header promises {expected} points, the file holds {len(las.points)}."
-        )
-    points = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
-    return Cloud.from_points(points, source=str(path), crs=_las_crs(las.header))
+        header = reader.header
+        expected = header.point_count
+        # Chunks: memory follows the points actually in the file, not what a header claims.
+        parts = [np.column_stack([np.asarray(c.x), np.asarray(c.y), np.asarray(c.z)])
+                 for c in reader.chunk_iterator(LAS_CHUNK)]
+    points = np.vstack(parts) if parts else np.empty((0, 3))
+    if len(points) < expected:
+        raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
+    return Cloud.from_points(points, source=str(path), crs=_las_crs(header))
+
+
+def _check_las_header(path: Path) -> None:
+    """Catch a header whose counts cannot be true before laspy loops over them (a flipped
+    byte in the VLR count would have it read four billion records)."""
+    import struct
+
+    with open(path, "rb") as fh:
+        head = fh.read(104)
+    if len(head) < 104 or head[:4] != b"LASF":
+        raise GeoStructureError(f"{path}: not a LAS/LAZ file (no 'LASF' signature).")
+    header_size, point_offset, n_vlrs = struct.unpack_from("<HII", head, 94)
+    size = path.stat().st_size
+    if not header_size <= point_offset <= size or n_vlrs * 54 > point_offset - header_size:
+        raise GeoStructureError(f"{path}: the header is damaged ({n_vlrs} variable-length records and point "
+                                f"data at byte {point_offset} in a file of {size} bytes).")
 
 
 def _las_crs(header) -> str | None:

@@ -115,12 +115,12 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
         raise GeoStructureError(f"{path}: not a CSV file ({exc}).") from None
     if not rows:
         raise GeoStructureError(f"{path}: holds no control points.")
-    columns = {c.strip().lower(): c for c in rows[0]}
+    columns = {c.strip().lower(): c for c in rows[0] if c is not None}  # None: cells past the header
     need = ["name", "e", "n", "up"]
     has_model, has_pixels = all(c in columns for c in "xyz"), all(c in columns for c in ("image", "u", "v"))
     if not all(c in columns for c in need) or not (has_model or has_pixels):
         raise GeoStructureError(f"{path}: needs columns name, E, N, Up and either x, y, z (model) or image, u, v "
-                                f"(pixels); it has {', '.join(rows[0])}.")
+                                f"(pixels); it has {', '.join(columns.values())}.")
     world, observations, model = {}, [], {}
     for line, row in enumerate(rows, start=2):
         get = lambda c: row[columns[c]].strip()  # noqa: E731
