@@ -13,8 +13,12 @@ line's start stay fast, and an interrupt while starting is answered without a tr
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
 
-__version__ = "0.1.0"
+try:  # one version, pyproject.toml's, as installed
+    __version__ = importlib.metadata.version("geostructure")
+except importlib.metadata.PackageNotFoundError:  # a source tree that was never installed
+    __version__ = "0+unknown"
 
 #: Public name -> the module that defines it.
 _PUBLIC = {

@@ -5,7 +5,7 @@ import sys
 
 def run() -> int:
     try:
-        from .cli import main
+        from .cli import main  # lazy on purpose: the import itself may be interrupted
     except KeyboardInterrupt:
         print("geostructure: interrupted while starting; nothing was written.", file=sys.stderr)
         return 130

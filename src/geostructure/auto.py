@@ -23,12 +23,13 @@
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .params import Params
+from .params import ParameterWarning, Params
 from .voxel import accumulate_moments, fit_voxels, voxel_edge
 
 #: Points wanted in the typical voxel.
@@ -109,10 +110,6 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     angle, offset = surface_noise(points, zeta, voxels=voxels)
     theta = float(np.clip(1.5 * angle, *THETA_RANGE))
     psi = float(np.clip(3.0 * offset, *PSI_RANGE))
-    import warnings
-
-    from .params import ParameterWarning
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ParameterWarning)  # a sparse cloud may need zeta past 0.07
         params = base.with_(zeta=round(zeta, 5), theta=round(theta, 2), psi=round(psi, 3), k=8)

@@ -23,7 +23,7 @@ from scipy.optimize import linear_sum_assignment
 
 from .errors import GeoStructureError
 from .io.truth import GroundTruth
-from .orientation import angle_between_normals, azimuth_difference
+from .orientation import angle_between_normals, azimuth_difference, orientation_from_normals
 
 RANGES = {"strike": 360.0, "dip": 90.0, "dip_direction": 360.0}
 
@@ -240,8 +240,6 @@ def evaluate(planes: PlaneSet, truth: GroundTruth, *, matched=None, **match_opti
 
 def scene_truth(scene, frame) -> GroundTruth:
     """A synthetic scene's six surfaces as ground truth with centres (for the demo and tests)."""
-    from .orientation import orientation_from_normals
-
     o = orientation_from_normals(scene.normals, frame)
     return GroundTruth([s.name for s in scene.surfaces], o.dip, o.dip_direction,
                        np.array([s.normal for s in scene.surfaces]), np.array([s.center for s in scene.surfaces]))

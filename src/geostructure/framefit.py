@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .orientation import angle_between_normals
+from .orientation import Frame, angle_between_normals
 
 
 @dataclass
@@ -64,8 +64,6 @@ def fit_frame_to_truth(normals, truth_normals, *, start=None, candidates: int = 
 
 def fitted_frame(frame, fit: FrameFit):
     """The frame in which the truth normals land on their planes: east, north, up turned by the fit."""
-    from .orientation import Frame
-
     matrix = frame.matrix @ fit.rotation.T  # each row (E, N, U in cloud axes) rotated
     return Frame(tuple(map(tuple, matrix.tolist())), frame.declination, f"{frame.name}, fitted to ground truth")
 

@@ -122,7 +122,8 @@ def _stage_evaluation(outputs: OutputSet, evaluation: Evaluation, extra: dict | 
 
 def _stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> dict[str, Path]:
     """Draw the report from the files in ``source`` (the staged set, or a verified folder)."""
-    from .report.html import build_report  # plotly and matplotlib load only when a report is asked for
+    # Lazy on purpose: plotly and matplotlib (0.4 to 0.5 s to import here) load only when a report is asked for.
+    from .report.html import build_report
     from .report.stereonet import rose_figure, save, stereonet_figure
 
     planes = PlaneSet.from_csv(Path(source) / "planes.csv")

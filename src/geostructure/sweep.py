@@ -17,6 +17,7 @@ import numpy as np
 
 from .errors import GeoStructureError
 from .evaluate import PlaneSet, evaluate
+from .io.atomic import write_figure
 from .params import TABLE1, Params
 from .pipeline import measure
 
@@ -113,15 +114,13 @@ def plot_sweep(rows: list[SweepRow], stem) -> list:
 
     Writes ``stem.png`` and ``stem.svg``; returns the paths.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # a Figure of its own: the caller's pyplot backend is left alone
 
     factors = [f for f in FACTORS if any(r.factor == f for r in rows)]
     labels = {"zeta": "ζ (voxel size factor)", "theta": "θ (angle threshold, °)", "psi": "ψ (offset, voxel edges)",
               "k": "k (neighbours)"}
-    fig, axes = plt.subplots(2, len(factors), figsize=(4.2 * len(factors), 6.4), squeeze=False, sharex="col")
+    fig = Figure(figsize=(4.2 * len(factors), 6.4))
+    axes = fig.subplots(2, len(factors), squeeze=False, sharex="col")
     for col, factor in enumerate(factors):
         sel = [r for r in rows if r.factor == factor]
         x = [r.value for r in sel]
@@ -145,15 +144,4 @@ def plot_sweep(rows: list[SweepRow], stem) -> list:
             top.legend(fontsize=8)
             bottom.legend(fontsize=8)
     fig.tight_layout()
-    from pathlib import Path
-
-    from .io.atomic import atomic_path
-
-    paths = []
-    for suffix in (".png", ".svg"):
-        path = Path(f"{stem}{suffix}")
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format=suffix[1:], dpi=120)
-        paths.append(path)
-    plt.close(fig)
-    return paths
+    return write_figure(fig, stem, dpi=120)

@@ -87,6 +87,17 @@ def write_json(data: dict, path) -> Path:
     return Path(path)
 
 
+def write_figure(fig, stem, formats=("png", "svg"), **savefig) -> list[Path]:
+    """Save a matplotlib figure as ``stem.<format>`` for each format, each file atomically."""
+    paths = []
+    for fmt in formats:
+        path = Path(f"{stem}.{fmt}")
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=fmt, **savefig)
+        paths.append(path)
+    return paths
+
+
 def format_number(value) -> str:
     """A CSV cell: integers as such, floats in the shortest form that reads back to the same
     float64 (``repr``), so UTM coordinates keep every bit.

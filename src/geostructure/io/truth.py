@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError, GeoStructureWarning, InputError
-from ..orientation import Frame, angle_between_normals, azimuth_difference, normal_from_orientation
+from ..orientation import (Frame, angle_between_normals, azimuth_difference, normal_from_orientation,
+                           orientation_from_normals)
 
 QUADRANTS = {"N": 0, "NNE": 22.5, "NE": 45, "ENE": 67.5, "E": 90, "ESE": 112.5, "SE": 135, "SSE": 157.5, "S": 180,
              "SSW": 202.5, "SW": 225, "WSW": 247.5, "W": 270, "WNW": 292.5, "NW": 315, "NNW": 337.5}
@@ -133,8 +134,6 @@ def _row_orientation(cell, frame, path, line, name):
         if not has_normal:
             raise GeoStructureError(f"{path}: line {line}: surface '{name}' needs two of strike, dip and dip "
                                     f"direction, or a normal.")
-        from ..orientation import orientation_from_normals
-
         o = orientation_from_normals(n, frame)
         dip = o.dip[0] if np.isnan(dip) else dip
         dd = o.dip_direction[0] if np.isnan(dd) else dd

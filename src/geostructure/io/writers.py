@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv, write_geojson
 from .outdir import EVALUATION_FILES, OutputSet, output_set
@@ -86,8 +87,6 @@ def write_voxel_planes_ply(result, path) -> Path:
 def run_record(result, extra: dict | None = None) -> dict:
     """Parameters, frame, versions, point counts and seconds per stage, as plain JSON values."""
     import scipy
-
-    from .. import __version__
 
     record = {
         "input": str(result.cloud.source),

@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
+from .planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
+from .sfm import pair_angle, quiet_colmap
 
 SWEEP_MIN_ANGLE = 2.0   # degrees; forward steps give small angles on the shared points
 
@@ -71,7 +73,6 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
                                 "machine with an NVIDIA GPU); use --dense sgbm or sweep here.")
     if method not in ("auto", "colmap", "sgbm", "sweep"):
         raise GeoStructureError(f"unknown dense method '{method}'; use auto, colmap, sgbm or sweep.")
-    from .sfm import quiet_colmap
 
     with quiet_colmap():
         workdir = undistort(sparse_dir, image_dir, workdir)
@@ -149,15 +150,6 @@ def choose_pairs(reconstruction, options: DenseOptions, shared=None) -> list[tup
     return pairs
 
 
-def pair_angle(reconstruction, a: int, b: int, pids) -> float:
-    """Median triangulation angle (degrees) of two images on (up to 200 of) their shared points."""
-    xyz = np.array([reconstruction.points3D[p].xyz for p in pids[:200]])
-    ra = xyz - reconstruction.images[a].projection_center()
-    rb = xyz - reconstruction.images[b].projection_center()
-    cos = np.einsum("ij,ij->i", ra, rb) / np.linalg.norm(ra, axis=1) / np.linalg.norm(rb, axis=1)
-    return float(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1)))))
-
-
 def _sideways(img_a, img_b, min_ratio: float = 0.8) -> bool:
     """Whether b sits mostly beside a (not ahead or behind): pairs moving along the view
     axis rectify badly, their epipoles falling inside the images."""
@@ -169,7 +161,6 @@ def _sideways(img_a, img_b, min_ratio: float = 0.8) -> bool:
 
 
 def _sweep(reconstruction, shared, image_dir: Path, options: DenseOptions, progress):
-    from .planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
 
     report = progress or (lambda stage, done, total: None)
     sweep = SweepOptions(partners=options.neighbours)

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import GeoStructureError
 from ..geodesy import geodetic_to_enu
+from ..orientation import Frame
 
 
 @dataclass
@@ -91,8 +92,6 @@ def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
 
 def manual(up, north, scale: float = 1.0) -> Georeference:
     """The user's word on which model directions are up and north, and the model's scale."""
-    from ..orientation import Frame
-
     if not (np.isfinite(scale) and scale > 0):
         raise GeoStructureError(f"scale must be a positive finite number, not {scale}.")
     frame = Frame.from_up_north(up, north)

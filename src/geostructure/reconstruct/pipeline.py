@@ -15,11 +15,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
-from .dense import DenseOptions
-from .frames import VIDEO_SUFFIXES, FrameOptions
-from .georef import describe_georeference
-from .sfm import SfmOptions
-from .surface import SurfaceOptions
+from ..io.atomic import atomic_path, write_json
+from ..io.outdir import prepare_outdir
+from .dense import DenseOptions, dense_cloud
+from .frames import VIDEO_SUFFIXES, FrameOptions, extract_frames
+from .georef import (camera_up, describe_georeference, manual, read_gcp, solve_exif_gps, solve_gcp,
+                     triangulate_observations)
+from .sfm import SfmOptions, list_images, run_sfm, sparse_points
+from .surface import SurfaceOptions, poisson_points
 
 STAGES = ("frames", "sfm", "dense", "surface", "georef")
 
@@ -54,12 +57,6 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
     """Run (or resume) the reconstruction stages; ``log`` gets one line per stage."""
     import pycolmap
 
-    from ..io.atomic import write_json
-    from ..io.outdir import prepare_outdir
-    from .dense import dense_cloud
-    from .frames import extract_frames
-    from .sfm import list_images, run_sfm, sparse_points
-    from .surface import poisson_points
 
     source, outdir = Path(source), prepare_outdir(outdir)
     state_path = outdir / "reconstruct.json"
@@ -148,8 +145,6 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
 
 def georeference_model(model, image_dir, options: ReconstructOptions):
     """GCPs if given, else a manual frame if given, else EXIF GPS; refuses when none exists."""
-    from .georef import manual, read_gcp, solve_exif_gps, solve_gcp, triangulate_observations
-
     if options.gcp:
         world, observations, model_points, origin = read_gcp(options.gcp, image_dir)
         located = {**triangulate_observations(model, observations), **model_points}
@@ -175,8 +170,6 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
 def level_from_cameras(model, scale: float = 1.0):
     """Up from the cameras (held without roll, :func:`~.georef.camera_up`), north as their mean
     horizontal viewing direction: dips approximate, azimuths relative to where they looked."""
-    from .georef import camera_up, manual
-
     views = [image.cam_from_world().inverse().matrix()[:, 2] for image in model.images.values() if image.has_pose]
     geo = manual(camera_up(model), np.mean(views, axis=0), scale)
     geo.source, geo.approximate = "cameras-level", True
@@ -186,8 +179,6 @@ def level_from_cameras(model, scale: float = 1.0):
 def write_cloud_ply(points: np.ndarray, path) -> Path:
     """The georeferenced points, double precision, for measuring and for other tools."""
     from plyfile import PlyData, PlyElement
-
-    from ..io.atomic import atomic_path
 
     vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
     vertex["x"], vertex["y"], vertex["z"] = np.asarray(points, float).T

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
+from .sfm import pair_angle
 
 
 @dataclass(frozen=True)
@@ -137,7 +138,6 @@ def sweep_partners(reconstruction, shared: dict, partners: int, min_angle: float
                    max_angle: float) -> dict[int, list[int]]:
     """Each registered image's best partners for the sweep: most shared sparse points, weighted
     by triangulation angle up to ``best_angle``; no sideways condition (that is the point)."""
-    from .dense import pair_angle
 
     scored: dict[int, list] = {}
     for (a, b), pids in shared.items():

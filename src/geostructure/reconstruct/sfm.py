@@ -172,3 +172,12 @@ def sparse_points(reconstruction) -> np.ndarray:
     """(N, 3) sparse points of a model, in model coordinates."""
     points = [p.xyz for p in reconstruction.points3D.values()]
     return np.array(points, dtype=np.float64).reshape(-1, 3)
+
+
+def pair_angle(reconstruction, a: int, b: int, pids) -> float:
+    """Median triangulation angle (degrees) of two images on (up to 200 of) their shared points."""
+    xyz = np.array([reconstruction.points3D[p].xyz for p in pids[:200]])
+    ra = xyz - reconstruction.images[a].projection_center()
+    rb = xyz - reconstruction.images[b].projection_center()
+    cos = np.einsum("ij,ij->i", ra, rb) / np.linalg.norm(ra, axis=1) / np.linalg.norm(rb, axis=1)
+    return float(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1)))))

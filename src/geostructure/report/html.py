@@ -13,7 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import ReportScene, load_scene
+from ..io.atomic import atomic_path, plain
+from ..reconstruct.georef import describe_georeference
+from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .stereonet import great_circle_xy, pole_density, pole_xy
 
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
@@ -33,9 +35,6 @@ def palette(n: int) -> list[str]:
 
 def build_report(outdir, path=None, *, max_points: int | None = None, title: str | None = None) -> Path:
     """Write ``report.html`` for a measured output folder; returns its path."""
-    from ..io.atomic import atomic_path
-    from .scene import MAX_DISPLAY_POINTS
-
     outdir = Path(outdir)
     scene = load_scene(outdir, max_points=max_points or MAX_DISPLAY_POINTS)
     html = render(scene, title=title or f"GeoStructure: {Path(scene.source).name or outdir.name}")
@@ -50,8 +49,6 @@ def _georeference_note(record: dict | None) -> dict | None:
     warning when its angles are approximate."""
     if not record:
         return None
-    from ..reconstruct.georef import describe_georeference
-
     warning = None
     if record.get("source") == "cameras-level":
         warning = ("up from the cameras (--assume-level): dips approximate, azimuths relative to the view, "
@@ -63,8 +60,6 @@ def _georeference_note(record: dict | None) -> dict | None:
 
 def render(scene: ReportScene, title: str) -> str:
     from plotly.offline import get_plotlyjs
-
-    from ..io.atomic import plain
 
     payload = {
         "title": title,

@@ -5,17 +5,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.atomic import write_figure
+
 
 def stereonet_figure(strike, dip, *, title: str = ""):
     """Poles, great circles and pole density (Kamb contours) on an equal-area net."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import warnings
 
-    import matplotlib.pyplot as plt
+    import matplotlib  # lazy: a second to import, and only figures need it
+    from matplotlib.figure import Figure  # a Figure of its own: the caller's pyplot backend is left alone
 
-    fig = plt.figure(figsize=(6, 6))
+    fig = Figure(figsize=(6, 6))
     with warnings.catch_warnings():  # mplstereonet 0.6's Axes.cla override: its concern, not the user's
         warnings.simplefilter("ignore", matplotlib.MatplotlibDeprecationWarning)
         warnings.simplefilter("ignore", PendingDeprecationWarning)
@@ -34,15 +34,12 @@ def stereonet_figure(strike, dip, *, title: str = ""):
 
 def rose_figure(strike, *, bin_width: float = 10.0):
     """Rose diagram of strikes, drawn both ways (a strike is a line, not a direction)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     both = np.concatenate([np.asarray(strike, float), (np.asarray(strike, float) + 180) % 360])
     edges = np.arange(0, 360 + bin_width, bin_width)
     counts, _ = np.histogram(both, edges)
-    fig = plt.figure(figsize=(5, 5))
+    fig = Figure(figsize=(5, 5))
     ax = fig.add_subplot(111, projection="polar")
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
@@ -52,18 +49,8 @@ def rose_figure(strike, *, bin_width: float = 10.0):
 
 
 def save(fig, stem, formats=("png", "svg")) -> list[Path]:
-    import matplotlib.pyplot as plt
-
-    from ..io.atomic import atomic_path
-
-    paths = []
-    for fmt in formats:
-        path = Path(f"{stem}.{fmt}")
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=130, bbox_inches="tight")
-        paths.append(path)
-    plt.close(fig)
-    return paths
+    """The static figures as the report folder holds them (130 dpi, tight)."""
+    return write_figure(fig, stem, formats, dpi=130, bbox_inches="tight")
 
 
 # --- Projection arithmetic for the interactive report (drawn by plotly, not matplotlib) ---

@@ -1,76 +1,30 @@
-"""Command line: argument parsing only; every command calls the public Python API."""
+"""The commands on clouds and output folders: measure, evaluate, report, sweep, demo."""
 from __future__ import annotations
 
 import argparse
 import sys
 import time
-import warnings
 from pathlib import Path
 
-from . import __version__
-from .errors import GeoStructureError, GeoStructureWarning
-from .evaluate import PlaneSet, evaluate
-from .io.outdir import check_inputs_not_outputs, check_outdir
-from .io.readers import DEFAULT_MESH_SAMPLES, read_cloud
-from .io.truth import read_truth
-from .orientation import Frame
-from .params import Params
-from .pipeline import measure
-from .progress import StageProgress
-from .cli_types import finite_float, positive_float, whole
-from .runs import add_evaluation, add_report, save_measurement
-from .tables import print_evaluation, print_match, print_planes, print_sweep
-
-EXIT_USER_ERROR = 2
-
-
-def main(argv=None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "command", None):
-        parser.print_help()
-        return EXIT_USER_ERROR
-    with warnings.catch_warnings():
-        warnings.simplefilter("always")
-        warnings.showwarning = _warning_printer()
-        try:
-            return args.run(args) or 0
-        except GeoStructureError as exc:
-            print(f"geostructure: error: {exc}", file=sys.stderr)
-            return EXIT_USER_ERROR
-        except OSError as exc:  # the machine's, not the data's: a disk, a permission, a device
-            where = f"{exc.filename}: " if exc.filename else ""
-            print(f"geostructure: error: {where}{exc.strerror or exc}.", file=sys.stderr)
-            return EXIT_USER_ERROR
-        except KeyboardInterrupt:
-            print("geostructure: interrupted; the output folder keeps its previous set (no half-written files).",
-                  file=sys.stderr)
-            return 130
+from ..errors import GeoStructureError
+from ..evaluate import PlaneSet, evaluate, match_scene, scene_truth
+from ..io.outdir import output_set
+from ..io.writers import write_table_csv
+from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
+from ..io.truth import read_truth
+from ..pipeline import measure
+from ..progress import StageProgress
+from ..runs import add_evaluation, add_report, save_measurement
+from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
+from ..sweep import run_sweep as sweep
+from ..synthetic import observatory_scene
+from ..tables import print_evaluation, print_match, print_planes, print_sweep
+from .options import (add_measure_options, base_params, check_before_work, check_outdir, finite_float, frame_from,
+                      params_from, positive_float, whole)
 
 
-def _warning_printer():
-    """``warnings.showwarning`` for one command: each message once, however often a value is
-    checked (warnings' own "once" forgets whenever a filter changes)."""
-    shown = set()
-
-    def show(message, category, filename, lineno, file=None, line=None):
-        if str(message) in shown:
-            return
-        shown.add(str(message))
-        if issubclass(category, GeoStructureWarning):
-            print(f"geostructure: warning: {message}", file=sys.stderr)
-        else:  # a library's own warning got past us: our defect, said as such, never passed off as advice
-            print(f"geostructure: internal warning (please report it): {category.__name__} at "
-                  f"{Path(filename).name}:{lineno}: {message}", file=sys.stderr)
-    return show
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="geostructure", description=(
-        "Measure strike, dip and dip direction of the planar surfaces in a point cloud."))
-    parser.add_argument("--version", action="version", version=f"geostructure {__version__}")
-    sub = parser.add_subparsers(dest="command")
-
+def add_measure_commands(sub) -> None:
+    """The parsers of measure, evaluate, report, sweep and demo."""
     m = sub.add_parser("measure", help="measure the planes of a point cloud file")
     m.add_argument("input", type=Path, help="PLY, LAS, LAZ, E57, XYZ, TXT or CSV file")
     m.add_argument("-o", "--outdir", type=Path, required=True, help="folder for planes.csv, regions.ply, run.json")
@@ -119,92 +73,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write report.html, stereonet and rose figures (default on)")
     add_measure_options(d)
     d.set_defaults(run=run_demo)
-
-    from .cli_reconstruct import add_reconstruct_commands
-
-    add_reconstruct_commands(sub)
-    return parser
-
-
-def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -> None:
-    defaults = Params()
-    g = p.add_argument_group("frame (which way is up and north)")
-    g.add_argument("--frame", choices=("enu", "paper"), default="enu",
-                   help="enu: x=East y=North z=Up (default); paper: x=North y=West z=Up")
-    g.add_argument("--up", type=finite_float, nargs=3, metavar=("X", "Y", "Z"), help="up vector in cloud axes")
-    g.add_argument("--north", type=finite_float, nargs=3, metavar=("X", "Y", "Z"), help="north vector in cloud axes")
-    g.add_argument("--declination", type=finite_float, default=0.0,
-                   help="magnetic declination in degrees, east positive: azimuths read against magnetic north")
-    a = p.add_argument_group("algorithm (the paper's variable factors)")
-    a.add_argument("--auto", action=argparse.BooleanOptionalAction, default=auto_default,
-                   help="choose zeta, theta, psi and k from the cloud (explicit values below still win)")
-    a.add_argument("--zeta", type=finite_float, help=f"voxel edge / largest extent (fixed default {defaults.zeta})")
-    a.add_argument("--theta", type=finite_float, help=f"angle threshold, degrees (fixed default {defaults.theta})")
-    a.add_argument("--psi", type=finite_float, help=f"offset threshold, voxel edges (fixed default {defaults.psi})")
-    a.add_argument("--k", type=int, help=f"neighbours per seed (fixed default {defaults.k})")
-    a.add_argument("--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)")
-    a.add_argument("--filter", choices=("local", "global", "none"), default=defaults.filter,
-                   help="Mahalanobis outlier filter (default %(default)s)")
-    a.add_argument("--sigma", type=positive_float, default=defaults.filter_sigma, help="filter threshold, std (default %(default)s)")
-    a.add_argument("--reference", choices=("region", "seed"), default=defaults.reference,
-                   help="compare normals with the region plane or the seed (default %(default)s)")
-    a.add_argument("--rectangle", choices=("exact", "golden"), default=defaults.rectangle,
-                   help="minimum-perimeter rectangle by rotating calipers or golden-section search")
-    a.add_argument("--merge", action=argparse.BooleanOptionalAction, default=defaults.merge,
-                   help="join coplanar regions split by a gap no wider than the smaller one (default on; "
-                        "--no-merge gives the paper's regions)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
-
-
-FACTOR_OPTIONS = ("zeta", "theta", "psi", "k")
-
-
-def base_params(args) -> Params:
-    """The parameters the options give, checked (and warned about) once, before any reading."""
-    given = {name: getattr(args, name) for name in FACTOR_OPTIONS if getattr(args, name) is not None}
-    return Params(min_points=args.min_points, filter=args.filter, filter_sigma=args.sigma,
-                  reference=args.reference, rectangle=args.rectangle, merge=args.merge, **given)
-
-
-def params_from(args, cloud=None) -> tuple[Params, dict | None]:
-    """Parameters from the options; with --auto (and a cloud), chosen from the cloud first.
-
-    Returns the parameters and, for --auto, a record of the choice for run.json.
-    """
-    from .auto import choose_params
-    from .pipeline import check_measurable
-
-    given = {name: getattr(args, name) for name in FACTOR_OPTIONS if getattr(args, name) is not None}
-    base = base_params(args)
-    if not (args.auto and cloud is not None) or len(given) == len(FACTOR_OPTIONS):
-        return base, None
-    check_measurable(cloud)
-    choice = choose_params(cloud.local, base)
-    params = choice.params.with_(**given) if given else choice.params
-    if not args.quiet:
-        print(f"geostructure: {choice.describe()}" + (f"; given: {given}" if given else ""), file=sys.stderr)
-    record = {"zeta": choice.params.zeta, "theta": choice.params.theta, "psi": choice.params.psi,
-              "k": choice.params.k, "points_per_voxel": choice.points_per_voxel,
-              "normal_noise_deg": choice.normal_noise_deg, "offset_noise_voxel_edges": choice.offset_noise,
-              "overridden_by_user": sorted(given)}
-    return params, record
-
-
-def frame_from(args) -> Frame:
-    if (args.up is None) != (args.north is None):
-        raise GeoStructureError("give both --up and --north, or neither.")
-    try:
-        if args.up is not None:
-            return Frame.from_up_north(args.up, args.north, args.declination)
-        return Frame.named(args.frame, args.declination)
-    except GeoStructureError as exc:  # the library names its parameters; here they are options
-        raise GeoStructureError(str(exc).replace("up ", "--up ").replace("north ", "--north ")) from None
-
-
-def check_before_work(args, inputs) -> None:
-    """Everything cheap, before reading a cloud: the output folder, and inputs it would overwrite."""
-    check_outdir(args.outdir)
-    check_inputs_not_outputs(args.outdir, [p for p in inputs if p is not None])
 
 
 def run_measure(args) -> int:
@@ -257,9 +125,6 @@ def run_evaluate(args) -> int:
 
 
 def run_demo(args) -> int:
-    from .evaluate import match_scene
-    from .synthetic import observatory_scene
-
     frame = frame_from(args)
     base_params(args)
     check_outdir(args.outdir)
@@ -287,12 +152,6 @@ def run_report(args) -> int:
 
 
 def run_sweep(args) -> int:
-    from .evaluate import scene_truth
-    from .io.outdir import output_set
-    from .io.writers import write_table_csv
-    from .sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
-    from .sweep import run_sweep as sweep
-
     frame = frame_from(args)
     base_params(args)
     if args.factor == "all" and any(v is not None for v in (args.start, args.end, args.step)):
@@ -303,8 +162,6 @@ def run_sweep(args) -> int:
         factor_values(factor, *ranges.get(factor, (None,) * 3))
     check_before_work(args, [args.input, args.truth])
     if args.demo:
-        from .synthetic import observatory_scene
-
         scene = observatory_scene(args.points)
         cloud, truth = scene.cloud, scene_truth(scene, frame)
     else:

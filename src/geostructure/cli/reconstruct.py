@@ -1,16 +1,29 @@
-"""Command line for the reconstruction stages: ``frames`` and ``run`` (the whole paper)."""
+"""The commands from video or photos: ``frames`` and ``run`` (the whole paper)."""
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import shutil
 import time
 from pathlib import Path
 
-from .cli_types import non_negative_float, positive_float, whole
+from ..cloud import Cloud
+from ..errors import GeoStructureError
+from ..io.truth import read_truth
+from ..orientation import Frame
+from ..progress import StageProgress
+from ..reconstruct.dense import DenseOptions
+from ..reconstruct.frames import FrameOptions, extract_frames
+from ..reconstruct.georef import read_gcp, read_gcp_csv
+from ..reconstruct.pipeline import ReconstructOptions, reconstruct
+from ..reconstruct.sfm import SfmOptions, list_images
+from ..reconstruct.surface import SurfaceOptions
+from .measure import measure_cloud
+from .options import (add_measure_options, base_params, check_before_work, frame_from, non_negative_float,
+                      positive_float, whole)
 
 
 def add_reconstruct_commands(sub) -> None:
-    from .reconstruct.frames import FrameOptions
-
     defaults = FrameOptions()
     f = sub.add_parser("frames", help="pick the sharp, moving frames of a video for SfM")
     f.add_argument("video", type=Path, help="mp4, avi, mov, mkv ... file")
@@ -18,8 +31,6 @@ def add_reconstruct_commands(sub) -> None:
     add_frame_options(f, defaults)
     f.add_argument("-q", "--quiet", action="store_true")
     f.set_defaults(run=run_frames)
-
-    from .cli import add_measure_options
 
     r = sub.add_parser("run", help="video or photos -> frames -> SfM -> dense -> surface -> georeference -> planes")
     r.add_argument("source", type=Path, help="a video file or a folder of photos")
@@ -59,18 +70,12 @@ def add_frame_options(parser, defaults) -> None:
 
 
 def frame_options(args):
-    from .errors import GeoStructureError
-    from .reconstruct.frames import FrameOptions
-
     if args.fps is not None and args.fps <= 0:
         raise GeoStructureError(f"--fps must be positive, not {args.fps}.")
     return FrameOptions(fps=args.fps, select=not args.all_frames, min_motion=args.min_motion, max_frames=args.max_frames)
 
 
 def run_frames(args) -> int:
-    from .progress import StageProgress
-    from .reconstruct.frames import extract_frames
-
     require_reconstruction_extra(needs_video=True, needs_mesh=False)
     with StageProgress(enabled=not args.quiet) as progress:
         report = extract_frames(args.video, args.outdir, frame_options(args), progress)
@@ -80,20 +85,6 @@ def run_frames(args) -> int:
 
 
 def run_run(args) -> int:
-    from .cli import base_params, check_before_work, frame_from, measure_cloud
-    from .cloud import Cloud
-    from .errors import GeoStructureError
-    from .io.truth import read_truth
-    from .reconstruct.georef import read_gcp, read_gcp_csv
-    from .reconstruct.sfm import list_images
-    from .progress import StageProgress
-    from .reconstruct.dense import DenseOptions
-    from .reconstruct.pipeline import ReconstructOptions, reconstruct
-    from .reconstruct.sfm import SfmOptions
-    from .reconstruct.surface import SurfaceOptions
-
-    from .orientation import Frame
-
     frame_from(args)  # refuse a half-given --up/--north before hours of reconstruction
     frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up
     base_params(args)
@@ -135,10 +126,6 @@ RECONSTRUCT_MODULES = {"pycolmap": "pycolmap", "cv2": "opencv-python-headless", 
 
 def require_reconstruction_extra(needs_video: bool, needs_mesh: bool) -> None:
     """Say which extra to install when a reconstruction package is missing, before any work."""
-    import importlib.util
-
-    from .errors import GeoStructureError
-
     modules = dict(RECONSTRUCT_MODULES)
     if needs_video:
         modules["av"] = "av"
@@ -152,15 +139,11 @@ def require_reconstruction_extra(needs_video: bool, needs_mesh: bool) -> None:
 
 def _resumable(stages, outdir: Path):
     """Run the reconstruction; on failure say what is kept and whether the same command resumes."""
-    from .errors import GeoStructureError
-
     existed = outdir.exists()
     try:
         return stages()
     except GeoStructureError as exc:
         if not existed and outdir.is_dir() and not (outdir / "reconstruct.json").exists():
-            import shutil
-
             shutil.rmtree(outdir, ignore_errors=True)  # nothing finished: leave no half-made folder
             raise GeoStructureError(f"{exc} Nothing was kept.") from None
         if (outdir / "reconstruct.json").exists():

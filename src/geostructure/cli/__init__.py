@@ -1,0 +1,72 @@
+"""Command line: argument parsing only; every command calls the public Python API.
+
+``options`` holds what commands share (option types, the measuring options, the frame and
+parameters they give); ``measure`` the commands on clouds and output folders; ``reconstruct``
+the commands from video or photos. Each depends on ``options`` and the library, never on
+this module.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+from .. import __version__
+from ..errors import GeoStructureError, GeoStructureWarning
+from .measure import add_measure_commands
+from .reconstruct import add_reconstruct_commands
+
+EXIT_USER_ERROR = 2
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return EXIT_USER_ERROR
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = _warning_printer()
+        try:
+            return args.run(args) or 0
+        except GeoStructureError as exc:
+            print(f"geostructure: error: {exc}", file=sys.stderr)
+            return EXIT_USER_ERROR
+        except OSError as exc:  # the machine's, not the data's: a disk, a permission, a device
+            where = f"{exc.filename}: " if exc.filename else ""
+            print(f"geostructure: error: {where}{exc.strerror or exc}.", file=sys.stderr)
+            return EXIT_USER_ERROR
+        except KeyboardInterrupt:
+            print("geostructure: interrupted; the output folder keeps its previous set (no half-written files).",
+                  file=sys.stderr)
+            return 130
+
+
+def _warning_printer():
+    """``warnings.showwarning`` for one command: each message once, however often a value is
+    checked (warnings' own "once" forgets whenever a filter changes)."""
+    shown = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if str(message) in shown:
+            return
+        shown.add(str(message))
+        if issubclass(category, GeoStructureWarning):
+            print(f"geostructure: warning: {message}", file=sys.stderr)
+        else:  # a library's own warning got past us: our defect, said as such, never passed off as advice
+            print(f"geostructure: internal warning (please report it): {category.__name__} at "
+                  f"{Path(filename).name}:{lineno}: {message}", file=sys.stderr)
+    return show
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="geostructure", description=(
+        "Measure strike, dip and dip direction of the planar surfaces in a point cloud."))
+    parser.add_argument("--version", action="version", version=f"geostructure {__version__}")
+    sub = parser.add_subparsers(dest="command")
+
+    add_measure_commands(sub)
+    add_reconstruct_commands(sub)
+    return parser

@@ -1,0 +1,96 @@
+"""The package's dependency graph: no import cycle among its modules (imports inside
+functions count), and no import of its own modules hidden in a function unless it is
+lazy on purpose, which its line says ("lazy")."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / "src" / "geostructure"
+
+
+def module_names() -> dict[str, Path]:
+    names = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        names[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return names
+
+
+MODULES = module_names()
+
+
+def imported(module: str, node: ast.ImportFrom | ast.Import) -> list[str]:
+    """The package modules an import statement of ``module`` loads."""
+    if isinstance(node, ast.Import):
+        return [a.name for a in node.names if a.name in MODULES]
+    package = module if MODULES[module].name == "__init__.py" else module.rsplit(".", 1)[0]
+    if node.level:
+        base = package.split(".")[: len(package.split(".")) - node.level + 1]
+        target = ".".join(base + ([node.module] if node.module else []))
+    else:
+        target = node.module or ""
+    found = [f"{target}.{a.name}" if f"{target}.{a.name}" in MODULES else target for a in node.names]
+    return [name for name in found if name in MODULES and name != module]
+
+
+def graph() -> dict[str, set[str]]:
+    edges = {}
+    for module, path in MODULES.items():
+        edges[module] = {t for node in ast.walk(ast.parse(path.read_text()))
+                         if isinstance(node, (ast.Import, ast.ImportFrom)) for t in imported(module, node)}
+    return edges
+
+
+def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in edges[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in edges:
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_the_checker_finds_a_cycle():
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_no_import_cycle_among_the_packages_modules():
+    assert cycles(graph()) == []
+
+
+def test_imports_of_the_package_inside_functions_are_lazy_on_purpose():
+    hidden = []
+    for module, path in MODULES.items():
+        lines = path.read_text().splitlines()
+        for function in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(function, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(function):
+                if isinstance(node, (ast.Import, ast.ImportFrom)) and imported(module, node):
+                    said = " ".join(lines[max(0, node.lineno - 3): node.lineno])  # its line or the two above
+                    if "lazy" not in said.lower():
+                        hidden.append(f"{path.relative_to(PACKAGE)}:{node.lineno}")
+    assert hidden == []
