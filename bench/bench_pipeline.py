@@ -12,6 +12,7 @@ defaults, kNN 30), the nearest thing in a widely used library to what GeoStructu
 It needs the ``open3d`` extra (``pip install -e .[open3d]``) and Debian's libusb-1.0-0,
 libgl1 and libgomp1; without it only GeoStructure is measured.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -57,16 +58,22 @@ def worker(method: str, scene_path: str, n_points: int, seed: int) -> dict:
         normals = np.array([np.asarray(b.R)[:, int(np.argmin(b.extent))] for b in boxes]).reshape(-1, 3)
     total = time.perf_counter() - t0
     surfaces = truth.surfaces
-    matched = match_by_location(centres, [s.center for s in surfaces],
-                                [0.5 * np.hypot(s.width, s.height) for s in surfaces])
+    matched = match_by_location(
+        centres, [s.center for s in surfaces], [0.5 * np.hypot(s.width, s.height) for s in surfaces]
+    )
     found = matched >= 0
     errors = [float(angle_between_normals(normals[j], s.normal)[0]) for s, j in zip(surfaces, matched) if j >= 0]
     return {
-        "method": method, "points": n_points, "seconds": {k: round(v, 3) for k, v in seconds.items()},
-        "total_s": round(total, 3), "points_per_s": round(n_points / total),
+        "method": method,
+        "points": n_points,
+        "seconds": {k: round(v, 3) for k, v in seconds.items()},
+        "total_s": round(total, 3),
+        "points_per_s": round(n_points / total),
         "peak_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
-        "rss_before_mib": round(rss_before / 1024, 1), "planes": int(len(normals)),
-        "found": int(found.sum()), "mean_error_deg": round(float(np.mean(errors)), 4) if errors else None,
+        "rss_before_mib": round(rss_before / 1024, 1),
+        "planes": int(len(normals)),
+        "found": int(found.sum()),
+        "mean_error_deg": round(float(np.mean(errors)), 4) if errors else None,
     }
 
 
@@ -116,9 +123,12 @@ def main() -> None:
                 print(format_row(row), flush=True)
             by = {r["method"]: r for r in rows if r["points"] == n and "error" not in r}
             if len(by) == 2:
-                print(f"  -> GeoStructure is {by['open3d']['total_s'] / by['geostructure']['total_s']:.1f}x faster than "
-                      f"Open3D at {n:,} points; mean normal error {by['geostructure']['mean_error_deg']} vs "
-                      f"{by['open3d']['mean_error_deg']} deg", flush=True)
+                print(
+                    f"  -> GeoStructure is {by['open3d']['total_s'] / by['geostructure']['total_s']:.1f}x faster than "
+                    f"Open3D at {n:,} points; mean normal error {by['geostructure']['mean_error_deg']} vs "
+                    f"{by['open3d']['mean_error_deg']} deg",
+                    flush=True,
+                )
     if args.json:
         args.json.write_text(json.dumps(rows, indent=2) + "\n")
 
@@ -127,9 +137,11 @@ def format_row(row: dict) -> str:
     if "error" in row:
         return f"{row['method']:<13} {row['points']:>10,} points: {row['error']}"
     stages = ", ".join(f"{k} {v:.2f}" for k, v in row["seconds"].items())
-    return (f"{row['method']:<13} {row['points']:>10,} points: {row['total_s']:7.2f} s "
-            f"({row['points_per_s']:,} points/s), peak {row['peak_rss_mib']:,.0f} MiB, "
-            f"{row['found']}/6 surfaces, mean error {row['mean_error_deg']} deg [{stages}]")
+    return (
+        f"{row['method']:<13} {row['points']:>10,} points: {row['total_s']:7.2f} s "
+        f"({row['points_per_s']:,} points/s), peak {row['peak_rss_mib']:,.0f} MiB, "
+        f"{row['found']}/6 surfaces, mean error {row['mean_error_deg']} deg [{stages}]"
+    )
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ its peak memory is its own; the SfM is redone each time, so its figures repeat.
     python bench/bench_reconstruct.py
     python bench/bench_reconstruct.py --images ../shared/data/sceaux_castle/images
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,11 +39,16 @@ def run_once(source: str, outdir: str, method: str, georef: list[str], truth: st
     t = time.perf_counter()
     status = main(argv)
     record = json.loads((Path(outdir) / "reconstruct.json").read_text())
-    row = {"status": status, "total_s": time.perf_counter() - t,
-           "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-           "frames_s": record.get("frames", {}).get("seconds"),
-           "sfm_s": sum(record["sfm"]["seconds"].values()), "dense_s": record["dense"]["seconds"],
-           "points": record["dense"]["points"], "surface_s": record["surface"]["seconds"]}
+    row = {
+        "status": status,
+        "total_s": time.perf_counter() - t,
+        "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "frames_s": record.get("frames", {}).get("seconds"),
+        "sfm_s": sum(record["sfm"]["seconds"].values()),
+        "dense_s": record["dense"]["seconds"],
+        "points": record["dense"]["points"],
+        "surface_s": record["surface"]["seconds"],
+    }
     evaluation = Path(outdir) / "evaluation.csv"
     if evaluation.exists():
         import csv
@@ -56,12 +62,16 @@ def report(name: str, rows: dict) -> None:
     for method, r in rows.items():
         frames = f"frames {r['frames_s']:.1f} s, " if r["frames_s"] else ""
         error = f", largest normal error {r['max_error_deg']:.2f} deg" if "max_error_deg" in r else ""
-        print(f"{name} [{method:>5}]: {frames}SfM {r['sfm_s']:.1f} s, dense {r['dense_s']:.1f} s "
-              f"({r['points']:,} points, {r['points'] / r['dense_s']:,.0f} points/s), surface {r['surface_s']:.1f} s, "
-              f"total {r['total_s']:.1f} s, peak {r['peak_mib']:.0f} MiB{error}")
+        print(
+            f"{name} [{method:>5}]: {frames}SfM {r['sfm_s']:.1f} s, dense {r['dense_s']:.1f} s "
+            f"({r['points']:,} points, {r['points'] / r['dense_s']:,.0f} points/s), surface {r['surface_s']:.1f} s, "
+            f"total {r['total_s']:.1f} s, peak {r['peak_mib']:.0f} MiB{error}"
+        )
     g, s = rows["sgbm"], rows["sweep"]
-    print(f"{name}: ratio sweep / sgbm (OpenCV StereoSGBM pairs): dense time {s['dense_s'] / g['dense_s']:.2f}x, "
-          f"points {s['points'] / max(g['points'], 1):.2f}x")
+    print(
+        f"{name}: ratio sweep / sgbm (OpenCV StereoSGBM pairs): dense time {s['dense_s'] / g['dense_s']:.2f}x, "
+        f"points {s['points'] / max(g['points'], 1):.2f}x"
+    )
 
 
 def compare(name: str, source: str, georef: list[str], truth: str | None) -> None:

@@ -13,6 +13,7 @@ a desktop browser with a GPU draws faster.
     python bench/bench_report.py                   # 5M points
     python bench/bench_report.py --points 1000000
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,9 +26,18 @@ import tempfile
 import time
 from pathlib import Path
 
-BROWSER_FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                 "--disable-dev-shm-usage", "--window-size=1400,1000")
+BROWSER_FLAGS = (
+    "--headless=new",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-dev-shm-usage",
+    "--window-size=1400,1000",
+)
 
 
 def build(kind: str, outdir: str) -> dict:
@@ -45,13 +55,24 @@ def build(kind: str, outdir: str) -> dict:
         v = PlyData.read(str(Path(outdir) / "regions.ply"))["vertex"].data
         p = np.stack([v["x"], v["y"], v["z"]], axis=1)
         p = (p - p.min(axis=0)).astype(np.float32)
-        fig = go.Figure(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers",
-                                     marker=dict(size=1, color=v["region_id"].astype(np.float32))))
+        fig = go.Figure(
+            go.Scatter3d(
+                x=p[:, 0],
+                y=p[:, 1],
+                z=p[:, 2],
+                mode="markers",
+                marker=dict(size=1, color=v["region_id"].astype(np.float32)),
+            )
+        )
         fig.add_trace(go.Scatter3d(x=[], y=[], z=[]))
         path = Path(outdir) / "plotly_full.html"
         fig.write_html(str(path), include_plotlyjs=True, post_script="window.reportReady = true;")
-    return {"build_s": time.perf_counter() - t, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-            "path": str(path), "mb": Path(path).stat().st_size / 1e6}
+    return {
+        "build_s": time.perf_counter() - t,
+        "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "path": str(path),
+        "mb": Path(path).stat().st_size / 1e6,
+    }
 
 
 OPEN_TIMEOUT = 300
@@ -104,17 +125,27 @@ def main() -> None:
     print(f"{args.points:,} points measured and written in {time.perf_counter() - t:.1f} s: {len(result)} planes")
     rows = {}
     for kind in ("geostructure", "plotly_full"):
-        out = subprocess.run([sys.executable, __file__, "--build", kind, outdir], capture_output=True, text=True, check=True)
+        out = subprocess.run(
+            [sys.executable, __file__, "--build", kind, outdir], capture_output=True, text=True, check=True
+        )
         rows[kind] = json.loads(out.stdout.strip().splitlines()[-1])
         rows[kind]["open_s"] = open_seconds(rows[kind]["path"])
         r = rows[kind]
-        drawn = (f"drawn {r['open_s']:.1f} s after navigation" if r["open_s"] == r["open_s"]
-                 else f"not drawn within {OPEN_TIMEOUT} s")
-        print(f"{kind:>13}: {r['mb']:.1f} MB, built in {r['build_s']:.1f} s ({r['peak_mib']:.0f} MiB peak), "
-              f"{drawn} (headless Chromium, software WebGL)")
+        drawn = (
+            f"drawn {r['open_s']:.1f} s after navigation"
+            if r["open_s"] == r["open_s"]
+            else f"not drawn within {OPEN_TIMEOUT} s"
+        )
+        print(
+            f"{kind:>13}: {r['mb']:.1f} MB, built in {r['build_s']:.1f} s ({r['peak_mib']:.0f} MiB peak), "
+            f"{drawn} (headless Chromium, software WebGL)"
+        )
     g, p = rows["geostructure"], rows["plotly_full"]
-    opening = (f"{p['open_s'] / g['open_s']:.1f}x" if p["open_s"] == p["open_s"]
-               else f"more than {OPEN_TIMEOUT / g['open_s']:.0f}x")
+    opening = (
+        f"{p['open_s'] / g['open_s']:.1f}x"
+        if p["open_s"] == p["open_s"]
+        else f"more than {OPEN_TIMEOUT / g['open_s']:.0f}x"
+    )
     print(f"ratio plotly_full / geostructure: size {p['mb'] / g['mb']:.1f}x, opening {opening}")
     shutil.rmtree(outdir, ignore_errors=True)
 

@@ -1,4 +1,5 @@
 """Shared fixtures: real data from ../shared/data (skipped with a message when absent)."""
+
 from pathlib import Path
 
 import numpy as np

@@ -1,5 +1,6 @@
 """Helpers the reliability, fuzz and kill tests share: small clouds on disk, a CLI runner,
 and the checks of the error contract (one sentence, exit 2, the input untouched)."""
+
 from __future__ import annotations
 
 import hashlib
@@ -24,8 +25,11 @@ def folder_digests(folder) -> dict[str, str]:
     folder = Path(folder)
     if not folder.is_dir():
         return {}
-    return {str(p.relative_to(folder)): digest(p) for p in sorted(folder.rglob("*")) if p.is_file()
-            and p.name != ".geostructure-lock"}
+    return {
+        str(p.relative_to(folder)): digest(p)
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and p.name != ".geostructure-lock"
+    }
 
 
 def scene_points(n: int = 20_000, seed: int = 0, offset=(0.0, 0.0, 0.0)) -> np.ndarray:

@@ -1,5 +1,6 @@
 """The automatic parameters against the sweep, on scenes made with seeds the method was not tuned on
 (it was tuned on seed 101)."""
+
 import pytest
 
 from geostructure.auto import choose_params
@@ -7,10 +8,17 @@ from geostructure.autocheck import check_variant
 from geostructure.synthetic import observatory_scene
 
 
-@pytest.mark.parametrize("variant,seed,size", [
-    ("bundled", 7, 0.5), ("scale 0.1x", 8, 0.5), ("scale 10x", 9, 0.5),
-    ("sparse (1/25 density)", 10, 1.0), ("noisy (8 cm)", 11, 0.5), ("sparse and noisy", 12, 1.0),
-])
+@pytest.mark.parametrize(
+    "variant,seed,size",
+    [
+        ("bundled", 7, 0.5),
+        ("scale 0.1x", 8, 0.5),
+        ("scale 10x", 9, 0.5),
+        ("sparse (1/25 density)", 10, 1.0),
+        ("noisy (8 cm)", 11, 0.5),
+        ("sparse and noisy", 12, 1.0),
+    ],
+)
 def test_auto_lands_near_the_best_the_sweep_finds(variant, seed, size):
     check = check_variant(variant, seed, size)
     assert check.found_auto == 6, check

@@ -90,8 +90,10 @@ def test_truncated_binary_ply(capsys, tmp_path, good_ply):
 
 def test_ascii_ply_promising_more_points_than_it_holds(capsys, tmp_path):
     path = tmp_path / "short.ply"
-    path.write_text("ply\nformat ascii 1.0\nelement vertex 10\nproperty float x\nproperty float y\n"
-                    "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n")
+    path.write_text(
+        "ply\nformat ascii 1.0\nelement vertex 10\nproperty float x\nproperty float y\n"
+        "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+    )
     assert_user_error(capsys, tmp_path, path)
 
 
@@ -179,14 +181,22 @@ def test_bad_parameter_is_one_sentence(capsys, tmp_path, good_ply):
 
 
 def test_python_dash_m_runs_the_demo(tmp_path):
-    run = subprocess.run([sys.executable, "-m", "geostructure", "demo", "-o", str(tmp_path / "demo"),
-                          "--points", "60000"], capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, "-m", "geostructure", "demo", "-o", str(tmp_path / "demo"), "--points", "60000"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.returncode == 0, run.stderr
     assert "6 of 6 surfaces found" in run.stdout
     assert (tmp_path / "demo" / "planes.csv").exists()
 
 
 def test_python_dash_m_bad_input_exit_status(tmp_path):
-    run = subprocess.run([sys.executable, "-m", "geostructure", "measure", str(tmp_path / "missing.laz"),
-                          "-o", str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-m", "geostructure", "measure", str(tmp_path / "missing.laz"), "-o", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 2 and "Traceback" not in run.stderr and "missing.laz" in run.stderr

@@ -20,16 +20,21 @@ def plane_set(dd_dip, centres=None):
     u = np.cross(normals, [0, 0, 1.0])
     u[np.linalg.norm(u, axis=1) < 1e-9] = [1, 0, 0]
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    return PlaneSet(np.arange(n, 0, -1) * 100, centres, normals, o.strike, o.dip, o.dip_direction, centres, u,
-                    np.full((n, 2), 2.0))
+    return PlaneSet(
+        np.arange(n, 0, -1) * 100, centres, normals, o.strike, o.dip, o.dip_direction, centres, u, np.full((n, 2), 2.0)
+    )
 
 
 def truth_of(dd_dip, centres=None, names=None):
     dd_dip = np.asarray(dd_dip, float).reshape(-1, 2)
     n = len(dd_dip)
-    return GroundTruth(names or [f"s{i}" for i in range(n)], dd_dip[:, 1], dd_dip[:, 0],
-                       normal_from_orientation(dd_dip[:, 0], dd_dip[:, 1]),
-                       np.full((n, 3), np.nan) if centres is None else np.asarray(centres, float))
+    return GroundTruth(
+        names or [f"s{i}" for i in range(n)],
+        dd_dip[:, 1],
+        dd_dip[:, 0],
+        normal_from_orientation(dd_dip[:, 0], dd_dip[:, 1]),
+        np.full((n, 3), np.nan) if centres is None else np.asarray(centres, float),
+    )
 
 
 def test_z_by_hand():
@@ -88,19 +93,23 @@ def test_dip_quadrant_gives_the_dip_direction():
 
 def test_truth_with_two_of_three_angles(tmp_path):
     path = tmp_path / "t.csv"
-    path.write_text("surface,strike,dip,dip_direction,center_x,center_y,center_z\n"
-                    "a,,40,89,1,2,3\nb,10,30,,,,\nc,350,20(W),,,,\n")
+    path.write_text(
+        "surface,strike,dip,dip_direction,center_x,center_y,center_z\na,,40,89,1,2,3\nb,10,30,,,,\nc,350,20(W),,,,\n"
+    )
     truth = read_truth(path)
     np.testing.assert_allclose(truth.dip_direction, [89, 100, 260])
     assert truth.has_centres.tolist() == [True, False, False]
 
 
-@pytest.mark.parametrize("body,message", [
-    ("surface,strike\na,10\n", "needs two of"),
-    ("surface,dip,dip_direction\na,95,10\n", "outside 0 to 90"),
-    ("surface,dip,dip_direction\na,steep,10\n", "not a number"),
-    ("name,dip\n", "needs a header row"),
-])
+@pytest.mark.parametrize(
+    "body,message",
+    [
+        ("surface,strike\na,10\n", "needs two of"),
+        ("surface,dip,dip_direction\na,95,10\n", "outside 0 to 90"),
+        ("surface,dip,dip_direction\na,steep,10\n", "not a number"),
+        ("name,dip\n", "needs a header row"),
+    ],
+)
 def test_bad_truth_files(tmp_path, body, message):
     path = tmp_path / "t.csv"
     path.write_text(body)

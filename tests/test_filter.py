@@ -28,8 +28,8 @@ def test_local_filter_removes_off_surface_noise_that_the_global_one_keeps():
     local = local_filter(pts, edge=0.4, threshold=3.0)
     glob = global_filter(pts, threshold=3.0)
     assert (~local.keep[is_outlier]).mean() > 0.9
-    assert (~glob.keep[is_outlier]).mean() < 0.1   # all inside the whole cloud's ellipsoid
-    assert local.keep[~is_outlier].mean() > 0.97   # the surfaces survive
+    assert (~glob.keep[is_outlier]).mean() < 0.1  # all inside the whole cloud's ellipsoid
+    assert local.keep[~is_outlier].mean() > 0.97  # the surfaces survive
 
 
 def test_a_dense_floating_cluster_passes_the_local_filter_but_makes_no_plane():

@@ -6,6 +6,7 @@ exit status 2: never a traceback, a library's warning, or a partial output folde
 Hypothesis is derandomized (the same cases every run, so CI cannot flake) and bounded so
 the whole file runs in seconds; ``GEOSTRUCTURE_FUZZ_SCALE=N`` runs N times as many new cases.
 """
+
 from __future__ import annotations
 
 import os
@@ -31,8 +32,13 @@ from geostructure.reconstruct.georef import read_gcp_csv
 
 #: More cases on request (``GEOSTRUCTURE_FUZZ_SCALE=20 make test``), new ones each time with a seed.
 SCALE = int(os.environ.get("GEOSTRUCTURE_FUZZ_SCALE", "1"))
-FUZZ = settings(max_examples=60, deadline=None, derandomize=SCALE == 1, database=None,
-                suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+FUZZ = settings(
+    max_examples=60,
+    deadline=None,
+    derandomize=SCALE == 1,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 FORMATS = ("ascii.ply", "binary.ply", "mesh.ply", "c.las", "c.laz", "c.e57", "c.xyz", "c.csv")
 
 
@@ -52,8 +58,9 @@ def valid(tmp_path_factory) -> dict[str, bytes]:
     faces["vertex_indices"] = rng.integers(0, 500, (100, 3))
     PlyData([PlyElement.describe(vertex, "vertex")], text=True).write(str(folder / "ascii.ply"))
     PlyData([PlyElement.describe(vertex, "vertex")], text=False).write(str(folder / "binary.ply"))
-    PlyData([PlyElement.describe(vertex, "vertex"), PlyElement.describe(faces, "face")],
-            text=False).write(str(folder / "mesh.ply"))
+    PlyData([PlyElement.describe(vertex, "vertex"), PlyElement.describe(faces, "face")], text=False).write(
+        str(folder / "mesh.ply")
+    )
     for suffix in ("las", "laz"):
         header = laspy.LasHeader(point_format=3, version="1.2")
         header.scales, header.offsets = [0.001] * 3, [500_000, 4_600_000, 0]
@@ -62,8 +69,11 @@ def valid(tmp_path_factory) -> dict[str, bytes]:
         las.write(str(folder / f"c.{suffix}"))
     local = points - points.mean(axis=0)
     with pye57.E57(str(folder / "c.e57"), mode="w") as e57:
-        e57.write_scan_raw({"cartesianX": local[:, 0], "cartesianY": local[:, 1], "cartesianZ": local[:, 2]},
-                           translation=points.mean(axis=0), rotation=np.array([1.0, 0, 0, 0]))
+        e57.write_scan_raw(
+            {"cartesianX": local[:, 0], "cartesianY": local[:, 1], "cartesianZ": local[:, 2]},
+            translation=points.mean(axis=0),
+            rotation=np.array([1.0, 0, 0, 0]),
+        )
     write_xyz(folder / "c.xyz", points)
     write_xyz(folder / "c.csv", points, header="x,y,z", delimiter=",")
     return {name: (folder / name).read_bytes() for name in FORMATS}
@@ -89,8 +99,9 @@ def mutated(draw, valid_files):
         data = data[: draw(st.integers(0, len(data) - 1))]
     elif kind in ("flip", "flip header"):
         span = min(len(data), 400) if kind == "flip header" else len(data)
-        for position, value in draw(st.lists(st.tuples(st.integers(0, span - 1), st.integers(0, 255)),
-                                             min_size=1, max_size=12)):
+        for position, value in draw(
+            st.lists(st.tuples(st.integers(0, span - 1), st.integers(0, 255)), min_size=1, max_size=12)
+        ):
             data[position] = value
     elif kind == "lie":
         data = bytearray(lie_about_counts(name, bytes(data), draw(st.integers(0, 2**31 - 1))))
@@ -146,8 +157,22 @@ def test_measure_on_mutated_files_is_complete_or_one_sentence(valid, capsys):
         path.write_bytes(data)
         out = folder / "out"
         before = folder_digests(out)
-        code = main(["measure", str(path), "-o", str(out), "-q", "--no-auto", "--zeta", "0.1", "--min-points", "10",
-                     "--mesh-samples", "2000"])
+        code = main(
+            [
+                "measure",
+                str(path),
+                "-o",
+                str(out),
+                "-q",
+                "--no-auto",
+                "--zeta",
+                "0.1",
+                "--min-points",
+                "10",
+                "--mesh-samples",
+                "2000",
+            ]
+        )
         err = capsys.readouterr().err
         codes.append(code)
         assert code in (0, 2), err
@@ -162,18 +187,26 @@ def test_measure_on_mutated_files_is_complete_or_one_sentence(valid, capsys):
     assert len(codes) >= 100 and set(codes) == {0, 2}
 
 
-NUMBER_TEXT = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr),
-                        st.integers(-10**6, 10**6).map(str), st.sampled_from(["", "x", "1e400", "-0", "0x10"]))
+NUMBER_TEXT = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-(10**6), 10**6).map(str),
+    st.sampled_from(["", "x", "1e400", "-0", "0x10"]),
+)
 
 
 def test_random_option_values_exit_0_or_2(tmp_path_factory, capsys):
-    cloud = write_xyz(tmp_path_factory.mktemp("opt") / "c.xyz",
-                      np.random.default_rng(3).random((3000, 3)) * [10, 10, 0.02])
+    cloud = write_xyz(
+        tmp_path_factory.mktemp("opt") / "c.xyz", np.random.default_rng(3).random((3000, 3)) * [10, 10, 0.02]
+    )
     out = cloud.parent / "out"
 
     @settings(FUZZ, max_examples=80 * SCALE)
-    @given(option=st.sampled_from(["--zeta", "--theta", "--psi", "--k", "--sigma", "--min-points",
-                                   "--declination", "--mesh-samples"]), value=NUMBER_TEXT)
+    @given(
+        option=st.sampled_from(
+            ["--zeta", "--theta", "--psi", "--k", "--sigma", "--min-points", "--declination", "--mesh-samples"]
+        ),
+        value=NUMBER_TEXT,
+    )
     def check(option, value):
         try:
             code = main(["measure", str(cloud), "-o", str(out), "-q", f"{option}={value}"])
@@ -190,20 +223,25 @@ def test_random_option_values_exit_0_or_2(tmp_path_factory, capsys):
 
 def test_truth_gcp_and_planes_tables_read_or_refuse_random_content(tmp_path_factory):
     folder = tmp_path_factory.mktemp("tables")
-    good = {"truth.csv": b"surface,strike,dip,dip_direction,center_x\nA,0,40,90,1.5\nB,90,89(E),,\n",
-            "gcp.csv": b"name,E,N,Up,x,y,z\nA,1,2,3,4,5,6\nB,7,8,9,1,2,3\nC,4,4,4,0,0,1\n",
-            "planes.csv": b"region_id,n_points,centroid_x,centroid_y,centroid_z,normal_x,normal_y,normal_z,strike,dip,"
-                          b"dip_direction,rect_center_x,rect_center_y,rect_center_z,rect_u_x,rect_u_y,rect_u_z,"
-                          b"rect_width,rect_height\n0,100,1,2,3,0,0,1,0,0,0,1,2,3,1,0,0,2,1\n"}
+    good = {
+        "truth.csv": b"surface,strike,dip,dip_direction,center_x\nA,0,40,90,1.5\nB,90,89(E),,\n",
+        "gcp.csv": b"name,E,N,Up,x,y,z\nA,1,2,3,4,5,6\nB,7,8,9,1,2,3\nC,4,4,4,0,0,1\n",
+        "planes.csv": b"region_id,n_points,centroid_x,centroid_y,centroid_z,normal_x,normal_y,normal_z,strike,dip,"
+        b"dip_direction,rect_center_x,rect_center_y,rect_center_z,rect_u_x,rect_u_y,rect_u_z,"
+        b"rect_width,rect_height\n0,100,1,2,3,0,0,1,0,0,0,1,2,3,1,0,0,2,1\n",
+    }
     readers = {"truth.csv": read_truth, "gcp.csv": read_gcp_csv, "planes.csv": PlaneSet.from_csv}
 
     @settings(FUZZ, max_examples=300 * SCALE)
-    @given(name=st.sampled_from(sorted(good)), edits=st.lists(st.tuples(st.integers(0, 200), st.binary(max_size=3)),
-                                                              max_size=6), cut=st.integers(0, 300))
+    @given(
+        name=st.sampled_from(sorted(good)),
+        edits=st.lists(st.tuples(st.integers(0, 200), st.binary(max_size=3)), max_size=6),
+        cut=st.integers(0, 300),
+    )
     def check(name, edits, cut):
         data = bytearray(good[name])
         for position, chunk in edits:
-            data[position:position + len(chunk)] = chunk
+            data[position : position + len(chunk)] = chunk
         path = folder / name
         path.write_bytes(bytes(data[:cut] if cut < len(data) else data))
         with warnings.catch_warnings(record=True) as caught:

@@ -1,11 +1,12 @@
 """Georeferencing: similarity from control points, manual frame, EXIF GPS arithmetic."""
+
 import numpy as np
 import pytest
 from conftest import random_rotation, shared_file
 
 from geostructure.errors import GeoStructureError
-from geostructure.orientation import angle_between_vectors
 from geostructure.geodesy import enu_to_geodetic, geodetic_to_enu
+from geostructure.orientation import angle_between_vectors
 from geostructure.reconstruct.georef import gps_from_exif, manual, read_gcp, read_gcp_csv, solve_gcp, umeyama
 
 
@@ -45,8 +46,10 @@ def test_manual_frame_turns_model_axes_into_east_north_up():
 
 def test_geodetic_to_enu_small_steps():
     origin = (48.78, 2.30, 100.0)
-    enu = geodetic_to_enu(np.array([48.78 + 1e-4, 48.78]), np.array([2.30, 2.30 + 1e-4]), np.array([100.0, 105.0]), origin)
-    assert enu[0, 1] == pytest.approx(11.12, abs=0.02) and abs(enu[0, 0]) < 1e-6    # 1e-4 deg of latitude
+    enu = geodetic_to_enu(
+        np.array([48.78 + 1e-4, 48.78]), np.array([2.30, 2.30 + 1e-4]), np.array([100.0, 105.0]), origin
+    )
+    assert enu[0, 1] == pytest.approx(11.12, abs=0.02) and abs(enu[0, 0]) < 1e-6  # 1e-4 deg of latitude
     assert enu[1, 0] == pytest.approx(7.34, abs=0.02) and enu[1, 2] == pytest.approx(5.0, abs=0.01)
 
 
@@ -55,8 +58,8 @@ def test_enu_to_geodetic_inverts_geodetic_to_enu():
     enu = np.array([[100.0, -250.0, 35.0], [2000.0, 3000.0, -10.0], [0.0, 0.0, 0.0]])
     geodetic = enu_to_geodetic(enu, origin)
     assert np.allclose(geodetic[2], origin, atol=1e-9)
-    assert np.abs(geodetic_to_enu(*geodetic.T, origin) - enu).max() < 1e-6    # sub-micrometre
-    assert geodetic[1, 0] > origin[0] and geodetic[1, 1] > origin[1]          # north-east is north-east
+    assert np.abs(geodetic_to_enu(*geodetic.T, origin) - enu).max() < 1e-6  # sub-micrometre
+    assert geodetic[1, 0] > origin[0] and geodetic[1, 1] > origin[1]  # north-east is north-east
 
 
 def test_gps_from_exif_of_a_real_photo():
@@ -79,11 +82,11 @@ def test_opensfm_gcp_json_of_the_berlin_set(tmp_path):
     """WGS84 positions become local ENU metres; OpenSfM's normalised projections become pixels."""
     path = shared_file("opensfm_berlin/ground_control_points.json")
     world, observations, model, origin = read_gcp(path, path.parent / "images")
-    assert sorted(world) == ["0", "3"] and model == {}     # point 1 has no position
+    assert sorted(world) == ["0", "3"] and model == {}  # point 1 has no position
     assert origin[0] == pytest.approx(52.51926, abs=1e-4) and origin[2] == 0.0
     east_north = np.array([world["3"][:2]]) - np.array([world["0"][:2]])
     assert np.linalg.norm(east_north) == pytest.approx(4.13, abs=0.01)
-    assert world["0"][2] == pytest.approx(14.946, abs=1e-3)        # Up stays the altitude
+    assert world["0"][2] == pytest.approx(14.946, abs=1e-3)  # Up stays the altitude
     first = next(o for o in observations if o[:2] == ("0", "02.jpg"))
     assert first[2] == pytest.approx(-0.015689 * 3264 + 1632) and first[3] == pytest.approx(-0.0625362 * 3264 + 1224)
     broken = tmp_path / "gcp.json"
@@ -134,18 +137,24 @@ def test_camera_up_ignores_pitch_but_not_roll_free_headings():
     rng = np.random.default_rng(5)
     model_from_world = np.linalg.qr(rng.normal(size=(3, 3)))[0]
     model_from_world *= np.sign(np.linalg.det(model_from_world))
-    cameras = [_camera(heading, 12.0, np.array([x, -20.0, 1.6]), model_from_world)
-               for heading, x in zip(np.linspace(-25, 25, 9), np.linspace(-10, 10, 9))]
+    cameras = [
+        _camera(heading, 12.0, np.array([x, -20.0, 1.6]), model_from_world)
+        for heading, x in zip(np.linspace(-25, 25, 9), np.linspace(-10, 10, 9))
+    ]
     model = SimpleNamespace(images={i: c for i, c in enumerate(cameras)})
     up = camera_up(model)
     true_up = model_from_world @ np.array([0.0, 0.0, 1.0])
     mean_up = np.mean([-c.cam_from_world().inverse().matrix()[:, 1] for c in cameras], axis=0)
     mean_up /= np.linalg.norm(mean_up)
-    assert angle_between_vectors(up, true_up)[0] < 0.5            # pitched 12 deg up, still found
-    assert angle_between_vectors(mean_up, true_up)[0] > 10.0      # what the mean camera up gives
+    assert angle_between_vectors(up, true_up)[0] < 0.5  # pitched 12 deg up, still found
+    assert angle_between_vectors(mean_up, true_up)[0] > 10.0  # what the mean camera up gives
 
     # All facing one way: the x axes leave the pitch open, and the mean camera up stands in.
-    same = SimpleNamespace(images={i: _camera(0.0, 12.0, np.array([x, -20.0, 1.6]), model_from_world)
-                                   for i, x in enumerate(np.linspace(-10, 10, 5))})
+    same = SimpleNamespace(
+        images={
+            i: _camera(0.0, 12.0, np.array([x, -20.0, 1.6]), model_from_world)
+            for i, x in enumerate(np.linspace(-10, 10, 5))
+        }
+    )
     fallback = camera_up(same)
     assert angle_between_vectors(fallback, true_up)[0] == pytest.approx(12.0, abs=0.01)

@@ -1,6 +1,7 @@
 """The package's dependency graph: no import cycle among its modules (imports inside
 functions count), and no import of its own modules hidden in a function unless it is
 lazy on purpose, which its line says ("lazy")."""
+
 from __future__ import annotations
 
 import ast
@@ -37,8 +38,12 @@ def imported(module: str, node: ast.ImportFrom | ast.Import) -> list[str]:
 def graph() -> dict[str, set[str]]:
     edges = {}
     for module, path in MODULES.items():
-        edges[module] = {t for node in ast.walk(ast.parse(path.read_text()))
-                         if isinstance(node, (ast.Import, ast.ImportFrom)) for t in imported(module, node)}
+        edges[module] = {
+            t
+            for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, (ast.Import, ast.ImportFrom))
+            for t in imported(module, node)
+        }
     return edges
 
 
@@ -90,7 +95,7 @@ def test_imports_of_the_package_inside_functions_are_lazy_on_purpose():
                 continue
             for node in ast.walk(function):
                 if isinstance(node, (ast.Import, ast.ImportFrom)) and imported(module, node):
-                    said = " ".join(lines[max(0, node.lineno - 3): node.lineno])  # its line or the two above
+                    said = " ".join(lines[max(0, node.lineno - 3) : node.lineno])  # its line or the two above
                     if "lazy" not in said.lower():
                         hidden.append(f"{path.relative_to(PACKAGE)}:{node.lineno}")
     assert hidden == []

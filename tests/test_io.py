@@ -71,20 +71,26 @@ def test_e57_round_trip_applies_the_scan_pose(tmp_path, points):
     local = points - offset
     path = tmp_path / "c.e57"
     with pye57.E57(str(path), mode="w") as e57:
-        e57.write_scan_raw({"cartesianX": local[:, 0], "cartesianY": local[:, 1], "cartesianZ": local[:, 2]},
-                           translation=offset, rotation=np.array([1.0, 0, 0, 0]))
+        e57.write_scan_raw(
+            {"cartesianX": local[:, 0], "cartesianY": local[:, 1], "cartesianZ": local[:, 2]},
+            translation=offset,
+            rotation=np.array([1.0, 0, 0, 0]),
+        )
     cloud = read_cloud(path)
     np.testing.assert_allclose(cloud.points, points, atol=1e-5, rtol=0)
 
 
-@pytest.mark.parametrize("content", [
-    "{x} {y} {z}\n",
-    "{x},{y},{z}\n",
-    "{x}\t{y}\t{z}\n",
-    "{x};{y};{z}\n",
-    "{x} {y} {z} 12 200 3\n",
-    "  {x}   {y}  {z}  \n",
-])
+@pytest.mark.parametrize(
+    "content",
+    [
+        "{x} {y} {z}\n",
+        "{x},{y},{z}\n",
+        "{x}\t{y}\t{z}\n",
+        "{x};{y};{z}\n",
+        "{x} {y} {z} 12 200 3\n",
+        "  {x}   {y}  {z}  \n",
+    ],
+)
 @pytest.mark.parametrize("header", ["", "X Y Z R G B\n", "# a comment\n", "x,y,z\n"])
 def test_text_layouts(tmp_path, content, header):
     pts = np.array([[1.5, 2.0, 3.25], [4.0, 5.0, 6.0], [7.0, 8.5, 9.0], [1.0, 0.0, 2.0]])

@@ -5,6 +5,7 @@ SIGKILL) at many points of its run, densest where it writes; after each kill the
 must verify as the previous run's set or the new run's (or hold a committed set that the
 next command finishes), and the next command must clean what the killed one left.
 """
+
 from __future__ import annotations
 
 import os
@@ -33,8 +34,10 @@ def measure_command(cloud: Path, out: Path) -> list[str]:
 def runs(tmp_path_factory):
     """Two clouds and the complete folder each gives, with the wall time of the second."""
     root = tmp_path_factory.mktemp("kill")
-    clouds = {name: write_xyz(root / f"{name}.xyz", scene_points(150_000, seed=seed)) for name, seed in
-              (("old", 1), ("new", 2))}
+    clouds = {
+        name: write_xyz(root / f"{name}.xyz", scene_points(150_000, seed=seed))
+        for name, seed in (("old", 1), ("new", 2))
+    }
     folders, seconds = {}, 0.0
     for name, cloud in clouds.items():
         folders[name] = root / f"ref_{name}"
@@ -84,7 +87,7 @@ def test_the_next_run_cleans_what_a_killed_one_left(runs, tmp_path, capsys):
     work = tmp_path / "work"
     shutil.copytree(folders["old"], work)
     (work / STAGING).mkdir()
-    (work / STAGING / "planes.csv").write_text("half")   # a killed run's staged file, uncommitted
+    (work / STAGING / "planes.csv").write_text("half")  # a killed run's staged file, uncommitted
     (work / ".regions.ply.abcd1234.tmp").write_text("x")  # an older version's temporary file
     code, _, err = run_cli(capsys, "measure", clouds["new"], "-o", work, *ARGS)
     assert code == 0, err

@@ -1,4 +1,5 @@
 """Coplanar merge: a wall split by a projecting bay is one plane; steps and far look-alikes are not."""
+
 import numpy as np
 import pytest
 
@@ -62,8 +63,10 @@ def test_merge_leaves_parallel_offset_planes_and_small_regions_alone():
     rng = np.random.default_rng(3)
     from geostructure.voxel import fit_voxels
 
-    step = [Surface("a", np.array([0.0, 0.0, 0.0]), SOUTH, 3.0, 3.0),
-            Surface("b", np.array([4.0, -0.2, 0.0]), SOUTH, 3.0, 3.0)]
+    step = [
+        Surface("a", np.array([0.0, 0.0, 0.0]), SOUTH, 3.0, 3.0),
+        Surface("b", np.array([4.0, -0.2, 0.0]), SOUTH, 3.0, 3.0),
+    ]
     points = np.vstack([sample_rectangle(s, 20_000, rng, 0.002) for s in step])
     voxels = fit_voxels(points, 0.02)
     labels = (voxels.centroid[:, 0] > 2.0).astype(np.int64)

@@ -2,8 +2,13 @@ import numpy as np
 import pytest
 
 from geostructure.errors import GeoStructureError
-from geostructure.orientation import (Frame, angle_between_normals, azimuth_difference, normal_from_orientation,
-                                      orientation_from_normals)
+from geostructure.orientation import (
+    Frame,
+    angle_between_normals,
+    azimuth_difference,
+    normal_from_orientation,
+    orientation_from_normals,
+)
 from geostructure.synthetic import PAPER_NORMALS, PAPER_TABLE
 
 PAPER = Frame.named("paper")

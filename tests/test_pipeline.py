@@ -64,7 +64,9 @@ def test_runs_are_deterministic(scene):
     b = measure(scene.cloud)
     np.testing.assert_array_equal(a.labels, b.labels)
     np.testing.assert_array_equal(a.normals, b.normals)
-    assert observatory_scene(5000, seed=9).cloud.points.tobytes() == observatory_scene(5000, seed=9).cloud.points.tobytes()
+    assert (
+        observatory_scene(5000, seed=9).cloud.points.tobytes() == observatory_scene(5000, seed=9).cloud.points.tobytes()
+    )
 
 
 def test_golden_section_gives_the_same_orientations(scene, scene_result):

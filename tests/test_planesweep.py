@@ -1,4 +1,5 @@
 """Plane sweep: depth from views that move along their axis (which rectification cannot take)."""
+
 import numpy as np
 
 from geostructure.reconstruct.planesweep import sweep_depth
@@ -24,8 +25,8 @@ def test_walking_towards_the_outcrop_gives_its_depth():
     seen = np.isfinite(true_depth)
     kept = np.isfinite(depth) & seen
     relative = np.abs(depth[kept] - true_depth[kept]) / true_depth[kept]
-    assert kept.sum() > 0.5 * seen.sum()                    # most of the view gets a depth (67%)
+    assert kept.sum() > 0.5 * seen.sum()  # most of the view gets a depth (67%)
     assert np.median(relative) < 0.01 and np.percentile(relative, 90) < 0.04
     # near the epipole (the image centre) the sweep barely moves a pixel: no depth is claimed there
     h, w = depth.shape
-    assert not np.isfinite(depth[h // 2 - 5:h // 2 + 5, w // 2 - 5:w // 2 + 5]).any()
+    assert not np.isfinite(depth[h // 2 - 5 : h // 2 + 5, w // 2 - 5 : w // 2 + 5]).any()

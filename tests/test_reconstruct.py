@@ -1,5 +1,6 @@
 """Reconstruction end to end on a rendered video of an outcrop with known planes, plus the
 frame selection and the errors a user meets with bad input."""
+
 import csv
 import json
 
@@ -41,17 +42,24 @@ def check_true_dips(measured, limit=2.0, min_points=500) -> dict:
     degrees of the truth."""
     found = {}
     for face in faces():
+
         def on_face(p):
             offset = np.array([p["centroid_x"], p["centroid_y"], p["centroid_z"]]) - face.centre
-            return (abs(offset @ face.normal) < 0.3 and abs(offset @ face.u) <= face.width / 2
-                    and abs(offset @ face.v) <= face.height / 2)
+            return (
+                abs(offset @ face.normal) < 0.3
+                and abs(offset @ face.u) <= face.width / 2
+                and abs(offset @ face.v) <= face.height / 2
+            )
 
         near = [p for p in measured if on_face(p) and p["n_points"] > min_points]
         assert near, f"{face.name} not found"
         best = max(near, key=lambda p: p["n_points"])
         found[face.name] = best
         assert abs(best["dip"] - face.dip) < limit, (face.name, best["dip"])
-        assert abs((best["dip_direction"] - face.dip_direction + 180) % 360 - 180) < limit, (face.name, best["dip_direction"])
+        assert abs((best["dip_direction"] - face.dip_direction + 180) % 360 - 180) < limit, (
+            face.name,
+            best["dip_direction"],
+        )
     return found
 
 
@@ -59,10 +67,11 @@ def test_rendered_video_gives_true_dips_after_georeferencing(run_dir):
     found = check_true_dips(planes(run_dir))
     names = [f.name for f in faces()]
     truth = {f.name: f.normal for f in faces()}
-    for i, a in enumerate(names):           # angles between planes need no georeference
-        for b in names[i + 1:]:
-            got = angle_between_normals(normal(found[a]["dip"], found[a]["dip_direction"]),
-                                        normal(found[b]["dip"], found[b]["dip_direction"]))[0]
+    for i, a in enumerate(names):  # angles between planes need no georeference
+        for b in names[i + 1 :]:
+            got = angle_between_normals(
+                normal(found[a]["dip"], found[a]["dip_direction"]), normal(found[b]["dip"], found[b]["dip_direction"])
+            )[0]
             want = angle_between_normals(truth[a], truth[b])[0]
             assert abs(got - want) < 1, (a, b, got, want)
     record = json.loads((run_dir / "reconstruct.json").read_text())
@@ -90,7 +99,7 @@ def test_frame_selection_drops_blurred_and_still_frames(outcrop, tmp_path):
 
     frames = [cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) for _, image in decode(outcrop[0])][:16]
     blurred = cv2.GaussianBlur(frames[8], (0, 0), 4)
-    shaky = frames[:8] + [blurred] + [frames[8]] * 4 + frames[9:]   # one blurred frame, a pause
+    shaky = frames[:8] + [blurred] + [frames[8]] * 4 + frames[9:]  # one blurred frame, a pause
     video = write_video(tmp_path / "shaky.mp4", shaky)
     report = extract_frames(video, tmp_path / "frames")
     assert report.decoded == len(shaky)
@@ -143,4 +152,4 @@ def test_walking_straight_at_the_outcrop_uses_the_plane_sweep(tmp_path, capsys):
     assert "(sweep)" in capsys.readouterr().out
     # the face walked at sits around the epipole, where a pixel barely moves: it gets the
     # fewest points (about 700 against thousands), but its plane must still be true
-    check_true_dips(planes(out), min_points=200)   # measured: normals within 0.08 to 1.3 deg
+    check_true_dips(planes(out), min_points=200)  # measured: normals within 0.08 to 1.3 deg

@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
 
-from geostructure.rectangle import (bounding_perimeter, exact_angle, golden_angle, hull_2d, region_plane,
-                                    rodrigues)
+from geostructure.rectangle import bounding_perimeter, exact_angle, golden_angle, hull_2d, region_plane, rodrigues
 
 
 def test_rodrigues_is_a_rotation_about_its_axis():

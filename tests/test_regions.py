@@ -45,9 +45,9 @@ def test_parallel_offset_planes_are_split_by_psi():
 
 def test_region_reference_stops_drift_round_a_curve_that_seed_reference_follows():
     rng = np.random.default_rng(6)
-    angle = rng.uniform(0, np.pi / 2, 60000)      # a quarter cylinder of radius 10
+    angle = rng.uniform(0, np.pi / 2, 60000)  # a quarter cylinder of radius 10
     pts = np.c_[10 * np.cos(angle), rng.uniform(0, 10, 60000), 10 * np.sin(angle)]
     seed_ref = labels_of(pts, zeta=0.03, theta=8, psi=0.5, reference="seed")
     region_ref = labels_of(pts, zeta=0.03, theta=8, psi=0.5, reference="region")
-    assert (seed_ref == dominant(seed_ref)).mean() > 0.9    # follows the curve all round
+    assert (seed_ref == dominant(seed_ref)).mean() > 0.9  # follows the curve all round
     assert (region_ref == dominant(region_ref)).mean() < 0.5  # stays a plane

@@ -1,5 +1,6 @@
 """The reliability issue's defects, one test each (numbered as in the issue): nothing lost,
 nothing silently wrong, and every bad input one sentence with exit status 2."""
+
 from __future__ import annotations
 
 import csv
@@ -57,11 +58,20 @@ def test_a_truth_file_that_is_an_output_is_refused(measured, capsys, cloud_file)
 
 
 # 2. Non-finite frame values never reach the numbers; JSON is strict.
-@pytest.mark.parametrize("option", [["--up", "nan", "0", "1", "--north", "0", "1", "0"],
-                                    ["--up", "inf", "0", "1", "--north", "0", "1", "0"],
-                                    ["--up", "0", "0", "1", "--north", "nan", "1", "0"],
-                                    ["--declination", "nan"], ["--declination", "inf"], ["--zeta", "nan"],
-                                    ["--theta", "inf"], ["--psi", "inf"], ["--sigma", "nan"]])
+@pytest.mark.parametrize(
+    "option",
+    [
+        ["--up", "nan", "0", "1", "--north", "0", "1", "0"],
+        ["--up", "inf", "0", "1", "--north", "0", "1", "0"],
+        ["--up", "0", "0", "1", "--north", "nan", "1", "0"],
+        ["--declination", "nan"],
+        ["--declination", "inf"],
+        ["--zeta", "nan"],
+        ["--theta", "inf"],
+        ["--psi", "inf"],
+        ["--sigma", "nan"],
+    ],
+)
 def test_non_finite_options_exit_2_before_reading(tmp_path, capsys, option):
     with pytest.raises(SystemExit) as stop:
         run_cli(capsys, "measure", tmp_path / "missing.xyz", "-o", tmp_path / "out", *option)
@@ -76,6 +86,7 @@ def test_the_api_refuses_non_finite_frames_and_parameters():
         Frame.from_up_north([np.inf, 0, 1], [0, 1, 0])
     with pytest.raises(ParameterError, match="psi"):
         from geostructure import Params
+
         Params(psi=float("inf"))
 
 
@@ -121,8 +132,16 @@ def test_a_rerun_removes_the_previous_sets_stale_files_and_nothing_else(measured
     (measured / "rose.png").write_bytes(b"a figure the user redrew")  # no longer the file we wrote
     assert run_cli(capsys, "measure", cloud_file, "-o", measured, *FIXED)[0] == 0
     names = {p.name for p in measured.iterdir() if not p.name.startswith(".")}
-    assert names == {"planes.csv", "planes_dips.csv", "planes.geojson", "regions.ply", "voxel_planes.ply",
-                     "run.json", "notes.txt", "rose.png"}
+    assert names == {
+        "planes.csv",
+        "planes_dips.csv",
+        "planes.geojson",
+        "regions.ply",
+        "voxel_planes.ply",
+        "run.json",
+        "notes.txt",
+        "rose.png",
+    }
     assert sorted(verified_record(measured)["outputs"]) == sorted(names - {"run.json", "notes.txt", "rose.png"})
 
 
@@ -184,12 +203,15 @@ def test_a_byte_order_mark_does_not_cost_the_first_point(tmp_path):
         assert len(cloud) == 2000 and np.array_equal(cloud.points[0], points[0])
 
 
-@pytest.mark.parametrize("text, words", [
-    ("surface,dip,dip,dip_direction\na,40,50,90\n", ["'dip'", "more than once"]),
-    ("surface,dip,dip_direction\na,40,inf\n", ["dip_direction", "finite"]),
-    ("surface,dip,strike\na,40,nan\n", ["strike", "finite"]),
-    ("surface,dip,dip_direction,center_x,center_y,center_z\na,40,90,1,inf,2\n", ["center_y", "finite"]),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("surface,dip,dip,dip_direction\na,40,50,90\n", ["'dip'", "more than once"]),
+        ("surface,dip,dip_direction\na,40,inf\n", ["dip_direction", "finite"]),
+        ("surface,dip,strike\na,40,nan\n", ["strike", "finite"]),
+        ("surface,dip,dip_direction,center_x,center_y,center_z\na,40,90,1,inf,2\n", ["center_y", "finite"]),
+    ],
+)
 def test_truth_values_are_used_as_written_or_refused(tmp_path, text, words):
     from geostructure.io.truth import read_truth
 
@@ -221,9 +243,25 @@ def test_a_full_disk_leaves_the_previous_set(measured, cloud_file):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (300_000, 300_000))
 
-    done = subprocess.run([sys.executable, "-m", "geostructure", "measure", str(cloud_file), "-o", str(measured),
-                           "--no-auto", "--zeta", "0.03", "-q"], capture_output=True, text=True,
-                          preexec_fn=small_files, timeout=300)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "geostructure",
+            "measure",
+            str(cloud_file),
+            "-o",
+            str(measured),
+            "--no-auto",
+            "--zeta",
+            "0.03",
+            "-q",
+        ],
+        capture_output=True,
+        text=True,
+        preexec_fn=small_files,
+        timeout=300,
+    )
     assert done.returncode == 2, done.stderr
     assert_one_sentence(done.stderr, str(measured), "holds what it held before")
     assert folder_digests(measured) == before
@@ -241,8 +279,10 @@ def test_no_space_left_during_staging_is_an_output_error(tmp_path):
 def test_truth_that_is_not_utf8(measured, tmp_path, capsys, cloud_file):
     truth = tmp_path / "latin1.csv"
     truth.write_bytes("surface,dip,dip_direction\nfalaise é,40,90\n".encode("latin-1"))
-    for argv in (["evaluate", measured, "--truth", truth], ["measure", cloud_file, "-o", tmp_path / "new",
-                                                             "--truth", truth, "-q"]):
+    for argv in (
+        ["evaluate", measured, "--truth", truth],
+        ["measure", cloud_file, "-o", tmp_path / "new", "--truth", truth, "-q"],
+    ):
         code, _, err = run_cli(capsys, *argv)
         assert code == 2
         assert_one_sentence(err, "latin1.csv", "UTF-8")
@@ -276,8 +316,9 @@ def test_run_checks_control_points_first(tmp_path, capsys, row):
 
 
 # 13. sweep ranges.
-@pytest.mark.parametrize("option, code", [(["--step", "nan"], "exit"), (["--end", "inf"], "exit"),
-                                          (["--step", "1e-12"], 2)])
+@pytest.mark.parametrize(
+    "option, code", [(["--step", "nan"], "exit"), (["--end", "inf"], "exit"), (["--step", "1e-12"], 2)]
+)
 def test_sweep_refuses_impossible_ranges(tmp_path, capsys, option, code):
     argv = ["sweep", "--demo", "--factor", "zeta", "-o", tmp_path / "s", *option]
     if code == "exit":
@@ -303,10 +344,15 @@ def test_run_without_pycolmap_names_the_extra(tmp_path, capsys, monkeypatch):
 
 
 # 15. No library warning reaches the user on tiny clouds.
-@pytest.mark.parametrize("points", [np.random.default_rng(0).random((10, 3)) * [1, 1, 0],
-                                    np.random.default_rng(1).random((6, 3)) * [1, 1, 1e-3],
-                                    np.random.default_rng(2).random((50, 3)),
-                                    np.outer(np.arange(100.0), [1, 2, 3])])
+@pytest.mark.parametrize(
+    "points",
+    [
+        np.random.default_rng(0).random((10, 3)) * [1, 1, 0],
+        np.random.default_rng(1).random((6, 3)) * [1, 1, 1e-3],
+        np.random.default_rng(2).random((50, 3)),
+        np.outer(np.arange(100.0), [1, 2, 3]),
+    ],
+)
 def test_tiny_clouds_give_no_raw_warning(tmp_path, capsys, points):
     code, _, err = run_cli(capsys, "measure", write_xyz(tmp_path / "tiny.xyz", points), "-o", tmp_path / "o", "-q")
     assert code in (0, 2) and "internal warning" not in err and "Traceback" not in err, err
@@ -332,11 +378,14 @@ def test_an_output_folder_that_is_a_file_is_refused_before_reading(tmp_path, cap
 
 
 # 17. Clear messages.
-@pytest.mark.parametrize("argv, words", [
-    (["measure", "x.xyz", "-o", "o", "--mesh-samples", "-5"], "--mesh-samples: -5 is less than 0"),
-    (["frames", "v.mp4", "-o", "o", "--max-frames", "0"], "--max-frames: 0 is less than 1"),
-    (["frames", "v.mp4", "-o", "o", "--min-motion", "-1"], "--min-motion: -1 is negative"),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["measure", "x.xyz", "-o", "o", "--mesh-samples", "-5"], "--mesh-samples: -5 is less than 0"),
+        (["frames", "v.mp4", "-o", "o", "--max-frames", "0"], "--max-frames: 0 is less than 1"),
+        (["frames", "v.mp4", "-o", "o", "--min-motion", "-1"], "--min-motion: -1 is negative"),
+    ],
+)
 def test_impossible_counts_are_refused_by_the_parser(capsys, argv, words):
     with pytest.raises(SystemExit) as stop:
         run_cli(capsys, *argv)

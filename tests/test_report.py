@@ -5,10 +5,10 @@ import numpy as np
 from conftest import shared_file
 
 from geostructure.cli import main
+from geostructure.io.exports import geojson
 from geostructure.io.readers import read_cloud
 from geostructure.params import Params
 from geostructure.pipeline import measure
-from geostructure.io.exports import geojson
 from geostructure.report.stereonet import stereonet_figure
 
 
@@ -66,6 +66,6 @@ def test_geojson_of_a_gps_referenced_cloud_is_in_longitude_and_latitude(scene):
     data = geojson(result)
     ring = np.array(data["features"][0]["geometry"]["coordinates"][0])
     lon, lat, alt = ring[0]
-    assert 13.18 < lon < 13.20 and 55.69 < lat < 55.71     # a building-sized scene about the origin
+    assert 13.18 < lon < 13.20 and 55.69 < lat < 55.71  # a building-sized scene about the origin
     back = geodetic_to_enu(ring[:-1, 1], ring[:-1, 0], ring[:-1, 2], origin)
     assert np.allclose(back, result.planes[0].corners + cloud.offset, atol=1e-6)

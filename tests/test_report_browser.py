@@ -1,4 +1,5 @@
 """End-to-end: report.html in a real headless Chromium (Debian's chromium + chromedriver)."""
+
 import os
 import shutil
 import tempfile
@@ -10,11 +11,23 @@ from geostructure.evaluate import match_scene
 from geostructure.io.writers import write_evaluation, write_outputs
 from geostructure.report.html import build_report
 
-CHROMIUM, DRIVER = shutil.which("chromium") or "/usr/bin/chromium", shutil.which("chromedriver") or "/usr/bin/chromedriver"
+CHROMIUM, DRIVER = (
+    shutil.which("chromium") or "/usr/bin/chromium",
+    shutil.which("chromedriver") or "/usr/bin/chromedriver",
+)
 # This machine has no network: keep Chromium from trying (and from failing loudly).
-FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--disable-dev-shm-usage", "--window-size=1400,1000")
+FLAGS = (
+    "--headless=new",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-dev-shm-usage",
+    "--window-size=1400,1000",
+)
 
 
 @pytest.fixture(scope="module")
@@ -59,9 +72,11 @@ def test_report_opens_lists_every_plane_and_shows_the_clicked_one(browser, tmp_p
     rows = browser.find_elements(By.CSS_SELECTOR, "#planes tbody tr")
     assert sorted(int(r.get_attribute("data-id")) for r in rows) == list(range(len(scene_result)))
 
-    browser.find_element(By.CSS_SELECTOR, 'th[data-key="dip"]').click()      # sort by dip
-    dips = [float(r.find_elements(By.TAG_NAME, "td")[2].text) for r in
-            browser.find_elements(By.CSS_SELECTOR, "#planes tbody tr")]
+    browser.find_element(By.CSS_SELECTOR, 'th[data-key="dip"]').click()  # sort by dip
+    dips = [
+        float(r.find_elements(By.TAG_NAME, "td")[2].text)
+        for r in browser.find_elements(By.CSS_SELECTOR, "#planes tbody tr")
+    ]
     assert dips == sorted(dips)
 
     target = browser.find_element(By.CSS_SELECTOR, '#planes tbody tr[data-id="2"]')

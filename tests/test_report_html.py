@@ -1,4 +1,5 @@
 """report.html without a browser: projection arithmetic, payload contents, bad folders."""
+
 import json
 import re
 
@@ -45,8 +46,8 @@ def test_pole_projection_agrees_with_mplstereonet():
 def test_great_circle_runs_strike_to_strike_through_the_dip_line():
     x, y = great_circle_xy(89, 40)
     assert np.hypot(x[0], y[0]) == pytest.approx(1) and np.hypot(x[-1], y[-1]) == pytest.approx(1)
-    assert np.degrees(np.arctan2(x[0], y[0])) % 360 == pytest.approx(359)   # the strike
-    mid = len(x) // 2                                                        # the dip line: plunge 40 to 089
+    assert np.degrees(np.arctan2(x[0], y[0])) % 360 == pytest.approx(359)  # the strike
+    mid = len(x) // 2  # the dip line: plunge 40 to 089
     assert np.hypot(x[mid], y[mid]) == pytest.approx(np.sqrt(2) * np.sin(np.radians(25)))
     assert np.degrees(np.arctan2(x[mid], y[mid])) == pytest.approx(89)
 

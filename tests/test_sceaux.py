@@ -5,6 +5,7 @@ dips are approximate and azimuths are relative to the view, but the facade's wal
 near vertical and share one orientation, and the recessed main wall, which region growing
 cuts in two at the projecting entrance bay, must come out as one plane with its residual.
 """
+
 import csv
 import json
 
@@ -31,8 +32,11 @@ def sceaux_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def split(sceaux_dir, tmp_path_factory):
     """The same cloud measured with the same parameters as the paper would: no coplanar merge."""
-    params = [f"--{k}={v}" for k, v in json.loads((sceaux_dir / "run.json").read_text())["params"].items()
-              if k in ("zeta", "theta", "psi", "k")]
+    params = [
+        f"--{k}={v}"
+        for k, v in json.loads((sceaux_dir / "run.json").read_text())["params"].items()
+        if k in ("zeta", "theta", "psi", "k")
+    ]
     out = tmp_path_factory.mktemp("split")
     assert main(["measure", str(sceaux_dir / "cloud.ply"), "-o", str(out), "--no-merge", "-q", *params]) == 0
     return read_planes(out)
@@ -51,19 +55,24 @@ def long_axis(plane):
 
 
 def facade_walls(planes, facade):
-    return [p for p in planes if p["n_points"] > 1000 and p["dip"] > 80
-            and abs((p["dip_direction"] - facade["dip_direction"] + 180) % 360 - 180) < 5]
+    return [
+        p
+        for p in planes
+        if p["n_points"] > 1000
+        and p["dip"] > 80
+        and abs((p["dip_direction"] - facade["dip_direction"] + 180) % 360 - 180) < 5
+    ]
 
 
 def test_the_facade_walls_are_vertical_and_share_one_orientation(sceaux_dir):
     planes = read_planes(sceaux_dir)
-    facade = planes[0]                                     # the largest plane
-    assert facade["dip"] > 85.0                            # measured 88.0 to 88.2: up from the cameras
-    assert facade["fit_residual"] < 0.03                   # measured 0.012 to 0.019 model units
+    facade = planes[0]  # the largest plane
+    assert facade["dip"] > 85.0  # measured 88.0 to 88.2: up from the cameras
+    assert facade["fit_residual"] < 0.03  # measured 0.012 to 0.019 model units
     walls = facade_walls(planes, facade)
-    assert len(walls) >= 3                                 # the main wall, the two pavilions, the bay
+    assert len(walls) >= 3  # the main wall, the two pavilions, the bay
     orientation = np.array([[p["dip"], p["dip_direction"]] for p in walls])
-    assert np.ptp(orientation, axis=0).max() < 2.5        # measured 1.1 to 1.5 deg
+    assert np.ptp(orientation, axis=0).max() < 2.5  # measured 1.1 to 1.5 deg
 
 
 def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split):
@@ -74,5 +83,5 @@ def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split):
     pieces = [p for p in facade_walls(split, facade) if abs(normal @ (vector(p, "centroid") - centre)) < 0.1]
     along = np.array([axis @ (vector(p, "rect_center") - centre) for p in pieces])
     assert len(pieces) >= 2 and along.min() < 0 < along.max()
-    assert np.all(np.abs(along) < length / 2)              # both lie inside the one merged rectangle
-    assert max(long_axis(p)[1] for p in pieces) < 0.7 * length   # measured: 2.8 against 6.1 to 6.5
+    assert np.all(np.abs(along) < length / 2)  # both lie inside the one merged rectangle
+    assert max(long_axis(p)[1] for p in pieces) < 0.7 * length  # measured: 2.8 against 6.1 to 6.5

@@ -2,6 +2,7 @@
 of a cathedral portal with COLMAP reference cameras). Our model has its own scale and frame, so
 it is aligned to the reference by a similarity first; then positions, rotations and focal
 length are compared."""
+
 import numpy as np
 import pytest
 from conftest import shared_file
@@ -30,10 +31,10 @@ def test_cameras_match_the_reference_poses(door):
     s, r, t = umeyama(a, b)
     error = np.linalg.norm(s * a @ r.T + t - b, axis=1)
     extent = np.linalg.norm(b - b.mean(axis=0), axis=1).max()
-    assert np.sqrt(np.mean(error ** 2)) < 1e-3 * extent       # measured 0.8 mm over 7.3 m (0.011%)
+    assert np.sqrt(np.mean(error**2)) < 1e-3 * extent  # measured 0.8 mm over 7.3 m (0.011%)
     for n in names:
         relative = ours[n].cam_from_world().rotation.matrix() @ r.T @ theirs[n].cam_from_world().rotation.matrix().T
-        assert np.degrees(np.arccos(np.clip((np.trace(relative) - 1) / 2, -1, 1))) < 0.5   # measured 0.07 at most
+        assert np.degrees(np.arccos(np.clip((np.trace(relative) - 1) / 2, -1, 1))) < 0.5  # measured 0.07 at most
     focal = next(iter(model.cameras.values())).params[0]
     assert focal == pytest.approx(next(iter(reference.cameras.values())).params[0], rel=5e-3)  # 2434.8 vs 2435.4
-    assert report.mean_reprojection_error < 1.0                # measured 0.33 px
+    assert report.mean_reprojection_error < 1.0  # measured 0.33 px

@@ -43,8 +43,29 @@ def test_sweep_in_parallel_equals_serial_and_finds_theta_0_worst(small, tmp_path
 
 def test_sweep_command_writes_table_and_figures(tmp_path, capsys):
     out = tmp_path / "sweep"
-    assert main(["sweep", "--demo", "--points", "30000", "--factor", "k", "--start", "3", "--end", "7",
-                 "--step", "2", "-o", str(out), "--workers", "1"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--demo",
+                "--points",
+                "30000",
+                "--factor",
+                "k",
+                "--start",
+                "3",
+                "--end",
+                "7",
+                "--step",
+                "2",
+                "-o",
+                str(out),
+                "--workers",
+                "1",
+            ]
+        )
+        == 0
+    )
     rows = list(csv.DictReader(open(out / "sweep.csv")))
     assert [float(r["value"]) for r in rows] == [3, 5, 7]
     assert {"regions_s", "total_s", "z", "z_wrapped", "mean_error_deg"} <= set(rows[0])
@@ -60,8 +81,13 @@ def test_evaluate_command_and_measure_with_truth(tmp_path, capsys):
     write_ply(cloud_path, scene.cloud.points, text=False)
     truth_path = tmp_path / "truth.csv"
     truth = scene_truth(scene, Frame())
-    truth_path.write_text("surface,dip,dip_direction,center_x,center_y,center_z\n" + "".join(
-        f"{n},{d},{dd},{c[0]},{c[1]},{c[2]}\n" for n, d, dd, c in zip(truth.names, truth.dip, truth.dip_direction, truth.centres)))
+    truth_path.write_text(
+        "surface,dip,dip_direction,center_x,center_y,center_z\n"
+        + "".join(
+            f"{n},{d},{dd},{c[0]},{c[1]},{c[2]}\n"
+            for n, d, dd, c in zip(truth.names, truth.dip, truth.dip_direction, truth.centres)
+        )
+    )
     out = tmp_path / "out"
     assert main(["measure", str(cloud_path), "-o", str(out), "--zeta", "0.02", "--truth", str(truth_path)]) == 0
     summary = json.loads((out / "evaluation.json").read_text())

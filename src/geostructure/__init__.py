@@ -10,6 +10,7 @@ The public API::
 Names are imported on first use (PEP 562), so ``import geostructure`` and the command
 line's start stay fast, and an interrupt while starting is answered without a traceback.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -22,13 +23,28 @@ except importlib.metadata.PackageNotFoundError:  # a source tree that was never 
 
 #: Public name -> the module that defines it.
 _PUBLIC = {
-    "choose_params": "auto", "Cloud": "cloud", "GeoStructureError": "errors", "InputError": "errors",
-    "OutputError": "errors", "ParameterError": "errors", "GeoStructureWarning": "errors",
-    "read_cloud": "io.readers", "write_outputs": "io.writers", "verified_record": "io.outdir",
-    "Frame": "orientation", "Orientation": "orientation", "angle_between_normals": "orientation",
-    "angle_between_vectors": "orientation", "azimuth_difference": "orientation",
-    "orientation_from_normals": "orientation", "Params": "params", "Result": "pipeline", "measure": "pipeline",
-    "save_measurement": "runs", "add_report": "runs", "add_evaluation": "runs",
+    "choose_params": "auto",
+    "Cloud": "cloud",
+    "GeoStructureError": "errors",
+    "InputError": "errors",
+    "OutputError": "errors",
+    "ParameterError": "errors",
+    "GeoStructureWarning": "errors",
+    "read_cloud": "io.readers",
+    "write_outputs": "io.writers",
+    "verified_record": "io.outdir",
+    "Frame": "orientation",
+    "Orientation": "orientation",
+    "angle_between_normals": "orientation",
+    "angle_between_vectors": "orientation",
+    "azimuth_difference": "orientation",
+    "orientation_from_normals": "orientation",
+    "Params": "params",
+    "Result": "pipeline",
+    "measure": "pipeline",
+    "save_measurement": "runs",
+    "add_report": "runs",
+    "add_evaluation": "runs",
 }
 
 __all__ = sorted(_PUBLIC) + ["__version__"]

@@ -1,5 +1,6 @@
 """``python -m geostructure`` and the ``geostructure`` command: the command line, with an
 interrupt during start-up (while numpy and friends load) answered as one during work."""
+
 import sys
 
 

@@ -21,6 +21,7 @@
 4. **k** stays at 8: the paper's optimum is 3 to 11, and the sweeps here show a plateau
    from 3 upward.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -52,9 +53,11 @@ class AutoChoice:
 
     def describe(self) -> str:
         p = self.params
-        return (f"auto: zeta {p.zeta:.4g} ({self.points_per_voxel:.0f} points in the typical voxel), "
-                f"theta {p.theta:.3g} deg (normal noise {self.normal_noise_deg:.2f} deg), "
-                f"psi {p.psi:.3g} voxel edges (offset noise {self.offset_noise:.3f}), k {p.k}")
+        return (
+            f"auto: zeta {p.zeta:.4g} ({self.points_per_voxel:.0f} points in the typical voxel), "
+            f"theta {p.theta:.3g} deg (normal noise {self.normal_noise_deg:.2f} deg), "
+            f"psi {p.psi:.3g} voxel edges (offset noise {self.offset_noise:.3f}), k {p.k}"
+        )
 
 
 def typical_occupancy(points: np.ndarray, zeta: float, *, sample: int = 400_000, seed: int = 0) -> float:

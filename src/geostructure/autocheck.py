@@ -6,6 +6,7 @@ one-factor sweeps find. The absolute tolerance (0.001 of z, about 0.1 degrees of
 error) is needed because on a clean scene z_best is about 1e-5: a tenth of that is a few
 thousandths of a degree, below anything a compass or a cloud can show.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,4 +1,5 @@
 """The point cloud every stage works on."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -70,8 +71,9 @@ class Cloud:
         if self.normals is not None:
             self.normals = as_points(self.normals, "normals")
             if len(self.normals) != len(self.local):
-                raise ParameterError(f"normals must have one row per point: {len(self.normals)} rows for "
-                                     f"{len(self.local)} points.")
+                raise ParameterError(
+                    f"normals must have one row per point: {len(self.normals)} rows for {len(self.local)} points."
+                )
 
     @classmethod
     def from_points(cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None) -> "Cloud":

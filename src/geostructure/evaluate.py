@@ -12,6 +12,7 @@ The wrap-aware variant takes the smaller way round (2 degrees) and is otherwise 
 A surface that no plane matches scores z(R_i) = 1 (the worst), so missing a surface can
 never improve a run's score; the count of missed surfaces is reported beside it.
 """
+
 from __future__ import annotations
 
 import csv
@@ -49,10 +50,17 @@ class PlaneSet:
     def from_result(cls, result) -> "PlaneSet":
         o = result.orientation
         planes = result.planes
-        return cls(np.array([p.n_points for p in planes]), result.centroids, result.normals, o.strike, o.dip,
-                   o.dip_direction, np.array([p.center for p in planes]).reshape(-1, 3) + result.cloud.offset,
-                   np.array([p.u for p in planes]).reshape(-1, 3),
-                   np.array([[p.width, p.height] for p in planes]).reshape(-1, 2))
+        return cls(
+            np.array([p.n_points for p in planes]),
+            result.centroids,
+            result.normals,
+            o.strike,
+            o.dip,
+            o.dip_direction,
+            np.array([p.center for p in planes]).reshape(-1, 3) + result.cloud.offset,
+            np.array([p.u for p in planes]).reshape(-1, 3),
+            np.array([[p.width, p.height] for p in planes]).reshape(-1, 2),
+        )
 
     @classmethod
     def from_csv(cls, path) -> "PlaneSet":
@@ -65,16 +73,25 @@ class PlaneSet:
         except (UnicodeDecodeError, csv.Error):
             raise GeoStructureError(f"{path}: not a GeoStructure planes.csv (not a text table).") from None
         try:
+
             def col(*names):
                 return np.array([[float(r[n]) for n in names] for r in rows]).reshape(len(rows), len(names))
 
-            return cls(col("n_points")[:, 0].astype(int), col("centroid_x", "centroid_y", "centroid_z"),
-                       col("normal_x", "normal_y", "normal_z"), col("strike")[:, 0], col("dip")[:, 0],
-                       col("dip_direction")[:, 0], col("rect_center_x", "rect_center_y", "rect_center_z"),
-                       col("rect_u_x", "rect_u_y", "rect_u_z"), col("rect_width", "rect_height"))
+            return cls(
+                col("n_points")[:, 0].astype(int),
+                col("centroid_x", "centroid_y", "centroid_z"),
+                col("normal_x", "normal_y", "normal_z"),
+                col("strike")[:, 0],
+                col("dip")[:, 0],
+                col("dip_direction")[:, 0],
+                col("rect_center_x", "rect_center_y", "rect_center_z"),
+                col("rect_u_x", "rect_u_y", "rect_u_z"),
+                col("rect_width", "rect_height"),
+            )
         except (KeyError, ValueError, TypeError):
-            raise GeoStructureError(f"{path}: not a GeoStructure planes.csv (a row is short, or a cell is not "
-                                    f"a number).") from None
+            raise GeoStructureError(
+                f"{path}: not a GeoStructure planes.csv (a row is short, or a cell is not a number)."
+            ) from None
 
 
 def distance_to_rectangles(point, planes: PlaneSet) -> np.ndarray:
@@ -108,8 +125,14 @@ def _assign(cost: np.ndarray, limit) -> np.ndarray:
     return out
 
 
-def match_planes(planes: PlaneSet, truth: GroundTruth, *, max_distance: float = np.inf,
-                 max_angle: float = 30.0, candidates: int | None = None) -> np.ndarray:
+def match_planes(
+    planes: PlaneSet,
+    truth: GroundTruth,
+    *,
+    max_distance: float = np.inf,
+    max_angle: float = 30.0,
+    candidates: int | None = None,
+) -> np.ndarray:
     """Match each truth surface to one plane, or -1 (missed).
 
     With a centre: the plane whose rectangle contains or is nearest to it, within
@@ -129,8 +152,12 @@ def match_planes(planes: PlaneSet, truth: GroundTruth, *, max_distance: float = 
         limit = candidates or max(10, 3 * len(truth))
         pool = np.array([j for j in np.argsort(-planes.n_points, kind="stable")[:limit] if j not in taken], dtype=int)
         if len(pool):
-            angle = np.array([angle_between_normals(np.repeat(n[None], len(pool), 0), planes.normals[pool])
-                              for n in truth.normals[free]])
+            angle = np.array(
+                [
+                    angle_between_normals(np.repeat(n[None], len(pool), 0), planes.normals[pool])
+                    for n in truth.normals[free]
+                ]
+            )
             chosen = _assign(angle, max_angle)
             matched[free] = np.where(chosen >= 0, pool[np.maximum(chosen, 0)], -1)
     return matched
@@ -139,7 +166,7 @@ def match_planes(planes: PlaneSet, truth: GroundTruth, *, max_distance: float = 
 @dataclass
 class SurfaceScore:
     surface: str
-    region: int                 # -1: missed
+    region: int  # -1: missed
     true_strike: float
     true_dip: float
     true_dip_direction: float
@@ -149,7 +176,7 @@ class SurfaceScore:
     z_strike: float = 1.0
     z_dip: float = 1.0
     z_dip_direction: float = 1.0
-    z_region: float = 1.0       # the paper's z(R_i), as printed
+    z_region: float = 1.0  # the paper's z(R_i), as printed
     z_region_wrapped: float = 1.0
     normal_error_deg: float = float("nan")
 
@@ -196,9 +223,15 @@ class Evaluation:
         return float(self.errors.max()) if self.n_found else float("nan")
 
     def summary(self) -> dict:
-        return {"z": self.z, "z_wrapped": self.z_wrapped, "mean_normal_error_deg": self.mean_error,
-                "max_normal_error_deg": self.max_error, "found": self.n_found, "missed": self.n_missed,
-                "surfaces": [asdict(s) for s in self.surfaces]}
+        return {
+            "z": self.z,
+            "z_wrapped": self.z_wrapped,
+            "mean_normal_error_deg": self.mean_error,
+            "max_normal_error_deg": self.max_error,
+            "found": self.n_found,
+            "missed": self.n_missed,
+            "surfaces": [asdict(s) for s in self.surfaces],
+        }
 
 
 def z_score(truth, measured, quantity: str, *, wrap: bool = False) -> np.ndarray:
@@ -223,11 +256,16 @@ def evaluate(planes: PlaneSet, truth: GroundTruth, *, matched=None, **match_opti
     matched = match_planes(planes, truth, **match_options) if matched is None else np.asarray(matched)
     scores = []
     for i, name in enumerate(truth.names):
-        s = SurfaceScore(name, int(matched[i]), float(truth.strike[i]), float(truth.dip[i]),
-                         float(truth.dip_direction[i]))
+        s = SurfaceScore(
+            name, int(matched[i]), float(truth.strike[i]), float(truth.dip[i]), float(truth.dip_direction[i])
+        )
         j = int(matched[i])
         if j >= 0:
-            s.strike, s.dip, s.dip_direction = float(planes.strike[j]), float(planes.dip[j]), float(planes.dip_direction[j])
+            s.strike, s.dip, s.dip_direction = (
+                float(planes.strike[j]),
+                float(planes.dip[j]),
+                float(planes.dip_direction[j]),
+            )
             parts = [float(z_score(getattr(s, f"true_{q}"), getattr(s, q), q)) for q in RANGES]
             wrapped = [float(z_score(getattr(s, f"true_{q}"), getattr(s, q), q, wrap=True)) for q in RANGES]
             s.z_strike, s.z_dip, s.z_dip_direction = parts
@@ -241,10 +279,17 @@ def evaluate(planes: PlaneSet, truth: GroundTruth, *, matched=None, **match_opti
 def scene_truth(scene, frame) -> GroundTruth:
     """A synthetic scene's six surfaces as ground truth with centres (for the demo and tests)."""
     o = orientation_from_normals(scene.normals, frame)
-    return GroundTruth([s.name for s in scene.surfaces], o.dip, o.dip_direction,
-                       np.array([s.normal for s in scene.surfaces]), np.array([s.center for s in scene.surfaces]))
+    return GroundTruth(
+        [s.name for s in scene.surfaces],
+        o.dip,
+        o.dip_direction,
+        np.array([s.normal for s in scene.surfaces]),
+        np.array([s.center for s in scene.surfaces]),
+    )
 
 
 def match_scene(result, scene) -> Evaluation:
     """Evaluate a result against its synthetic scene, matching by location."""
-    return evaluate(PlaneSet.from_result(result), scene_truth(scene, result.frame), max_distance=0.5 * result.voxels.edge * 10)
+    return evaluate(
+        PlaneSet.from_result(result), scene_truth(scene, result.frame), max_distance=0.5 * result.voxels.edge * 10
+    )

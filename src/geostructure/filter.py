@@ -11,6 +11,7 @@ Two forms:
   the surface is many standard deviations out even where the cloud is dense. A point whose
   block holds almost nothing is isolated and dropped too.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -101,9 +102,11 @@ def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, isolat
 def _block_sums(keys, count, sums, products, edge):
     """Moments summed over each voxel's 3x3x3 block, shifted to the centre voxel's corner."""
     base = keys.max(axis=0) + 3
+
     def encode(k):
         k = k + 1
         return (k[:, 0] * base[1] + k[:, 1]) * base[2] + k[:, 2]
+
     codes = encode(keys)
     order = np.argsort(codes)
     sorted_codes = codes[order]
@@ -127,8 +130,9 @@ def _block_sums(keys, count, sums, products, edge):
     return total_n, total_s, total_p
 
 
-def filter_outliers(points: np.ndarray, method: str = "local", *, edge: float | None = None,
-                    threshold: float = 3.0) -> FilterResult:
+def filter_outliers(
+    points: np.ndarray, method: str = "local", *, edge: float | None = None, threshold: float = 3.0
+) -> FilterResult:
     """Run the chosen filter; ``none`` keeps everything."""
     if method == "global":
         return global_filter(points, threshold)

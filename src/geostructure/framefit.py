@@ -1,4 +1,5 @@
 """Fix an unreferenced cloud's frame from ground-truth planes (best-fit rotation)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,9 +15,9 @@ class FrameFit:
     """A rotation taking truth normals (their frame) onto measured normals (cloud axes)."""
 
     rotation: np.ndarray
-    matched: np.ndarray      # plane index per truth surface
-    residuals: np.ndarray    # angle (deg) per surface after the rotation
-    rotation_angle: float    # degrees between the fitted frame and the starting one
+    matched: np.ndarray  # plane index per truth surface
+    residuals: np.ndarray  # angle (deg) per surface after the rotation
+    rotation_angle: float  # degrees between the fitted frame and the starting one
 
     @property
     def mean_residual(self) -> float:

@@ -7,6 +7,7 @@ centroids within the offset limit along the pair's mean normal) and whose gap is
 smaller of the two (so distant outcrops that happen to be coplanar stay apart). It is not
 in the paper; ``Params(merge=False)`` gives the paper's regions.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -42,7 +43,7 @@ def summarise_regions(voxels: VoxelPlanes, labels: np.ndarray, n_regions: int) -
     scatter = np.empty((n_regions, 3, 3))
     for i in range(3):
         for j in range(i, 3):
-            entry = w * (d[:, i] * d[:, j] + r ** 2 * n[:, i] * n[:, j])
+            entry = w * (d[:, i] * d[:, j] + r**2 * n[:, i] * n[:, j])
             scatter[:, i, j] = scatter[:, j, i] = np.bincount(lab, entry, n_regions)
     _, vectors = np.linalg.eigh(scatter)
     lo = np.full((n_regions, 3), np.inf)
@@ -53,8 +54,9 @@ def summarise_regions(voxels: VoxelPlanes, labels: np.ndarray, n_regions: int) -
     return RegionSummary(centroid, vectors[:, :, 0], diameter, total)
 
 
-def merge_coplanar(voxels: VoxelPlanes, labels: np.ndarray, theta: float, offset_limit: float,
-                   min_voxels: int = 3, max_rounds: int = 5) -> tuple[np.ndarray, int]:
+def merge_coplanar(
+    voxels: VoxelPlanes, labels: np.ndarray, theta: float, offset_limit: float, min_voxels: int = 3, max_rounds: int = 5
+) -> tuple[np.ndarray, int]:
     """Relabel voxel regions so that coplanar regions separated by a small gap share a label.
 
     Parameters
@@ -102,7 +104,7 @@ def _merge_round(voxels, labels, theta, offset_limit, min_voxels):
     joined = DisjointSet(range(n_regions))
     order = np.argsort(labels, kind="stable")
     starts = np.searchsorted(labels[order], np.arange(n_regions + 1))
-    members = {r: voxels.centroid[order[starts[r]:starts[r + 1]]] for r in regions[np.unique(pairs)]}
+    members = {r: voxels.centroid[order[starts[r] : starts[r + 1]]] for r in regions[np.unique(pairs)]}
     trees = {r: cKDTree(pts) for r, pts in members.items()}
     merges = 0
     for i, j in pairs:
@@ -129,10 +131,10 @@ def _coplanar_pairs(normal, centroid, weight, cos_theta, offset_limit, block=512
         rows = slice(start, start + block)
         cos = normal[rows] @ normal.T
         sign = np.where(cos < 0, -1.0, 1.0)
-        a = normal[rows] @ centroid.T - own[rows, None]          # j's centroid from i's plane (signed)
-        b = own[None, :] - centroid[rows] @ normal.T             # the same along j's normal
+        a = normal[rows] @ centroid.T - own[rows, None]  # j's centroid from i's plane (signed)
+        b = own[None, :] - centroid[rows] @ normal.T  # the same along j's normal
         wi, wj = weight[rows, None], weight[None, :]
-        length = np.sqrt(wi ** 2 + wj ** 2 + 2 * wi * wj * np.abs(cos))
+        length = np.sqrt(wi**2 + wj**2 + 2 * wi * wj * np.abs(cos))
         offset = np.abs(wi * a + sign * wj * b) / length
         i, j = np.nonzero((np.abs(cos) >= cos_theta) & (offset <= offset_limit))
         i += start

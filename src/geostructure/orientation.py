@@ -7,13 +7,14 @@ normal is expressed in (east, north, up), turned upward, and then
 - dip direction = atan2(east, north) mod 360, the azimuth of steepest descent;
 - strike = (dip direction - 90) mod 360 (right-hand rule).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import GeoStructureError, ParameterError
+from .errors import ParameterError
 
 #: Below this |up| component (about 0.06 degrees from vertical) a plane counts as vertical
 #: and its dip direction is settled by the face's outward side instead of by up >= 0.
@@ -41,8 +42,9 @@ class Frame:
             raise ParameterError(f"declination must be a finite number of degrees, not {self.declination}.")
         m = np.asarray(self.rotation, dtype=np.float64)
         if m.shape != (3, 3) or not np.isfinite(m).all() or not np.allclose(m @ m.T, np.eye(3), atol=1e-6):
-            raise ParameterError("a frame's rotation must be three orthonormal rows of finite numbers "
-                                 "(east, north, up).")
+            raise ParameterError(
+                "a frame's rotation must be three orthonormal rows of finite numbers (east, north, up)."
+            )
 
     @classmethod
     def named(cls, name: str, declination: float = 0.0) -> "Frame":

@@ -1,11 +1,11 @@
 """Parameters of the measuring pipeline, with the paper's Table 1 ranges."""
-from __future__ import annotations
 
-import warnings
-from dataclasses import asdict, dataclass, replace
+from __future__ import annotations
 
 import math
 import numbers
+import warnings
+from dataclasses import asdict, dataclass, replace
 
 from .errors import GeoStructureWarning, ParameterError
 from .filter import METHODS as FILTER_METHODS
@@ -60,8 +60,12 @@ class Params:
                 raise ParameterError(f"{name} must be a finite number, not {value!r}.")
         for name in ("k", "min_points", "min_voxel_points"):
             value = getattr(self, name)
-            if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)
-                                      or not math.isfinite(value) or int(value) != value):
+            if value is not None and (
+                isinstance(value, bool)
+                or not isinstance(value, numbers.Real)
+                or not math.isfinite(value)
+                or int(value) != value
+            ):
                 raise ParameterError(f"{name} must be a whole number, not {value!r}.")
         checks = [
             (0 < self.zeta < 1, f"zeta must lie between 0 and 1 (a fraction of the cloud's extent), got {self.zeta}"),
@@ -75,7 +79,10 @@ class Params:
             (0 < self.max_curvature <= 1 / 3, f"max curvature must lie in (0, 1/3], got {self.max_curvature}"),
             (self.reference in REFERENCES, f"reference must be one of {', '.join(REFERENCES)}, got '{self.reference}'"),
             (self.max_gap > 0, f"max gap must be positive, got {self.max_gap}"),
-            (self.rectangle in RECTANGLE_METHODS, f"rectangle must be one of {', '.join(RECTANGLE_METHODS)}, got '{self.rectangle}'"),
+            (
+                self.rectangle in RECTANGLE_METHODS,
+                f"rectangle must be one of {', '.join(RECTANGLE_METHODS)}, got '{self.rectangle}'",
+            ),
         ]
         for ok, message in checks:
             if not ok:
@@ -84,8 +91,11 @@ class Params:
         for name, (lo, hi, _) in TABLE1.items():
             value = getattr(self, name)
             if not lo <= value <= hi:
-                warnings.warn(f"{name}={value} is outside the range the paper tested ({lo} to {hi}).",
-                              ParameterWarning, stacklevel=3)
+                warnings.warn(
+                    f"{name}={value} is outside the range the paper tested ({lo} to {hi}).",
+                    ParameterWarning,
+                    stacklevel=3,
+                )
 
     def with_(self, **changes) -> "Params":
         """A copy with some fields changed (validated again)."""

@@ -1,5 +1,6 @@
 """The measuring pipeline: filter -> voxel fit -> region growing (and coplanar merge) -> region
 planes -> orientation."""
+
 from __future__ import annotations
 
 import time
@@ -10,8 +11,8 @@ import numpy as np
 from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
 from .filter import FilterResult, filter_outliers
-from .orientation import Frame, Orientation, orientation_from_normals, upward
 from .merge import merge_coplanar
+from .orientation import Frame, Orientation, orientation_from_normals, upward
 from .params import Params
 from .rectangle import RegionPlane, region_plane
 from .regions import grow_regions
@@ -62,22 +63,32 @@ def default_min_points(n_points: int) -> int:
 def check_measurable(cloud: Cloud) -> None:
     """Refuse clouds no plane can be measured in: not a Cloud, NaN, too few points, one spot, one line."""
     if not isinstance(cloud, Cloud):
-        raise ParameterError(f"measure needs a Cloud (Cloud.from_points(array) for an (N, 3) array, or "
-                             f"read_cloud(path)), not {type(cloud).__name__}.")
+        raise ParameterError(
+            f"measure needs a Cloud (Cloud.from_points(array) for an (N, 3) array, or "
+            f"read_cloud(path)), not {type(cloud).__name__}."
+        )
     bad = ~np.isfinite(cloud.local).all(axis=1)
     if bad.any():
-        raise InputError(f"{cloud.source}: {int(bad.sum())} point(s) have NaN or infinite coordinates "
-                         f"(the first is point {int(np.flatnonzero(bad)[0])}).")
+        raise InputError(
+            f"{cloud.source}: {int(bad.sum())} point(s) have NaN or infinite coordinates "
+            f"(the first is point {int(np.flatnonzero(bad)[0])})."
+        )
     if len(cloud) < 3:
         raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
     if np.abs(cloud.local).max() > MAX_COORDINATE:
-        raise InputError(f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
-                         f"no survey uses; the data may be damaged.")
+        raise InputError(
+            f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
+            f"no survey uses; the data may be damaged."
+        )
     extent = np.ptp(cloud.local, axis=0)
     if extent.max() <= 0:
         raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
-    if np.linalg.matrix_rank(np.cov(cloud.local[:: max(1, len(cloud) // 100_000)], rowvar=False),
-                             tol=1e-12 * extent.max() ** 2) < 2:
+    if (
+        np.linalg.matrix_rank(
+            np.cov(cloud.local[:: max(1, len(cloud) // 100_000)], rowvar=False), tol=1e-12 * extent.max() ** 2
+        )
+        < 2
+    ):
         raise GeoStructureError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
 
 
@@ -117,18 +128,27 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
 
     t = time.perf_counter()
     report("voxel", 0, None)
-    voxels = fit_voxels(filtered.local, params.zeta, min_points=params.min_voxel_points,
-                        max_curvature=params.max_curvature)
+    voxels = fit_voxels(
+        filtered.local, params.zeta, min_points=params.min_voxel_points, max_curvature=params.max_curvature
+    )
     counts["voxel_planes"] = len(voxels)
     seconds["voxel"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    growth = grow_regions(voxels, params.theta, params.psi, params.k, reference=params.reference,
-                          max_gap=params.max_gap, progress=lambda done: report("regions", done, len(voxels)))
+    growth = grow_regions(
+        voxels,
+        params.theta,
+        params.psi,
+        params.k,
+        reference=params.reference,
+        max_gap=params.max_gap,
+        progress=lambda done: report("regions", done, len(voxels)),
+    )
     region_of_voxel = growth.labels
     if params.merge:
-        region_of_voxel, counts["merges"] = merge_coplanar(voxels, growth.labels, params.theta,
-                                                           params.psi * voxels.edge)
+        region_of_voxel, counts["merges"] = merge_coplanar(
+            voxels, growth.labels, params.theta, params.psi * voxels.edge
+        )
     seconds["regions"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -155,8 +175,24 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
     orientation = orientation_from_normals(normals, frame, outward)
     n_voxels, scatter, uncertainty = normal_spread(voxels.normal, voxel_labels, normals)
     seconds["orientation"] = time.perf_counter() - t
-    return Result(cloud, params, frame, filtered, filt, voxels, voxel_labels, planes, normals,
-                  orientation, labels, n_voxels, scatter, uncertainty, seconds, counts)
+    return Result(
+        cloud,
+        params,
+        frame,
+        filtered,
+        filt,
+        voxels,
+        voxel_labels,
+        planes,
+        normals,
+        orientation,
+        labels,
+        n_voxels,
+        scatter,
+        uncertainty,
+        seconds,
+        counts,
+    )
 
 
 def normal_spread(voxel_normals, voxel_labels, plane_normals):
@@ -183,7 +219,7 @@ def _region_planes(points, point_region, voxel_region, min_points, method, repor
     starts = np.searchsorted(point_region[order], np.arange(len(n_voxels) + 1))
     planes = []
     for i, region in enumerate(candidates):
-        planes.append(region_plane(points[order[starts[region]:starts[region + 1]]], method))
+        planes.append(region_plane(points[order[starts[region] : starts[region + 1]]], method))
         report("planes", i + 1, len(candidates))
     return planes, candidates
 

@@ -1,4 +1,5 @@
 """Progress on stderr for the command line; the library itself only calls a callback."""
+
 from __future__ import annotations
 
 import time
@@ -6,8 +7,16 @@ import time
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-LABELS = {"read": "Reading", "auto": "Choosing parameters", "filter": "Mahalanobis filter", "voxel": "Voxel fit", "regions": "Region growing",
-          "planes": "Region planes", "orientation": "Orientation", "write": "Writing"}
+LABELS = {
+    "read": "Reading",
+    "auto": "Choosing parameters",
+    "filter": "Mahalanobis filter",
+    "voxel": "Voxel fit",
+    "regions": "Region growing",
+    "planes": "Region planes",
+    "orientation": "Orientation",
+    "write": "Writing",
+}
 
 
 class StageProgress:
@@ -19,9 +28,15 @@ class StageProgress:
     def __init__(self, enabled: bool = True, console: Console | None = None):
         self.console = console or Console(stderr=True)
         self.enabled = enabled and self.console.is_terminal
-        self._progress = Progress(SpinnerColumn(), TextColumn("{task.description:<20}"), BarColumn(),
-                                  MofNCompleteColumn(), TimeElapsedColumn(), console=self.console,
-                                  disable=not self.enabled)
+        self._progress = Progress(
+            SpinnerColumn(),
+            TextColumn("{task.description:<20}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=self.console,
+            disable=not self.enabled,
+        )
         self._tasks: dict[str, int] = {}
         self._current: str | None = None
         self._started = time.perf_counter()
@@ -47,4 +62,3 @@ class StageProgress:
             task = self._tasks[self._current]
             total = self._progress.tasks[task].total or 1
             self._progress.update(task, total=total, completed=total)
-

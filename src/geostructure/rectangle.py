@@ -13,6 +13,7 @@ Two ways to find it:
 - ``exact``: rotating calipers. A minimum-perimeter enclosing rectangle has a side on an
   edge of the convex hull, so trying every hull edge gives the true minimum.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -96,14 +97,15 @@ def exact_angle(hull: np.ndarray) -> float:
     edges = np.roll(hull, -1, axis=0) - hull
     angles = np.mod(np.arctan2(edges[:, 1], edges[:, 0]), np.pi / 2)
     c, s = np.cos(angles), np.sin(angles)
-    a = hull @ np.vstack([c, s])          # (H points, E angles)
+    a = hull @ np.vstack([c, s])  # (H points, E angles)
     b = hull @ np.vstack([-s, c])
     perimeter = 2.0 * (np.ptp(a, axis=0) + np.ptp(b, axis=0))
     return float(angles[np.argmin(perimeter)])
 
 
-def golden_angle(hull: np.ndarray, normal: np.ndarray, axes: np.ndarray, *, coarse: int = 12,
-                 tol: float = 1e-7) -> float:
+def golden_angle(
+    hull: np.ndarray, normal: np.ndarray, axes: np.ndarray, *, coarse: int = 12, tol: float = 1e-7
+) -> float:
     """The paper's search: golden section over the Rodrigues rotation angle about ``normal``.
 
     ``hull`` are in-plane coordinates along ``axes``; candidate axes are ``rodrigues(normal,

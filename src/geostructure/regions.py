@@ -14,6 +14,7 @@ grows) by default, so a region cannot drift round a gently curving surface; ``re
 "seed"`` compares with the current seed as the paper's description does. Neighbours more
 than ``max_gap`` voxel edges away are not neighbours, so regions do not jump across gaps.
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -53,8 +54,16 @@ def neighbour_graph(centroids: np.ndarray, k: int, max_distance: float) -> np.nd
     return idx
 
 
-def grow_regions(planes: VoxelPlanes, theta: float, psi: float, k: int, *, reference: str = "region",
-                 max_gap: float = 2.0, progress=None) -> RegionGrowth:
+def grow_regions(
+    planes: VoxelPlanes,
+    theta: float,
+    psi: float,
+    k: int,
+    *,
+    reference: str = "region",
+    max_gap: float = 2.0,
+    progress=None,
+) -> RegionGrowth:
     """Group voxel planes into regions of like orientation and offset.
 
     Parameters

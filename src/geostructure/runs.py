@@ -5,6 +5,7 @@ the same: every one writes through :func:`~geostructure.io.outdir.output_set`, s
 files of one call appear in the folder together or not at all, and what a call reads
 from a folder is checked against the folder's manifest first.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -20,9 +21,17 @@ from .io.writers import write_evaluation_files, write_result
 from .orientation import Frame, orientation_from_normals
 
 
-def save_measurement(result, outdir, *, extra: dict | None = None, evaluation: Evaluation | None = None,
-                     evaluation_extra: dict | None = None, report: bool = False, max_points: int | None = None,
-                     inputs=()) -> dict[str, Path]:
+def save_measurement(
+    result,
+    outdir,
+    *,
+    extra: dict | None = None,
+    evaluation: Evaluation | None = None,
+    evaluation_extra: dict | None = None,
+    report: bool = False,
+    max_points: int | None = None,
+    inputs=(),
+) -> dict[str, Path]:
     """Write a measurement's files, and optionally its evaluation and report, as one set.
 
     Parameters
@@ -108,10 +117,15 @@ def refit_frame(planes: PlaneSet, truth: GroundTruth, frame: Frame, truth_path):
     planes = replace(planes, strike=o.strike, dip=o.dip, dip_direction=o.dip_direction)
     truth = read_truth(truth_path, new)
     pairwise = pairwise_angle_error(planes.normals[fit.matched], truth.normals)
-    record = {"rotation_deg": fit.rotation_angle, "residuals_deg": fit.residuals.tolist(),
-              "mean_residual_deg": fit.mean_residual, "matched_regions": fit.matched.tolist(),
-              "pairwise_mean_deg": float(pairwise.mean()), "pairwise_max_deg": float(pairwise.max()),
-              "frame_rotation": [list(r) for r in new.rotation]}
+    record = {
+        "rotation_deg": fit.rotation_angle,
+        "residuals_deg": fit.residuals.tolist(),
+        "mean_residual_deg": fit.mean_residual,
+        "matched_regions": fit.matched.tolist(),
+        "pairwise_mean_deg": float(pairwise.mean()),
+        "pairwise_max_deg": float(pairwise.max()),
+        "frame_rotation": [list(r) for r in new.rotation],
+    }
     return planes, truth, {"frame_fit": record}
 
 
@@ -130,5 +144,9 @@ def _stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> d
     build_report(source, outputs.path("report.html"), max_points=max_points)
     save(stereonet_figure(planes.strike, planes.dip)[0], outputs.staging / "stereonet")
     save(rose_figure(planes.strike)[0], outputs.staging / "rose", formats=("png",))
-    return {"report": outputs.final("report.html"), "stereonet_png": outputs.final("stereonet.png"),
-            "stereonet_svg": outputs.final("stereonet.svg"), "rose": outputs.final("rose.png")}
+    return {
+        "report": outputs.final("report.html"),
+        "stereonet_png": outputs.final("stereonet.png"),
+        "stereonet_svg": outputs.final("stereonet.svg"),
+        "rose": outputs.final("rose.png"),
+    }

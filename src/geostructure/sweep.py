@@ -4,6 +4,7 @@ Runs of one sweep are independent, so they go to a process pool (``workers``); o
 2-core machine two runs share the cores, which slows each a little. Use ``workers=1`` when
 the timings themselves matter more than the wall clock.
 """
+
 from __future__ import annotations
 
 import math
@@ -52,8 +53,10 @@ def factor_values(factor: str, start=None, end=None, step=None) -> np.ndarray:
         raise GeoStructureError(f"start, end and step must give a rising range, got {start}, {end}, {step}.")
     runs = math.floor((end - start) / step + 1e-6) + 1
     if runs > MAX_RUNS:
-        raise GeoStructureError(f"{factor} from {start} to {end} in steps of {step} makes {runs:,} runs; "
-                                f"at most {MAX_RUNS} are allowed, so take a larger step.")
+        raise GeoStructureError(
+            f"{factor} from {start} to {end} in steps of {step} makes {runs:,} runs; "
+            f"at most {MAX_RUNS} are allowed, so take a larger step."
+        )
     values = np.arange(start, end + step * 1e-6, step)
     return np.round(values).astype(int) if factor == "k" else np.round(values, 6)
 
@@ -74,12 +77,23 @@ def run_one(task, cloud, truth, frame) -> SweepRow:
     result = measure(cloud, params, frame)
     total = time.perf_counter() - t
     ev = evaluate(PlaneSet.from_result(result), truth)
-    return SweepRow(factor, float(value), result.seconds["regions"], total, ev.z, ev.z_wrapped, ev.mean_error,
-                    ev.n_found, ev.n_missed, len(result))
+    return SweepRow(
+        factor,
+        float(value),
+        result.seconds["regions"],
+        total,
+        ev.z,
+        ev.z_wrapped,
+        ev.mean_error,
+        ev.n_found,
+        ev.n_missed,
+        len(result),
+    )
 
 
-def run_sweep(cloud, truth, frame, factors, base: Params = Params(), *, ranges=None, workers: int = 2,
-              progress=None) -> list[SweepRow]:
+def run_sweep(
+    cloud, truth, frame, factors, base: Params = Params(), *, ranges=None, workers: int = 2, progress=None
+) -> list[SweepRow]:
     """Run the experiments for ``factors`` and return one row per run, in order.
 
     ``ranges`` maps a factor to ``(start, end, step)`` (None entries take Table 1's).
@@ -117,8 +131,12 @@ def plot_sweep(rows: list[SweepRow], stem) -> list:
     from matplotlib.figure import Figure  # a Figure of its own: the caller's pyplot backend is left alone
 
     factors = [f for f in FACTORS if any(r.factor == f for r in rows)]
-    labels = {"zeta": "ζ (voxel size factor)", "theta": "θ (angle threshold, °)", "psi": "ψ (offset, voxel edges)",
-              "k": "k (neighbours)"}
+    labels = {
+        "zeta": "ζ (voxel size factor)",
+        "theta": "θ (angle threshold, °)",
+        "psi": "ψ (offset, voxel edges)",
+        "k": "k (neighbours)",
+    }
     fig = Figure(figsize=(4.2 * len(factors), 6.4))
     axes = fig.subplots(2, len(factors), squeeze=False, sharex="col")
     for col, factor in enumerate(factors):

@@ -5,6 +5,7 @@ normals converted from the paper's x=N, y=W frame to ENU) as textured rectangula
 with a ground plane, clutter (boulders and shrubs), photogrammetric noise (Gaussian along
 the normal plus a few percent of heavy-tailed points) and floating outlier clusters.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,14 +16,16 @@ from .cloud import Cloud
 from .orientation import Frame, orientation_from_normals
 
 #: The paper's ground-truth normals (x=North, y=West, z=Up), surfaces 1..6.
-PAPER_NORMALS = np.array([
-    [-0.9985, -0.0523, 0.0175],
-    [-0.0697, -0.9974, 0.0175],
-    [0.3579, -0.9323, 0.0523],
-    [-0.9970, 0.0348, 0.0698],
-    [0.1736, -0.9847, 0.0175],
-    [0.0112, -0.6427, 0.7660],
-])
+PAPER_NORMALS = np.array(
+    [
+        [-0.9985, -0.0523, 0.0175],
+        [-0.0697, -0.9974, 0.0175],
+        [0.3579, -0.9323, 0.0523],
+        [-0.9970, 0.0348, 0.0698],
+        [0.1736, -0.9847, 0.0175],
+        [0.0112, -0.6427, 0.7660],
+    ]
+)
 
 #: The paper's table of strike, dip and dip direction (surface 4 disagrees with its normal).
 PAPER_TABLE = np.array([[87, 89, 177], [4, 89, 94], [339, 87, 69], [102, 86, 192], [350, 89, 80], [359, 40, 89]], float)
@@ -59,27 +62,32 @@ class Scene:
 
     def truth_table(self) -> dict:
         o = orientation_from_normals(self.normals)
-        return {"surface": [s.name for s in self.surfaces], "strike": o.strike, "dip": o.dip,
-                "dip_direction": o.dip_direction}
+        return {
+            "surface": [s.name for s in self.surfaces],
+            "strike": o.strike,
+            "dip": o.dip,
+            "dip_direction": o.dip_direction,
+        }
 
 
 # Centre (E, N, Up) and size (width, height) in metres of the six faces: a building about
 # 40 x 30 m seen from around, walls standing on the ground, the roof above them.
 _LAYOUT = [
-    ((0.0, -12.0, 4.0), (16.0, 7.0)),    # 1: south wall
-    ((16.0, 0.0, 4.0), (14.0, 7.0)),     # 2: east wall
-    ((13.0, 11.0, 3.5), (8.0, 6.5)),     # 3: north-east buttress
-    ((-8.0, 12.5, 3.5), (9.0, 6.5)),     # 4: north wing, facing south
-    ((-17.0, 2.0, 3.5), (10.0, 6.5)),    # 5: west annex, facing east
-    ((2.0, 1.0, 11.0), (14.0, 9.0)),     # 6: the 40-degree roof
+    ((0.0, -12.0, 4.0), (16.0, 7.0)),  # 1: south wall
+    ((16.0, 0.0, 4.0), (14.0, 7.0)),  # 2: east wall
+    ((13.0, 11.0, 3.5), (8.0, 6.5)),  # 3: north-east buttress
+    ((-8.0, 12.5, 3.5), (9.0, 6.5)),  # 4: north wing, facing south
+    ((-17.0, 2.0, 3.5), (10.0, 6.5)),  # 5: west annex, facing east
+    ((2.0, 1.0, 11.0), (14.0, 9.0)),  # 6: the 40-degree roof
 ]
 
 
 def paper_surfaces() -> list[Surface]:
     normals = paper_to_enu(PAPER_NORMALS)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return [Surface(f"surface {i + 1}", np.array(c), n, w, h)
-            for i, ((c, (w, h)), n) in enumerate(zip(_LAYOUT, normals))]
+    return [
+        Surface(f"surface {i + 1}", np.array(c), n, w, h) for i, ((c, (w, h)), n) in enumerate(zip(_LAYOUT, normals))
+    ]
 
 
 def sample_rectangle(surface: Surface, n: int, rng, noise: float) -> np.ndarray:
@@ -96,9 +104,15 @@ def sample_rectangle(surface: Surface, n: int, rng, noise: float) -> np.ndarray:
     return surface.center + a[:, None] * u + b[:, None] * v + offset[:, None] * normal
 
 
-def observatory_scene(n_points: int = 300_000, *, seed: int = 0, noise: float = 0.02,
-                      outlier_fraction: float = 0.01, scale: float = 1.0,
-                      offset=(0.0, 0.0, 0.0)) -> Scene:
+def observatory_scene(
+    n_points: int = 300_000,
+    *,
+    seed: int = 0,
+    noise: float = 0.02,
+    outlier_fraction: float = 0.01,
+    scale: float = 1.0,
+    offset=(0.0, 0.0, 0.0),
+) -> Scene:
     """The bundled default dataset: the paper's six surfaces in an outdoor scene.
 
     Parameters
@@ -143,8 +157,9 @@ def observatory_scene(n_points: int = 300_000, *, seed: int = 0, noise: float = 
         s.center = s.center * scale + np.asarray(offset, dtype=np.float64)
         s.width, s.height = s.width * scale, s.height * scale
     order = rng.permutation(len(points))  # readers never see points grouped by surface
-    return Scene(Cloud.from_points(points[order], source="synthetic observatory"), surfaces,
-                 np.concatenate(index)[order])
+    return Scene(
+        Cloud.from_points(points[order], source="synthetic observatory"), surfaces, np.concatenate(index)[order]
+    )
 
 
 def _clutter(n: int, rng) -> np.ndarray:
@@ -166,10 +181,16 @@ def _outliers(n: int, rng) -> np.ndarray:
     if n <= 0:
         return np.empty((0, 3))
     n_clusters = max(1, n // 40)
-    centres = np.column_stack([rng.uniform(-25, 25, n_clusters), rng.uniform(-18, 18, n_clusters),
-                               rng.uniform(2, 16, n_clusters)])
+    centres = np.column_stack(
+        [rng.uniform(-25, 25, n_clusters), rng.uniform(-18, 18, n_clusters), rng.uniform(2, 16, n_clusters)]
+    )
     n_clustered = int(0.7 * n)
     pts = centres[rng.integers(0, n_clusters, n_clustered)] + rng.normal(0, 0.3, (n_clustered, 3))
-    far = np.column_stack([rng.uniform(-30, 30, n - n_clustered), rng.uniform(-25, 25, n - n_clustered),
-                           rng.uniform(-5, 25, n - n_clustered)])
+    far = np.column_stack(
+        [
+            rng.uniform(-30, 30, n - n_clustered),
+            rng.uniform(-25, 25, n - n_clustered),
+            rng.uniform(-5, 25, n - n_clustered),
+        ]
+    )
     return np.vstack([pts, far])

@@ -1,4 +1,5 @@
 """Terminal tables (rich) for the planes, evaluations and sweeps the CLI prints."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -16,11 +17,30 @@ def stdout_console() -> Console:
 def print_sweep(rows, console: Console | None = None) -> None:
     console = console or stdout_console()
     table = Table(title="Sweep")
-    for column in ("factor", "value", "region growing s", "total s", "z(R)", "z wrapped", "mean error", "found", "planes"):
+    for column in (
+        "factor",
+        "value",
+        "region growing s",
+        "total s",
+        "z(R)",
+        "z wrapped",
+        "mean error",
+        "found",
+        "planes",
+    ):
         table.add_column(column, justify="right")
     for r in rows:
-        table.add_row(r.factor, f"{r.value:g}", f"{r.regions_s:.2f}", f"{r.total_s:.2f}", f"{r.z:.3g}",
-                      f"{r.z_wrapped:.3g}", f"{r.mean_error_deg:.2f}", f"{r.found}/{r.found + r.missed}", str(r.planes))
+        table.add_row(
+            r.factor,
+            f"{r.value:g}",
+            f"{r.regions_s:.2f}",
+            f"{r.total_s:.2f}",
+            f"{r.z:.3g}",
+            f"{r.z_wrapped:.3g}",
+            f"{r.mean_error_deg:.2f}",
+            f"{r.found}/{r.found + r.missed}",
+            str(r.planes),
+        )
     console.print(table)
 
 
@@ -32,28 +52,49 @@ def print_planes(result, console: Console | None = None) -> None:
     o = result.orientation
     for i, plane in enumerate(result.planes):
         c = result.centroids[i]
-        table.add_row(str(i), f"{plane.n_points:,}", f"{plane.area:.4g}", f"{o.strike[i]:05.1f}", f"{o.dip[i]:04.1f}",
-                      f"{o.dip_direction[i]:05.1f}", f"{result.uncertainty[i]:.2f}",
-                      f"{c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}")
+        table.add_row(
+            str(i),
+            f"{plane.n_points:,}",
+            f"{plane.area:.4g}",
+            f"{o.strike[i]:05.1f}",
+            f"{o.dip[i]:04.1f}",
+            f"{o.dip_direction[i]:05.1f}",
+            f"{result.uncertainty[i]:.2f}",
+            f"{c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}",
+        )
     console.print(table)
 
 
 def print_evaluation(evaluation, console: Console | None = None) -> None:
     console = console or stdout_console()
     table = Table(title="Against the ground truth")
-    for column in ("surface", "region", "true strike/dip/dd", "measured strike/dip/dd", "z(R_i)", "z wrapped",
-                   "normal error"):
+    for column in (
+        "surface",
+        "region",
+        "true strike/dip/dd",
+        "measured strike/dip/dd",
+        "z(R_i)",
+        "z wrapped",
+        "normal error",
+    ):
         table.add_column(column, justify="right")
     for s in evaluation.surfaces:
         measured = f"{s.strike:05.1f}/{s.dip:04.1f}/{s.dip_direction:05.1f}" if s.found else "missed"
-        table.add_row(s.surface, str(s.region) if s.found else "-",
-                      f"{s.true_strike:05.1f}/{s.true_dip:04.1f}/{s.true_dip_direction:05.1f}", measured,
-                      f"{s.z_region:.4f}", f"{s.z_region_wrapped:.4f}",
-                      f"{s.normal_error_deg:.2f} deg" if s.found else "-")
+        table.add_row(
+            s.surface,
+            str(s.region) if s.found else "-",
+            f"{s.true_strike:05.1f}/{s.true_dip:04.1f}/{s.true_dip_direction:05.1f}",
+            measured,
+            f"{s.z_region:.4f}",
+            f"{s.z_region_wrapped:.4f}",
+            f"{s.normal_error_deg:.2f} deg" if s.found else "-",
+        )
     console.print(table)
-    console.print(f"z(R) = {evaluation.z:.4f} as printed in the paper, {evaluation.z_wrapped:.4f} wrap-aware; "
-                  f"normal error mean {evaluation.mean_error:.2f} deg, max {evaluation.max_error:.2f} deg; "
-                  f"{evaluation.n_found} of {len(evaluation.surfaces)} surfaces found")
+    console.print(
+        f"z(R) = {evaluation.z:.4f} as printed in the paper, {evaluation.z_wrapped:.4f} wrap-aware; "
+        f"normal error mean {evaluation.mean_error:.2f} deg, max {evaluation.max_error:.2f} deg; "
+        f"{evaluation.n_found} of {len(evaluation.surfaces)} surfaces found"
+    )
 
 
 def print_match(match, console: Console | None = None) -> None:
@@ -63,14 +104,15 @@ def print_match(match, console: Console | None = None) -> None:
         table.add_column(column, justify="right")
     for row in match.surfaces:
         found = row.found
-        table.add_row(row.surface, str(row.region) if found else "missed",
-                      f"{row.true_dip_direction:05.1f}/{row.true_dip:04.1f}",
-                      f"{row.dip_direction:05.1f}/{row.dip:04.1f}" if found else "-",
-                      f"{row.normal_error_deg:.3f}" if found else "-")
+        table.add_row(
+            row.surface,
+            str(row.region) if found else "missed",
+            f"{row.true_dip_direction:05.1f}/{row.true_dip:04.1f}",
+            f"{row.dip_direction:05.1f}/{row.dip:04.1f}" if found else "-",
+            f"{row.normal_error_deg:.3f}" if found else "-",
+        )
     console.print(table)
-    console.print(f"mean normal error {match.mean_error:.3f} deg, max {match.max_error:.3f} deg, "
-                  f"{match.n_found} of {len(match.surfaces)} surfaces found")
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    console.print(
+        f"mean normal error {match.mean_error:.3f} deg, max {match.max_error:.3f} deg, "
+        f"{match.n_found} of {len(match.surfaces)} surfaces found"
+    )

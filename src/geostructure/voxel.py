@@ -4,6 +4,7 @@ Each voxel keeps its point count, coordinate sums and sums of products (relative
 voxel's own corner, so large coordinates cost no precision). Moments add: chunks or tiles
 of a cloud larger than memory can be accumulated with :func:`add_moments` and fitted once.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -71,8 +72,10 @@ def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarra
     if len(points):
         cells = float(np.max(points.max(axis=0) - np.asarray(origin, float))) / edge if edge > 0 else np.inf
         if not cells <= MAX_CELLS_PER_AXIS:
-            raise ParameterError(f"a voxel edge of {edge:.3g} is too small for a cloud this size (more than "
-                                 f"{MAX_CELLS_PER_AXIS:,} voxels along an axis); take a larger zeta.")
+            raise ParameterError(
+                f"a voxel edge of {edge:.3g} is too small for a cloud this size (more than "
+                f"{MAX_CELLS_PER_AXIS:,} voxels along an axis); take a larger zeta."
+            )
     return np.floor((points - origin) / edge).astype(np.int64)
 
 
@@ -114,8 +117,9 @@ def add_moments(a: VoxelMoments, b: VoxelMoments) -> VoxelMoments:
             return np.bincount(inverse, stacked, len(unique))
         return np.stack([np.bincount(inverse, stacked[:, c], len(unique)) for c in range(stacked.shape[1])], 1)
 
-    return VoxelMoments(unique, total(a.count, b.count), total(a.sums, b.sums),
-                        total(a.products, b.products), a.edge, a.origin)
+    return VoxelMoments(
+        unique, total(a.count, b.count), total(a.sums, b.sums), total(a.products, b.products), a.edge, a.origin
+    )
 
 
 def covariance_from_moments(count, sums, products) -> tuple[np.ndarray, np.ndarray]:
@@ -184,7 +188,12 @@ def fit_voxels(points: np.ndarray, zeta: float, *, min_points: int = 5, max_curv
     lookup = np.full(len(moments.keys), -1, dtype=np.int64)
     lookup[kept_index] = np.arange(len(kept_index))
     return VoxelPlanes(
-        centroid=centroid[planar], normal=normal[planar], residual=residual[planar],
-        curvature=curvature[planar], count=moments.count[kept_index].astype(np.int64),
-        keys=moments.keys[kept_index], point_voxel=lookup[inverse], edge=edge,
+        centroid=centroid[planar],
+        normal=normal[planar],
+        residual=residual[planar],
+        curvature=curvature[planar],
+        count=moments.count[kept_index].astype(np.int64),
+        keys=moments.keys[kept_index],
+        point_voxel=lookup[inverse],
+        edge=edge,
     )

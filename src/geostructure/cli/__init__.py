@@ -5,6 +5,7 @@ parameters they give); ``measure`` the commands on clouds and output folders; ``
 the commands from video or photos. Each depends on ``options`` and the library, never on
 this module.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,8 +40,10 @@ def main(argv=None) -> int:
             print(f"geostructure: error: {where}{exc.strerror or exc}.", file=sys.stderr)
             return EXIT_USER_ERROR
         except KeyboardInterrupt:
-            print("geostructure: interrupted; the output folder keeps its previous set (no half-written files).",
-                  file=sys.stderr)
+            print(
+                "geostructure: interrupted; the output folder keeps its previous set (no half-written files).",
+                file=sys.stderr,
+            )
             return 130
 
 
@@ -56,14 +59,20 @@ def _warning_printer():
         if issubclass(category, GeoStructureWarning):
             print(f"geostructure: warning: {message}", file=sys.stderr)
         else:  # a library's own warning got past us: our defect, said as such, never passed off as advice
-            print(f"geostructure: internal warning (please report it): {category.__name__} at "
-                  f"{Path(filename).name}:{lineno}: {message}", file=sys.stderr)
+            print(
+                f"geostructure: internal warning (please report it): {category.__name__} at "
+                f"{Path(filename).name}:{lineno}: {message}",
+                file=sys.stderr,
+            )
+
     return show
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="geostructure", description=(
-        "Measure strike, dip and dip direction of the planar surfaces in a point cloud."))
+    parser = argparse.ArgumentParser(
+        prog="geostructure",
+        description=("Measure strike, dip and dip direction of the planar surfaces in a point cloud."),
+    )
     parser.add_argument("--version", action="version", version=f"geostructure {__version__}")
     sub = parser.add_subparsers(dest="command")
 

@@ -1,4 +1,5 @@
 """The commands on clouds and output folders: measure, evaluate, report, sweep, demo."""
+
 from __future__ import annotations
 
 import argparse
@@ -9,9 +10,9 @@ from pathlib import Path
 from ..errors import GeoStructureError
 from ..evaluate import PlaneSet, evaluate, match_scene, scene_truth
 from ..io.outdir import output_set
-from ..io.writers import write_table_csv
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.truth import read_truth
+from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
 from ..runs import add_evaluation, add_report, save_measurement
@@ -19,8 +20,17 @@ from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
 from ..tables import print_evaluation, print_match, print_planes, print_sweep
-from .options import (add_measure_options, base_params, check_before_work, check_outdir, finite_float, frame_from,
-                      params_from, positive_float, whole)
+from .options import (
+    add_measure_options,
+    base_params,
+    check_before_work,
+    check_outdir,
+    finite_float,
+    frame_from,
+    params_from,
+    positive_float,
+    whole,
+)
 
 
 def add_measure_commands(sub) -> None:
@@ -28,8 +38,12 @@ def add_measure_commands(sub) -> None:
     m = sub.add_parser("measure", help="measure the planes of a point cloud file")
     m.add_argument("input", type=Path, help="PLY, LAS, LAZ, E57, XYZ, TXT or CSV file")
     m.add_argument("-o", "--outdir", type=Path, required=True, help="folder for planes.csv, regions.ply, run.json")
-    m.add_argument("--mesh-samples", type=whole(0), default=DEFAULT_MESH_SAMPLES,
-                   help="points sampled on a PLY mesh's faces (0: use the vertices only)")
+    m.add_argument(
+        "--mesh-samples",
+        type=whole(0),
+        default=DEFAULT_MESH_SAMPLES,
+        help="points sampled on a PLY mesh's faces (0: use the vertices only)",
+    )
     m.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
     m.add_argument("--report", action="store_true", help="also write report.html, stereonet and rose figures")
     add_measure_options(m)
@@ -38,15 +52,22 @@ def add_measure_commands(sub) -> None:
     e = sub.add_parser("evaluate", help="score a measured OUTDIR against a ground-truth CSV")
     e.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
     e.add_argument("--truth", type=Path, required=True, help="CSV: surface, strike, dip, dip_direction[, center_*]")
-    e.add_argument("--fit-frame", action="store_true",
-                   help="for an unreferenced cloud: fit the frame from the ground-truth planes, then score")
+    e.add_argument(
+        "--fit-frame",
+        action="store_true",
+        help="for an unreferenced cloud: fit the frame from the ground-truth planes, then score",
+    )
     e.add_argument("-q", "--quiet", action="store_true", help="no table")
     e.set_defaults(run=run_evaluate)
 
     r = sub.add_parser("report", help="interactive report.html, stereonet and rose figures of a measured OUTDIR")
     r.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
-    r.add_argument("--max-points", type=whole(1), default=None,
-                   help="points drawn in 3D at most (default 100000; the file grows ~70 bytes a point)")
+    r.add_argument(
+        "--max-points",
+        type=whole(1),
+        default=None,
+        help="points drawn in 3D at most (default 100000; the file grows ~70 bytes a point)",
+    )
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(run=run_report)
 
@@ -69,8 +90,12 @@ def add_measure_commands(sub) -> None:
     d.add_argument("-o", "--outdir", type=Path, default=Path("out/demo"))
     d.add_argument("--points", type=whole(1000), default=300_000, help="points in the scene")
     d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--report", action=argparse.BooleanOptionalAction, default=True,
-                   help="also write report.html, stereonet and rose figures (default on)")
+    d.add_argument(
+        "--report",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="also write report.html, stereonet and rose figures (default on)",
+    )
     add_measure_options(d)
     d.set_defaults(run=run_demo)
 
@@ -82,8 +107,9 @@ def run_measure(args) -> int:
     truth = read_truth(args.truth, frame) if args.truth else None
     t = time.perf_counter()
     cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
-    return measure_cloud(cloud, args, frame, {"read": time.perf_counter() - t}, truth=truth,
-                         inputs=[args.input, args.truth])
+    return measure_cloud(
+        cloud, args, frame, {"read": time.perf_counter() - t}, truth=truth, inputs=[args.input, args.truth]
+    )
 
 
 def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=()) -> int:
@@ -97,17 +123,28 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         result.seconds = {**seconds, "auto": auto_seconds, **result.seconds}
         evaluation = evaluate(PlaneSet.from_result(result), truth) if truth is not None else None
         progress("write", 0, None)
-        paths = save_measurement(result, args.outdir, extra={"auto": auto, **(extra or {})}, evaluation=evaluation,
-                                 report=args.report, inputs=inputs)
+        paths = save_measurement(
+            result,
+            args.outdir,
+            extra={"auto": auto, **(extra or {})},
+            evaluation=evaluation,
+            report=args.report,
+            inputs=inputs,
+        )
     if not len(result):
-        print("geostructure: warning: no plane found; if the cloud is sparse, try a larger --zeta "
-              "(voxels need at least 5 points each to fit a plane).", file=sys.stderr)
+        print(
+            "geostructure: warning: no plane found; if the cloud is sparse, try a larger --zeta "
+            "(voxels need at least 5 points each to fit a plane).",
+            file=sys.stderr,
+        )
     if not args.quiet:
         print_planes(result)
         if evaluation is not None:
             print_evaluation(evaluation)
-        print(f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "
-              f"wrote {', '.join(str(p) for p in paths.values())}")
+        print(
+            f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "
+            f"wrote {', '.join(str(p) for p in paths.values())}"
+        )
     return 0
 
 
@@ -117,9 +154,11 @@ def run_evaluate(args) -> int:
         print_evaluation(evaluation)
         if extra:
             f = extra["frame_fit"]
-            print(f"frame fitted to the ground truth: turned {f['rotation_deg']:.1f} deg; "
-                  f"residuals {', '.join(f'{r:.1f}' for r in f['residuals_deg'])} deg (mean {f['mean_residual_deg']:.2f}); "
-                  f"angles between surfaces off by {f['pairwise_mean_deg']:.2f} deg on average (frame-free)")
+            print(
+                f"frame fitted to the ground truth: turned {f['rotation_deg']:.1f} deg; "
+                f"residuals {', '.join(f'{r:.1f}' for r in f['residuals_deg'])} deg (mean {f['mean_residual_deg']:.2f}); "
+                f"angles between surfaces off by {f['pairwise_mean_deg']:.2f} deg on average (frame-free)"
+            )
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0
 
@@ -134,9 +173,14 @@ def run_demo(args) -> int:
         result = measure(scene.cloud, params, frame, progress)
         match = match_scene(result, scene)
         progress("write", 0, None)
-        paths = save_measurement(result, args.outdir, extra={"auto": auto, "demo": {"points": args.points, "seed": args.seed}},
-                                 evaluation=match, evaluation_extra={"truth": "the scene's exact surfaces"},
-                                 report=args.report)
+        paths = save_measurement(
+            result,
+            args.outdir,
+            extra={"auto": auto, "demo": {"points": args.points, "seed": args.seed}},
+            evaluation=match,
+            evaluation_extra={"truth": "the scene's exact surfaces"},
+            report=args.report,
+        )
     if not args.quiet:
         print_planes(result)
         print_match(match)
@@ -176,10 +220,16 @@ def run_sweep(args) -> int:
     with output_set(args.outdir, record_name="sweep.json", inputs=[args.input, args.truth]) as outputs:
         write_table_csv(rows_as_dicts(rows), outputs.path("sweep.csv"))
         figures = plot_sweep(rows, outputs.staging / f"sweep_{args.factor}")
-        outputs.record = {"input": "demo" if args.demo else str(args.input), "base_params": base.to_dict(),
-                          "seconds": round(time.perf_counter() - t, 2), "runs": rows_as_dicts(rows)}
+        outputs.record = {
+            "input": "demo" if args.demo else str(args.input),
+            "base_params": base.to_dict(),
+            "seconds": round(time.perf_counter() - t, 2),
+            "runs": rows_as_dicts(rows),
+        }
     if not args.quiet:
         print_sweep(rows)
-        print(f"{len(rows)} runs in {time.perf_counter() - t:.0f} s; wrote {outputs.final('sweep.csv')}, "
-              f"{', '.join(str(outputs.final(p.name)) for p in figures)}")
+        print(
+            f"{len(rows)} runs in {time.perf_counter() - t:.0f} s; wrote {outputs.final('sweep.csv')}, "
+            f"{', '.join(str(outputs.final(p.name)) for p in figures)}"
+        )
     return 0

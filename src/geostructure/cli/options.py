@@ -1,6 +1,7 @@
 """What the commands share: option types (numbers are checked where they are parsed, so NaN,
 infinity and impossible counts get argparse's one-line error, exit 2, before any work), the
 measuring options, and the frame and parameters they give."""
+
 from __future__ import annotations
 
 import argparse
@@ -35,6 +36,7 @@ def positive_float(text: str) -> float:
 
 def whole(minimum: int):
     """An argparse type: a whole number of at least ``minimum``."""
+
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -43,6 +45,7 @@ def whole(minimum: int):
         if value < minimum:
             raise argparse.ArgumentTypeError(f"{value} is less than {minimum}")
         return value
+
     parse.__name__ = f"whole number >= {minimum}"
     return parse
 
@@ -57,30 +60,65 @@ def non_negative_float(text: str) -> float:
 def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -> None:
     defaults = Params()
     g = p.add_argument_group("frame (which way is up and north)")
-    g.add_argument("--frame", choices=("enu", "paper"), default="enu",
-                   help="enu: x=East y=North z=Up (default); paper: x=North y=West z=Up")
+    g.add_argument(
+        "--frame",
+        choices=("enu", "paper"),
+        default="enu",
+        help="enu: x=East y=North z=Up (default); paper: x=North y=West z=Up",
+    )
     g.add_argument("--up", type=finite_float, nargs=3, metavar=("X", "Y", "Z"), help="up vector in cloud axes")
     g.add_argument("--north", type=finite_float, nargs=3, metavar=("X", "Y", "Z"), help="north vector in cloud axes")
-    g.add_argument("--declination", type=finite_float, default=0.0,
-                   help="magnetic declination in degrees, east positive: azimuths read against magnetic north")
+    g.add_argument(
+        "--declination",
+        type=finite_float,
+        default=0.0,
+        help="magnetic declination in degrees, east positive: azimuths read against magnetic north",
+    )
     a = p.add_argument_group("algorithm (the paper's variable factors)")
-    a.add_argument("--auto", action=argparse.BooleanOptionalAction, default=auto_default,
-                   help="choose zeta, theta, psi and k from the cloud (explicit values below still win)")
+    a.add_argument(
+        "--auto",
+        action=argparse.BooleanOptionalAction,
+        default=auto_default,
+        help="choose zeta, theta, psi and k from the cloud (explicit values below still win)",
+    )
     a.add_argument("--zeta", type=finite_float, help=f"voxel edge / largest extent (fixed default {defaults.zeta})")
     a.add_argument("--theta", type=finite_float, help=f"angle threshold, degrees (fixed default {defaults.theta})")
     a.add_argument("--psi", type=finite_float, help=f"offset threshold, voxel edges (fixed default {defaults.psi})")
     a.add_argument("--k", type=int, help=f"neighbours per seed (fixed default {defaults.k})")
-    a.add_argument("--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)")
-    a.add_argument("--filter", choices=("local", "global", "none"), default=defaults.filter,
-                   help="Mahalanobis outlier filter (default %(default)s)")
-    a.add_argument("--sigma", type=positive_float, default=defaults.filter_sigma, help="filter threshold, std (default %(default)s)")
-    a.add_argument("--reference", choices=("region", "seed"), default=defaults.reference,
-                   help="compare normals with the region plane or the seed (default %(default)s)")
-    a.add_argument("--rectangle", choices=("exact", "golden"), default=defaults.rectangle,
-                   help="minimum-perimeter rectangle by rotating calipers or golden-section search")
-    a.add_argument("--merge", action=argparse.BooleanOptionalAction, default=defaults.merge,
-                   help="join coplanar regions split by a gap no wider than the smaller one (default on; "
-                        "--no-merge gives the paper's regions)")
+    a.add_argument(
+        "--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)"
+    )
+    a.add_argument(
+        "--filter",
+        choices=("local", "global", "none"),
+        default=defaults.filter,
+        help="Mahalanobis outlier filter (default %(default)s)",
+    )
+    a.add_argument(
+        "--sigma",
+        type=positive_float,
+        default=defaults.filter_sigma,
+        help="filter threshold, std (default %(default)s)",
+    )
+    a.add_argument(
+        "--reference",
+        choices=("region", "seed"),
+        default=defaults.reference,
+        help="compare normals with the region plane or the seed (default %(default)s)",
+    )
+    a.add_argument(
+        "--rectangle",
+        choices=("exact", "golden"),
+        default=defaults.rectangle,
+        help="minimum-perimeter rectangle by rotating calipers or golden-section search",
+    )
+    a.add_argument(
+        "--merge",
+        action=argparse.BooleanOptionalAction,
+        default=defaults.merge,
+        help="join coplanar regions split by a gap no wider than the smaller one (default on; "
+        "--no-merge gives the paper's regions)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
 
 
@@ -90,8 +128,15 @@ FACTOR_OPTIONS = ("zeta", "theta", "psi", "k")
 def base_params(args) -> Params:
     """The parameters the options give, checked (and warned about) once, before any reading."""
     given = {name: getattr(args, name) for name in FACTOR_OPTIONS if getattr(args, name) is not None}
-    return Params(min_points=args.min_points, filter=args.filter, filter_sigma=args.sigma,
-                  reference=args.reference, rectangle=args.rectangle, merge=args.merge, **given)
+    return Params(
+        min_points=args.min_points,
+        filter=args.filter,
+        filter_sigma=args.sigma,
+        reference=args.reference,
+        rectangle=args.rectangle,
+        merge=args.merge,
+        **given,
+    )
 
 
 def params_from(args, cloud=None) -> tuple[Params, dict | None]:
@@ -108,10 +153,16 @@ def params_from(args, cloud=None) -> tuple[Params, dict | None]:
     params = choice.params.with_(**given) if given else choice.params
     if not args.quiet:
         print(f"geostructure: {choice.describe()}" + (f"; given: {given}" if given else ""), file=sys.stderr)
-    record = {"zeta": choice.params.zeta, "theta": choice.params.theta, "psi": choice.params.psi,
-              "k": choice.params.k, "points_per_voxel": choice.points_per_voxel,
-              "normal_noise_deg": choice.normal_noise_deg, "offset_noise_voxel_edges": choice.offset_noise,
-              "overridden_by_user": sorted(given)}
+    record = {
+        "zeta": choice.params.zeta,
+        "theta": choice.params.theta,
+        "psi": choice.params.psi,
+        "k": choice.params.k,
+        "points_per_voxel": choice.points_per_voxel,
+        "normal_noise_deg": choice.normal_noise_deg,
+        "offset_noise_voxel_edges": choice.offset_noise,
+        "overridden_by_user": sorted(given),
+    }
     return params, record
 
 

@@ -1,4 +1,5 @@
 """The commands from video or photos: ``frames`` and ``run`` (the whole paper)."""
+
 from __future__ import annotations
 
 import argparse
@@ -19,8 +20,15 @@ from ..reconstruct.pipeline import ReconstructOptions, reconstruct
 from ..reconstruct.sfm import SfmOptions, list_images
 from ..reconstruct.surface import SurfaceOptions
 from .measure import measure_cloud
-from .options import (add_measure_options, base_params, check_before_work, frame_from, non_negative_float,
-                      positive_float, whole)
+from .options import (
+    add_measure_options,
+    base_params,
+    check_before_work,
+    frame_from,
+    non_negative_float,
+    positive_float,
+    whole,
+)
 
 
 def add_reconstruct_commands(sub) -> None:
@@ -37,26 +45,47 @@ def add_reconstruct_commands(sub) -> None:
     r.add_argument("-o", "--outdir", type=Path, required=True, help="folder for the cloud, planes and report")
     g = r.add_argument_group("reconstruction")
     add_frame_options(g, defaults)
-    g.add_argument("--matching", choices=("auto", "sequential", "exhaustive"), default="auto",
-                   help="SfM matching: sequential for video, exhaustive for photo sets (auto: by count)")
+    g.add_argument(
+        "--matching",
+        choices=("auto", "sequential", "exhaustive"),
+        default="auto",
+        help="SfM matching: sequential for video, exhaustive for photo sets (auto: by count)",
+    )
     g.add_argument("--max-image-size", type=whole(64), default=1600, help="SfM features on images this large (px)")
-    g.add_argument("--dense", choices=("auto", "colmap", "sgbm", "sweep", "none"), default="auto",
-                   help="dense stage: colmap (CUDA PatchMatch), sgbm (CPU, rectified pairs), sweep (CPU plane "
-                        "sweep, for walks along the view), none (measure sparse points); auto: colmap with CUDA, "
-                        "else sgbm, or sweep when most images have no sideways partner")
+    g.add_argument(
+        "--dense",
+        choices=("auto", "colmap", "sgbm", "sweep", "none"),
+        default="auto",
+        help="dense stage: colmap (CUDA PatchMatch), sgbm (CPU, rectified pairs), sweep (CPU plane "
+        "sweep, for walks along the view), none (measure sparse points); auto: colmap with CUDA, "
+        "else sgbm, or sweep when most images have no sideways partner",
+    )
     g.add_argument("--dense-neighbours", type=whole(1), default=2, help="stereo partners per image (sgbm, sweep)")
     g.add_argument("--no-mesh", action="store_true", help="skip the Poisson surface: measure the dense cloud directly")
     g.add_argument("--poisson-depth", type=whole(4), default=9, help="Poisson octree depth (default %(default)s)")
     e = r.add_argument_group("georeference (one is needed before strike and dip mean anything)")
-    e.add_argument("--gcp", type=Path, help="control points: a CSV of name,E,N,Up with image,u,v (pixels) or x,y,z "
-                   "(model), or OpenSfM's ground_control_points.json (WGS84)")
-    e.add_argument("--scale", type=positive_float, default=1.0,
-                   help="manual georeference: metres per model unit, with --up and --north given in model axes")
-    e.add_argument("--assume-level", action="store_true",
-                   help="no control, no GPS: take up from the cameras (held without roll) and 'north' along their mean "
-                        "view; dips approximate, azimuths relative to the view")
+    e.add_argument(
+        "--gcp",
+        type=Path,
+        help="control points: a CSV of name,E,N,Up with image,u,v (pixels) or x,y,z "
+        "(model), or OpenSfM's ground_control_points.json (WGS84)",
+    )
+    e.add_argument(
+        "--scale",
+        type=positive_float,
+        default=1.0,
+        help="manual georeference: metres per model unit, with --up and --north given in model axes",
+    )
+    e.add_argument(
+        "--assume-level",
+        action="store_true",
+        help="no control, no GPS: take up from the cameras (held without roll) and 'north' along their mean "
+        "view; dips approximate, azimuths relative to the view",
+    )
     r.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
-    r.add_argument("--report", action=argparse.BooleanOptionalAction, default=True, help="write report.html (default on)")
+    r.add_argument(
+        "--report", action=argparse.BooleanOptionalAction, default=True, help="write report.html (default on)"
+    )
     add_measure_options(r)
     r.set_defaults(run=run_run)
 
@@ -64,15 +93,21 @@ def add_reconstruct_commands(sub) -> None:
 def add_frame_options(parser, defaults) -> None:
     parser.add_argument("--fps", type=positive_float, default=None, help="decode rate (default: the video's own)")
     parser.add_argument("--all-frames", action="store_true", help="keep every decoded frame (no sharpness/motion test)")
-    parser.add_argument("--min-motion", type=non_negative_float, default=defaults.min_motion,
-                        help="keep a frame once the view moved this fraction of the width (default %(default)s)")
+    parser.add_argument(
+        "--min-motion",
+        type=non_negative_float,
+        default=defaults.min_motion,
+        help="keep a frame once the view moved this fraction of the width (default %(default)s)",
+    )
     parser.add_argument("--max-frames", type=whole(1), default=None, help="stop after this many kept frames")
 
 
 def frame_options(args):
     if args.fps is not None and args.fps <= 0:
         raise GeoStructureError(f"--fps must be positive, not {args.fps}.")
-    return FrameOptions(fps=args.fps, select=not args.all_frames, min_motion=args.min_motion, max_frames=args.max_frames)
+    return FrameOptions(
+        fps=args.fps, select=not args.all_frames, min_motion=args.min_motion, max_frames=args.max_frames
+    )
 
 
 def run_frames(args) -> int:
@@ -88,7 +123,9 @@ def run_run(args) -> int:
     frame_from(args)  # refuse a half-given --up/--north before hours of reconstruction
     frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up
     base_params(args)
-    require_reconstruction_extra(needs_video=args.source.is_file(), needs_mesh=not args.no_mesh and args.dense != "none")
+    require_reconstruction_extra(
+        needs_video=args.source.is_file(), needs_mesh=not args.no_mesh and args.dense != "none"
+    )
     check_before_work(args, [args.truth, args.gcp])
     if not args.source.exists():
         raise GeoStructureError(f"{args.source}: no such file or folder.")
@@ -107,17 +144,23 @@ def run_run(args) -> int:
         sfm=SfmOptions(matching=args.matching, max_image_size=args.max_image_size),
         dense=DenseOptions(method="auto" if args.dense == "none" else args.dense, neighbours=args.dense_neighbours),
         surface=SurfaceOptions(depth=args.poisson_depth),
-        use_dense=args.dense != "none", mesh=not args.no_mesh,
-        gcp=str(args.gcp) if args.gcp else None, up=args.up, north=args.north, scale=args.scale,
-        assume_level=args.assume_level)
+        use_dense=args.dense != "none",
+        mesh=not args.no_mesh,
+        gcp=str(args.gcp) if args.gcp else None,
+        up=args.up,
+        north=args.north,
+        scale=args.scale,
+        assume_level=args.assume_level,
+    )
     t = time.perf_counter()
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     with StageProgress(enabled=not args.quiet) as progress:
         made = _resumable(lambda: reconstruct(args.source, args.outdir, options, progress, log), args.outdir)
     cloud = Cloud.from_points(made.points, source=made.cloud_path, enu_origin=made.georeference.enu_origin)
     extra = {"reconstruction": {k: v for k, v in made.records.items()}}
-    return measure_cloud(cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra, truth=truth,
-                         inputs=[args.truth, args.gcp])
+    return measure_cloud(
+        cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra, truth=truth, inputs=[args.truth, args.gcp]
+    )
 
 
 #: What ``run`` needs beyond the measuring core, by import name, and the package it comes in.
@@ -133,8 +176,10 @@ def require_reconstruction_extra(needs_video: bool, needs_mesh: bool) -> None:
         modules["open3d"] = "open3d"
     missing = [package for module, package in modules.items() if importlib.util.find_spec(module) is None]
     if missing:
-        raise GeoStructureError(f"reconstruction needs {', '.join(missing)}, which is not installed; "
-                                f"install it with: pip install 'geostructure[reconstruct]'.")
+        raise GeoStructureError(
+            f"reconstruction needs {', '.join(missing)}, which is not installed; "
+            f"install it with: pip install 'geostructure[reconstruct]'."
+        )
 
 
 def _resumable(stages, outdir: Path):
@@ -147,6 +192,7 @@ def _resumable(stages, outdir: Path):
             shutil.rmtree(outdir, ignore_errors=True)  # nothing finished: leave no half-made folder
             raise GeoStructureError(f"{exc} Nothing was kept.") from None
         if (outdir / "reconstruct.json").exists():
-            raise GeoStructureError(f"{exc} The finished stages are kept in {outdir}; the same command "
-                                    f"resumes after them.") from None
+            raise GeoStructureError(
+                f"{exc} The finished stages are kept in {outdir}; the same command resumes after them."
+            ) from None
         raise

@@ -4,6 +4,7 @@ A file goes to a temporary name beside its target and is renamed into place only
 complete, so an interrupted write never leaves half a file under the real name. JSON is
 written strictly (RFC 8259 has no NaN): non-finite floats become ``null``.
 """
+
 from __future__ import annotations
 
 import json

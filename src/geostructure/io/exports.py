@@ -1,9 +1,8 @@
 """Exports for other tools: Dips/Stereonet CSV and GeoJSON of the region rectangles."""
+
 from __future__ import annotations
 
 from pathlib import Path
-
-import numpy as np
 
 from ..geodesy import enu_to_geodetic
 from .atomic import atomic_path, json_text, write_table_csv
@@ -13,8 +12,15 @@ def write_dips_csv(result, path) -> Path:
     """``planes_dips.csv``: Dip Direction, Dip first (the layout Rocscience Dips and
     Allmendinger's Stereonet import), then the region id and its point count."""
     o = result.orientation
-    rows = [{"Dip Direction": round(float(o.dip_direction[i]), 2), "Dip": round(float(o.dip[i]), 2),
-             "Region": i, "Points": p.n_points} for i, p in enumerate(result.planes)]
+    rows = [
+        {
+            "Dip Direction": round(float(o.dip_direction[i]), 2),
+            "Dip": round(float(o.dip[i]), 2),
+            "Region": i,
+            "Points": p.n_points,
+        }
+        for i, p in enumerate(result.planes)
+    ]
     return write_table_csv(rows, path, columns=("Dip Direction", "Dip", "Region", "Points"))
 
 
@@ -33,14 +39,23 @@ def geojson(result) -> dict:
         if origin is not None:
             corners = enu_to_geodetic(corners, origin)[:, [1, 0, 2]]
         ring = corners.tolist()
-        features.append({
-            "type": "Feature",
-            "geometry": {"type": "Polygon", "coordinates": [ring + [ring[0]]]},
-            "properties": {"region_id": i, "strike": float(o.strike[i]), "dip": float(o.dip[i]),
-                           "dip_direction": float(o.dip_direction[i]), "n_points": plane.n_points,
-                           "area": plane.area, "rect_width": plane.width, "rect_height": plane.height,
-                           "normal_uncertainty_deg": float(result.uncertainty[i])},
-        })
+        features.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "Polygon", "coordinates": [ring + [ring[0]]]},
+                "properties": {
+                    "region_id": i,
+                    "strike": float(o.strike[i]),
+                    "dip": float(o.dip[i]),
+                    "dip_direction": float(o.dip_direction[i]),
+                    "n_points": plane.n_points,
+                    "area": plane.area,
+                    "rect_width": plane.width,
+                    "rect_height": plane.height,
+                    "normal_uncertainty_deg": float(result.uncertainty[i]),
+                },
+            }
+        )
     data = {"type": "FeatureCollection", "features": features}
     crs = result.cloud.crs
     if crs and crs.startswith("EPSG:"):

@@ -18,6 +18,7 @@ folder only after :func:`verified_record` has checked every file against the man
 a folder holding a mixture (a hand-copied ``planes.csv``, a crash of an older version)
 is refused instead of reported on.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -28,7 +29,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import GeoStructureError, OutputError
+from ..errors import OutputError
 from .atomic import TEMP_PATTERN, write_json
 
 STAGING = ".geostructure-staging"
@@ -39,7 +40,8 @@ MEASURE_FILES = ("planes.csv", "planes_dips.csv", "planes.geojson", "regions.ply
 EVALUATION_FILES = ("evaluation.csv", "evaluation.json")
 REPORT_FILES = ("report.html", "stereonet.png", "stereonet.svg", "rose.png")
 SWEEP_FILES = ("sweep.csv", "sweep.json") + tuple(
-    f"sweep_{factor}.{fmt}" for factor in ("zeta", "theta", "psi", "k", "all") for fmt in ("png", "svg"))
+    f"sweep_{factor}.{fmt}" for factor in ("zeta", "theta", "psi", "k", "all") for fmt in ("png", "svg")
+)
 #: Every name GeoStructure writes into an output folder; no other file there is ever touched.
 OWNED = frozenset(MEASURE_FILES + EVALUATION_FILES + REPORT_FILES + SWEEP_FILES)
 
@@ -63,8 +65,11 @@ def check_outdir(outdir) -> Path:
     if not existing.is_dir():
         raise OutputError(f"{outdir}: cannot be created, since {existing} is a file.")
     if not os.access(existing, os.W_OK | os.X_OK):
-        raise OutputError(f"{outdir}: the output folder is not writable." if existing == outdir
-                          else f"{outdir}: cannot be created in {existing} (not writable).")
+        raise OutputError(
+            f"{outdir}: the output folder is not writable."
+            if existing == outdir
+            else f"{outdir}: cannot be created in {existing} (not writable)."
+        )
     return outdir
 
 
@@ -89,8 +94,10 @@ def check_inputs_not_outputs(outdir, inputs) -> None:
         for name in sorted(OWNED):
             target = outdir / name
             if target.exists() and os.path.samefile(source, target):
-                raise OutputError(f"{source}: is the output {name} of {outdir}, which this run would overwrite; "
-                                  f"copy it elsewhere or choose another output folder.")
+                raise OutputError(
+                    f"{source}: is the output {name} of {outdir}, which this run would overwrite; "
+                    f"copy it elsewhere or choose another output folder."
+                )
 
 
 def file_entry(path: Path) -> dict:
@@ -104,8 +111,12 @@ def file_entry(path: Path) -> dict:
 
 def _matches(path: Path, entry) -> bool:
     try:
-        return (isinstance(entry, dict) and path.is_file() and path.stat().st_size == entry.get("bytes")
-                and file_entry(path)["sha256"] == entry.get("sha256"))
+        return (
+            isinstance(entry, dict)
+            and path.is_file()
+            and path.stat().st_size == entry.get("bytes")
+            and file_entry(path)["sha256"] == entry.get("sha256")
+        )
     except OSError:
         return False
 
@@ -118,8 +129,7 @@ def _read_record(path: Path) -> dict | None:
     return record if isinstance(record, dict) else None
 
 
-def verified_record(outdir, record_name: str = "run.json", command: str = "geostructure measure",
-                    ignore=()) -> dict:
+def verified_record(outdir, record_name: str = "run.json", command: str = "geostructure measure", ignore=()) -> dict:
     """The run record of OUTDIR, after checking every file it lists is the one it wrote.
 
     Raises :class:`OutputError` naming the first file that is missing or changed, so no
@@ -130,27 +140,34 @@ def verified_record(outdir, record_name: str = "run.json", command: str = "geost
     path = outdir / record_name
     if not path.is_file():
         if any((outdir / name).exists() for name in OWNED):
-            raise OutputError(f"{outdir}: holds outputs but no {record_name}, so they are an incomplete set; "
-                              f"run '{command}' again.")
+            raise OutputError(
+                f"{outdir}: holds outputs but no {record_name}, so they are an incomplete set; run '{command}' again."
+            )
         raise OutputError(f"{path}: no such file; run '{command}' first.")
     record = _read_record(path)
     if record is None:
         raise OutputError(f"{path}: not a GeoStructure run record (not a JSON object).")
     outputs = record.get("outputs")
     if not isinstance(outputs, dict):
-        raise OutputError(f"{path}: lists no outputs (written by an older GeoStructure or by hand), so the folder "
-                          f"cannot be trusted as one run; run '{command}' again.")
+        raise OutputError(
+            f"{path}: lists no outputs (written by an older GeoStructure or by hand), so the folder "
+            f"cannot be trusted as one run; run '{command}' again."
+        )
     for name, entry in sorted(outputs.items()):
         if name in ignore:
             continue
         if name not in OWNED or "/" in name:
             raise OutputError(f"{path}: lists '{name}', which GeoStructure never writes; run '{command}' again.")
         if not (outdir / name).is_file():
-            raise OutputError(f"{outdir}: {name} is missing although {record_name} lists it, so the folder holds an "
-                              f"incomplete set; run '{command}' again.")
+            raise OutputError(
+                f"{outdir}: {name} is missing although {record_name} lists it, so the folder holds an "
+                f"incomplete set; run '{command}' again."
+            )
         if not _matches(outdir / name, entry):
-            raise OutputError(f"{outdir}: {name} is not the file {record_name} lists (changed since, or left by "
-                              f"another run), so the folder mixes two sets; run '{command}' again.")
+            raise OutputError(
+                f"{outdir}: {name} is not the file {record_name} lists (changed since, or left by "
+                f"another run), so the folder mixes two sets; run '{command}' again."
+            )
     return record
 
 
@@ -163,8 +180,8 @@ class OutputSet:
     record_name: str
     replace: bool
     record: dict = field(default_factory=dict)
-    kept: dict = field(default_factory=dict)      # manifest entries carried over (add mode)
-    stale: list = field(default_factory=list)     # previous files this set replaces (replace mode)
+    kept: dict = field(default_factory=dict)  # manifest entries carried over (add mode)
+    stale: list = field(default_factory=list)  # previous files this set replaces (replace mode)
 
     def path(self, name: str) -> Path:
         """Where to write output ``name`` (in the staging folder until the commit)."""
@@ -182,8 +199,15 @@ class OutputSet:
 
 
 @contextmanager
-def output_set(outdir, *, record_name: str = "run.json", replace: bool = True, inputs=(),
-               command: str = "geostructure measure", rewrites=()):
+def output_set(
+    outdir,
+    *,
+    record_name: str = "run.json",
+    replace: bool = True,
+    inputs=(),
+    command: str = "geostructure measure",
+    rewrites=(),
+):
     """Open OUTDIR for one all-or-nothing set of outputs.
 
     ``replace=True`` (a measure, a sweep): the new set replaces the previous one, whose
@@ -222,8 +246,9 @@ def output_set(outdir, *, record_name: str = "run.json", replace: bool = True, i
                 raise  # committed: the next command finishes the move (recover)
             shutil.rmtree(outputs.staging, ignore_errors=True)
             if isinstance(exc, OSError):  # a full disk, a quota, a file system gone read-only
-                raise OutputError(f"{outdir}: cannot write the outputs ({exc.strerror or exc}); the folder "
-                                  f"holds what it held before.") from None
+                raise OutputError(
+                    f"{outdir}: cannot write the outputs ({exc.strerror or exc}); the folder holds what it held before."
+                ) from None
             raise
 
 
@@ -299,8 +324,9 @@ def _locked(outdir: Path):
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            raise OutputError(f"{outdir}: another geostructure command is writing to this folder; "
-                              f"wait for it to finish.") from None
+            raise OutputError(
+                f"{outdir}: another geostructure command is writing to this folder; wait for it to finish."
+            ) from None
         try:
             yield
         finally:

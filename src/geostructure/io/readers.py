@@ -3,6 +3,7 @@
 Every reader turns a library's exception into a :class:`GeoStructureError` that names the
 file and what is wrong, and checks the points are finite and numerous enough to measure.
 """
+
 from __future__ import annotations
 
 import re
@@ -54,9 +55,7 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
         raise GeoStructureError(f"{path}: is a folder, not a point-cloud file.")
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
-        raise GeoStructureError(
-            f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}."
-        )
+        raise GeoStructureError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
     if path.stat().st_size == 0:
         raise GeoStructureError(f"{path}: the file is empty.")
     try:
@@ -96,8 +95,10 @@ def check_points(points: np.ndarray, path) -> None:
     far = np.abs(points).max(axis=1) > MAX_COORDINATE
     if far.any():
         first = int(np.flatnonzero(far)[0])
-        raise GeoStructureError(f"{path}: point {first} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
-                                f"uses (float64 keeps no millimetres there); the file may be damaged.")
+        raise GeoStructureError(
+            f"{path}: point {first} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
+            f"uses (float64 keeps no millimetres there); the file may be damaged."
+        )
     if len(points) < 3:
         raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
 
@@ -141,9 +142,24 @@ def _check_ply_size(path: Path) -> None:
     fmt = re.search(r"^format\s+(\S+)", header, re.M)
     if not fmt or fmt.group(1) == "ascii":
         return
-    sizes = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
-             "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
-             "double": 8, "float64": 8}
+    sizes = {
+        "char": 1,
+        "uchar": 1,
+        "int8": 1,
+        "uint8": 1,
+        "short": 2,
+        "ushort": 2,
+        "int16": 2,
+        "uint16": 2,
+        "int": 4,
+        "uint": 4,
+        "int32": 4,
+        "uint32": 4,
+        "float": 4,
+        "float32": 4,
+        "double": 8,
+        "float64": 8,
+    }
     need, count, fixed = 0, 0, True
     for line in header.splitlines():
         parts = line.split()
@@ -169,7 +185,9 @@ def _ply_faces(data, n_vertices: int, path) -> np.ndarray | None:
         return None
     lists = face[key]
     lengths = np.fromiter((len(f) for f in lists), dtype=np.int64, count=len(lists))
-    tris = np.vstack([np.asarray(f, dtype=np.int64) for f, n in zip(lists, lengths) if n == 3] or [np.empty((0, 3), np.int64)])
+    tris = np.vstack(
+        [np.asarray(f, dtype=np.int64) for f, n in zip(lists, lengths) if n == 3] or [np.empty((0, 3), np.int64)]
+    )
     if len(tris) and (tris.min() < 0 or tris.max() >= n_vertices):
         raise GeoStructureError(f"{path}: a face refers to a vertex that does not exist.")
     return tris
@@ -211,8 +229,10 @@ def read_las(path: Path) -> Cloud:
         header = reader.header
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
-        parts = [np.column_stack([np.asarray(c.x), np.asarray(c.y), np.asarray(c.z)])
-                 for c in reader.chunk_iterator(LAS_CHUNK)]
+        parts = [
+            np.column_stack([np.asarray(c.x), np.asarray(c.y), np.asarray(c.z)])
+            for c in reader.chunk_iterator(LAS_CHUNK)
+        ]
     points = np.vstack(parts) if parts else np.empty((0, 3))
     if len(points) < expected:
         raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
@@ -231,8 +251,10 @@ def _check_las_header(path: Path) -> None:
     header_size, point_offset, n_vlrs = struct.unpack_from("<HII", head, 94)
     size = path.stat().st_size
     if not header_size <= point_offset <= size or n_vlrs * 54 > point_offset - header_size:
-        raise GeoStructureError(f"{path}: the header is damaged ({n_vlrs} variable-length records and point "
-                                f"data at byte {point_offset} in a file of {size} bytes).")
+        raise GeoStructureError(
+            f"{path}: the header is damaged ({n_vlrs} variable-length records and point "
+            f"data at byte {point_offset} in a file of {size} bytes)."
+        )
 
 
 def _las_crs(header) -> str | None:
@@ -274,8 +296,16 @@ def read_text(path: Path) -> Cloud:
     try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
         with warnings.catch_warnings():  # "input contained no data": said below in our words
             warnings.simplefilter("ignore", UserWarning)
-            points = np.loadtxt(path, dtype=np.float64, delimiter=delimiter, usecols=(0, 1, 2),
-                                comments=("#", "//"), skiprows=skip, ndmin=2, encoding="utf-8-sig")
+            points = np.loadtxt(
+                path,
+                dtype=np.float64,
+                delimiter=delimiter,
+                usecols=(0, 1, 2),
+                comments=("#", "//"),
+                skiprows=skip,
+                ndmin=2,
+                encoding="utf-8-sig",
+            )
     except UnicodeDecodeError:
         raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):

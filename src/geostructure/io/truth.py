@@ -10,6 +10,7 @@ strike +- 90 that points into the quadrant. A row may instead give only a normal
 row gives angles and a normal that disagree by more than 2 degrees, the angles win and
 a warning names the surface.
 """
+
 from __future__ import annotations
 
 import csv
@@ -21,11 +22,32 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError, GeoStructureWarning, InputError
-from ..orientation import (Frame, angle_between_normals, azimuth_difference, normal_from_orientation,
-                           orientation_from_normals)
+from ..orientation import (
+    Frame,
+    angle_between_normals,
+    azimuth_difference,
+    normal_from_orientation,
+    orientation_from_normals,
+)
 
-QUADRANTS = {"N": 0, "NNE": 22.5, "NE": 45, "ENE": 67.5, "E": 90, "ESE": 112.5, "SE": 135, "SSE": 157.5, "S": 180,
-             "SSW": 202.5, "SW": 225, "WSW": 247.5, "W": 270, "WNW": 292.5, "NW": 315, "NNW": 337.5}
+QUADRANTS = {
+    "N": 0,
+    "NNE": 22.5,
+    "NE": 45,
+    "ENE": 67.5,
+    "E": 90,
+    "ESE": 112.5,
+    "SE": 135,
+    "SSE": 157.5,
+    "S": 180,
+    "SSW": 202.5,
+    "SW": 225,
+    "WSW": 247.5,
+    "W": 270,
+    "WNW": 292.5,
+    "NW": 315,
+    "NNW": 337.5,
+}
 _DIP = re.compile(r"^\s*([+-]?\d+(?:\.\d*)?)\s*\(?\s*([NSEW]{0,3})\s*\)?\s*$", re.I)
 
 
@@ -60,7 +82,9 @@ def parse_dip(text: str, path, line: int) -> tuple[float, str]:
     """``"89(E)"`` -> (89.0, "E"); ``"40"`` -> (40.0, "")."""
     match = _DIP.match(text)
     if not match or (match.group(2) and match.group(2).upper() not in QUADRANTS):
-        raise GeoStructureError(f"{path}: line {line}: dip '{text}' is not a number with an optional quadrant like 89(E).")
+        raise GeoStructureError(
+            f"{path}: line {line}: dip '{text}' is not a number with an optional quadrant like 89(E)."
+        )
     dip = float(match.group(1))
     if not 0 <= dip <= 90:
         raise GeoStructureError(f"{path}: line {line}: dip {dip} is outside 0 to 90 degrees.")
@@ -87,7 +111,9 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
         raise InputError(f"{path}: is not a text CSV (not UTF-8); save the ground truth as UTF-8 CSV.") from None
     except csv.Error as exc:
         raise InputError(f"{path}: is not a readable CSV ({exc}).") from None
-    rows = [(i, r) for i, r in enumerate(rows, start=1) if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    rows = [
+        (i, r) for i, r in enumerate(rows, start=1) if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")
+    ]
     if len(rows) < 2:
         raise GeoStructureError(f"{path}: needs a header row and at least one surface.")
     header = [c.strip().lower() for c in rows[0][1]]
@@ -132,18 +158,27 @@ def _row_orientation(cell, frame, path, line, name):
         dd = dip_direction_from_strike(strike, quadrant)
     if np.isnan(dd) or np.isnan(dip):
         if not has_normal:
-            raise GeoStructureError(f"{path}: line {line}: surface '{name}' needs two of strike, dip and dip "
-                                    f"direction, or a normal.")
+            raise GeoStructureError(
+                f"{path}: line {line}: surface '{name}' needs two of strike, dip and dip direction, or a normal."
+            )
         o = orientation_from_normals(n, frame)
         dip = o.dip[0] if np.isnan(dip) else dip
         dd = o.dip_direction[0] if np.isnan(dd) else dd
     if not np.isnan(strike) and azimuth_difference(dd, strike + 90) > 2 and azimuth_difference(dd, strike - 90) > 2:
-        warnings.warn(f"{path.name}: surface '{name}': strike {strike:g} and dip direction {dd:g} are not 90 degrees "
-                      f"apart; using the dip direction.", TruthWarning, stacklevel=4)
+        warnings.warn(
+            f"{path.name}: surface '{name}': strike {strike:g} and dip direction {dd:g} are not 90 degrees "
+            f"apart; using the dip direction.",
+            TruthWarning,
+            stacklevel=4,
+        )
     normal = normal_from_orientation(dd, dip, frame)
     if has_normal:
         off = float(angle_between_normals(n, normal)[0])
         if off > 2:
-            warnings.warn(f"{path.name}: surface '{name}': its normal is {off:.1f} degrees from its strike/dip "
-                          f"(dip direction {dd:g}, dip {dip:g}); using the angles.", TruthWarning, stacklevel=4)
+            warnings.warn(
+                f"{path.name}: surface '{name}': its normal is {off:.1f} degrees from its strike/dip "
+                f"(dip direction {dd:g}, dip {dip:g}); using the angles.",
+                TruthWarning,
+                stacklevel=4,
+            )
     return float(dip), float(dd % 360.0), normal

@@ -3,6 +3,7 @@
 Each writer writes one file atomically (:mod:`.atomic`); :func:`write_outputs` writes the
 whole set through :mod:`.outdir`, so it appears in the folder together or not at all.
 """
+
 from __future__ import annotations
 
 import platform
@@ -16,11 +17,34 @@ from .exports import write_dips_csv, write_geojson
 from .outdir import EVALUATION_FILES, OutputSet, output_set
 
 #: The stable contract other tools and issues read; more columns may follow these.
-PLANE_COLUMNS = ("region_id", "n_points", "area_m2", "centroid_x", "centroid_y", "centroid_z",
-                 "normal_x", "normal_y", "normal_z", "strike", "dip", "dip_direction")
-EXTRA_COLUMNS = ("rect_width", "rect_height", "fit_residual", "n_voxels", "normal_scatter_deg",
-                 "normal_uncertainty_deg", "rect_center_x", "rect_center_y", "rect_center_z",
-                 "rect_u_x", "rect_u_y", "rect_u_z")
+PLANE_COLUMNS = (
+    "region_id",
+    "n_points",
+    "area_m2",
+    "centroid_x",
+    "centroid_y",
+    "centroid_z",
+    "normal_x",
+    "normal_y",
+    "normal_z",
+    "strike",
+    "dip",
+    "dip_direction",
+)
+EXTRA_COLUMNS = (
+    "rect_width",
+    "rect_height",
+    "fit_residual",
+    "n_voxels",
+    "normal_scatter_deg",
+    "normal_uncertainty_deg",
+    "rect_center_x",
+    "rect_center_y",
+    "rect_center_z",
+    "rect_u_x",
+    "rect_u_y",
+    "rect_u_z",
+)
 
 
 def plane_rows(result) -> list[dict]:
@@ -29,10 +53,24 @@ def plane_rows(result) -> list[dict]:
     centroids = result.centroids
     o = result.orientation
     for i, plane in enumerate(result.planes):
-        values = [i, plane.n_points, plane.area, *centroids[i], *result.normals[i], o.strike[i], o.dip[i],
-                  o.dip_direction[i], plane.width, plane.height, plane.residual,
-                  int(result.n_voxels[i]), result.scatter[i], result.uncertainty[i],
-                  *(plane.center + result.cloud.offset), *plane.u]
+        values = [
+            i,
+            plane.n_points,
+            plane.area,
+            *centroids[i],
+            *result.normals[i],
+            o.strike[i],
+            o.dip[i],
+            o.dip_direction[i],
+            plane.width,
+            plane.height,
+            plane.residual,
+            int(result.n_voxels[i]),
+            result.scatter[i],
+            result.uncertainty[i],
+            *(plane.center + result.cloud.offset),
+            *plane.u,
+        ]
         rows.append(dict(zip(PLANE_COLUMNS + EXTRA_COLUMNS, values)))
     return rows
 
@@ -59,8 +97,11 @@ def write_regions_ply(result, path) -> Path:
     vertex["x"], vertex["y"], vertex["z"] = points.T
     vertex["region_id"] = result.labels
     with atomic_path(path) as tmp:
-        PlyData([PlyElement.describe(vertex, "vertex")], text=False,
-                comments=["written by geostructure", f"source {_ascii(Path(result.cloud.source).name)}"]).write(str(tmp))
+        PlyData(
+            [PlyElement.describe(vertex, "vertex")],
+            text=False,
+            comments=["written by geostructure", f"source {_ascii(Path(result.cloud.source).name)}"],
+        ).write(str(tmp))
     return Path(path)
 
 
@@ -71,16 +112,30 @@ def write_voxel_planes_ply(result, path) -> Path:
     from plyfile import PlyData, PlyElement
 
     voxels = result.voxels
-    vertex = np.empty(len(voxels), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), ("nx", "f4"), ("ny", "f4"),
-                                          ("nz", "f4"), ("count", "i4"), ("region_id", "i4")])
+    vertex = np.empty(
+        len(voxels),
+        dtype=[
+            ("x", "f8"),
+            ("y", "f8"),
+            ("z", "f8"),
+            ("nx", "f4"),
+            ("ny", "f4"),
+            ("nz", "f4"),
+            ("count", "i4"),
+            ("region_id", "i4"),
+        ],
+    )
     centroids = voxels.centroid + result.cloud.offset
     vertex["x"], vertex["y"], vertex["z"] = centroids.T
     vertex["nx"], vertex["ny"], vertex["nz"] = voxels.normal.T
     vertex["count"] = voxels.count
     vertex["region_id"] = result.voxel_labels
     with atomic_path(path) as tmp:
-        PlyData([PlyElement.describe(vertex, "vertex")], text=False,
-                comments=["written by geostructure", f"voxel_edge {voxels.edge!r}"]).write(str(tmp))
+        PlyData(
+            [PlyElement.describe(vertex, "vertex")],
+            text=False,
+            comments=["written by geostructure", f"voxel_edge {voxels.edge!r}"],
+        ).write(str(tmp))
     return Path(path)
 
 
@@ -94,13 +149,20 @@ def run_record(result, extra: dict | None = None) -> dict:
         "crs": result.cloud.crs,
         "enu_origin": None if result.cloud.enu_origin is None else list(result.cloud.enu_origin),
         "params": result.params.to_dict(),
-        "frame": {"name": result.frame.name, "rotation": [list(r) for r in result.frame.rotation],
-                  "declination": result.frame.declination},
+        "frame": {
+            "name": result.frame.name,
+            "rotation": [list(r) for r in result.frame.rotation],
+            "declination": result.frame.declination,
+        },
         "voxel_edge": result.voxels.edge,
         "counts": {k: int(v) for k, v in result.counts.items()},
         "seconds": {k: round(float(v), 4) for k, v in result.seconds.items()},
-        "versions": {"geostructure": __version__, "python": platform.python_version(),
-                     "numpy": np.__version__, "scipy": scipy.__version__},
+        "versions": {
+            "geostructure": __version__,
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+        },
     }
     record.update(extra or {})
     return record
@@ -108,8 +170,13 @@ def run_record(result, extra: dict | None = None) -> dict:
 
 def write_result(result, outputs: OutputSet, extra: dict | None = None) -> dict[str, Path]:
     """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`."""
-    files = {"planes": "planes.csv", "dips": "planes_dips.csv", "geojson": "planes.geojson",
-             "regions": "regions.ply", "voxels": "voxel_planes.ply"}
+    files = {
+        "planes": "planes.csv",
+        "dips": "planes_dips.csv",
+        "geojson": "planes.geojson",
+        "regions": "regions.ply",
+        "voxels": "voxel_planes.ply",
+    }
     write_planes_csv(result, outputs.path(files["planes"]))
     write_dips_csv(result, outputs.path(files["dips"]))
     write_geojson(result, outputs.path(files["geojson"]))
@@ -135,8 +202,10 @@ def write_evaluation_files(evaluation, folder, extra: dict | None = None) -> dic
     from dataclasses import asdict
 
     folder = Path(folder)
-    return {"evaluation_csv": write_table_csv([asdict(s) for s in evaluation.surfaces], folder / "evaluation.csv"),
-            "evaluation_json": write_json({**evaluation.summary(), **(extra or {})}, folder / "evaluation.json")}
+    return {
+        "evaluation_csv": write_table_csv([asdict(s) for s in evaluation.surfaces], folder / "evaluation.csv"),
+        "evaluation_json": write_json({**evaluation.summary(), **(extra or {})}, folder / "evaluation.json"),
+    }
 
 
 def write_evaluation(evaluation, outdir, extra: dict | None = None) -> dict[str, Path]:

@@ -11,6 +11,7 @@ Two paths on the same undistorted images (``pycolmap.undistort_images``):
   same way; for cameras that move along their view, which rectification cannot take.
   ``auto`` without CUDA picks it when fewer than half the images have a sideways partner.
 """
+
 from __future__ import annotations
 
 import time
@@ -23,21 +24,21 @@ from ..errors import GeoStructureError
 from .planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
 from .sfm import pair_angle, quiet_colmap
 
-SWEEP_MIN_ANGLE = 2.0   # degrees; forward steps give small angles on the shared points
+SWEEP_MIN_ANGLE = 2.0  # degrees; forward steps give small angles on the shared points
 
 
 @dataclass(frozen=True)
 class DenseOptions:
-    method: str = "auto"            # auto (colmap with CUDA, else sgbm or sweep) | colmap | sgbm | sweep
-    max_image_size: int = 1200      # matching resolution (px, longest side)
-    neighbours: int = 2             # stereo partners per image
-    min_angle: float = 5.0          # degrees of triangulation angle a pair needs
-    best_angle: float = 15.0        # depth noise falls as the angle grows; matching gets harder past this
+    method: str = "auto"  # auto (colmap with CUDA, else sgbm or sweep) | colmap | sgbm | sweep
+    max_image_size: int = 1200  # matching resolution (px, longest side)
+    neighbours: int = 2  # stereo partners per image
+    min_angle: float = 5.0  # degrees of triangulation angle a pair needs
+    best_angle: float = 15.0  # depth noise falls as the angle grows; matching gets harder past this
     max_angle: float = 40.0
     block_size: int = 5
-    min_pairs: int = 2              # pairs that must agree on a fused cell
-    cell_pixels: float = 2.0        # fused cell edge, in pixel footprints at the median depth
-    canvas: float = 1.4             # rectified image size over the input's, per side
+    min_pairs: int = 2  # pairs that must agree on a fused cell
+    cell_pixels: float = 2.0  # fused cell edge, in pixel footprints at the median depth
+    canvas: float = 1.4  # rectified image size over the input's, per side
 
 
 @dataclass
@@ -69,8 +70,10 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
     t = time.perf_counter()
     method = options.method
     if method == "colmap" and not pycolmap.has_cuda:
-        raise GeoStructureError("--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a "
-                                "machine with an NVIDIA GPU); use --dense sgbm or sweep here.")
+        raise GeoStructureError(
+            "--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a "
+            "machine with an NVIDIA GPU); use --dense sgbm or sweep here."
+        )
     if method not in ("auto", "colmap", "sgbm", "sweep"):
         raise GeoStructureError(f"unknown dense method '{method}'; use auto, colmap, sgbm or sweep.")
 
@@ -93,10 +96,12 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
                 points, pairs = _sweep(model, shared, workdir / "images", options, progress)
     if len(points) < 100:
         unit = "stereo pairs" if method == "sgbm" else "depth maps"
-        raise GeoStructureError(f"the dense stage found {len(points)} points from {pairs} {unit}; the images may be "
-                                "too few, too far apart, or taken walking straight towards the scene (stereo "
-                                "needs sideways steps). Try --dense-neighbours 4, or measure the sparse cloud "
-                                "(--dense none).")
+        raise GeoStructureError(
+            f"the dense stage found {len(points)} points from {pairs} {unit}; the images may be "
+            "too few, too far apart, or taken walking straight towards the scene (stereo "
+            "needs sideways steps). Try --dense-neighbours 4, or measure the sparse cloud "
+            "(--dense none)."
+        )
     return points, DenseReport(method, len(points), pairs, time.perf_counter() - t)
 
 
@@ -164,8 +169,9 @@ def _sweep(reconstruction, shared, image_dir: Path, options: DenseOptions, progr
 
     report = progress or (lambda stage, done, total: None)
     sweep = SweepOptions(partners=options.neighbours)
-    partners = sweep_partners(reconstruction, shared, sweep.partners, SWEEP_MIN_ANGLE, options.best_angle,
-                              options.max_angle)
+    partners = sweep_partners(
+        reconstruction, shared, sweep.partners, SWEEP_MIN_ANGLE, options.best_angle, options.max_angle
+    )
     clouds, footprints = [], []
     for n, (ref, others) in enumerate(sorted(partners.items())):
         report("dense", n, len(partners))
@@ -215,7 +221,9 @@ def pair_points(reconstruction, a: int, b: int, xyz: np.ndarray, image_dir: Path
     scale = min(1.0, options.max_image_size / max(left.shape))
     size = (round(left.shape[1] * scale), round(left.shape[0] * scale))
     left = cv2.resize(left, size, interpolation=cv2.INTER_AREA)
-    right = cv2.resize(right, (round(right.shape[1] * scale), round(right.shape[0] * scale)), interpolation=cv2.INTER_AREA)
+    right = cv2.resize(
+        right, (round(right.shape[1] * scale), round(right.shape[0] * scale)), interpolation=cv2.INTER_AREA
+    )
     k1, k2 = _intrinsics(img_a.camera, scale), _intrinsics(img_b.camera, scale)
     pose_a, pose_b = img_a.cam_from_world().matrix(), img_b.cam_from_world().matrix()
     rotation = pose_b[:, :3] @ pose_a[:, :3].T
@@ -224,9 +232,18 @@ def pair_points(reconstruction, a: int, b: int, xyz: np.ndarray, image_dir: Path
     # alpha=1 keeps every pixel (convergent views would lose their edges), on a canvas large
     # enough that the rotated images keep their resolution
     canvas = (round(size[0] * options.canvas), round(size[1] * options.canvas))
-    r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(k1, no_distortion, k2, no_distortion, size,
-                                                 np.ascontiguousarray(rotation), translation.reshape(3, 1),
-                                                 flags=cv2.CALIB_ZERO_DISPARITY, alpha=1, newImageSize=canvas)
+    r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(
+        k1,
+        no_distortion,
+        k2,
+        no_distortion,
+        size,
+        np.ascontiguousarray(rotation),
+        translation.reshape(3, 1),
+        flags=cv2.CALIB_ZERO_DISPARITY,
+        alpha=1,
+        newImageSize=canvas,
+    )
     map_l = cv2.initUndistortRectifyMap(k1, no_distortion, r1, p1, canvas, cv2.CV_32FC1)
     map_r = cv2.initUndistortRectifyMap(k2, no_distortion, r2, p2, canvas, cv2.CV_32FC1)
     rect_l = cv2.remap(left, *map_l, cv2.INTER_LINEAR)
@@ -242,17 +259,25 @@ def pair_points(reconstruction, a: int, b: int, xyz: np.ndarray, image_dir: Path
     num_disp = int(np.ceil((hi - lo + 2 * margin) / 16) * 16)
     num_disp = int(np.clip(num_disp, 16, 512))
     block = options.block_size
-    matcher = cv2.StereoSGBM_create(minDisparity=min_disp, numDisparities=num_disp, blockSize=block,
-                                    P1=8 * block * block, P2=32 * block * block, disp12MaxDiff=1,
-                                    uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,
-                                    mode=cv2.STEREO_SGBM_MODE_SGBM)
+    matcher = cv2.StereoSGBM_create(
+        minDisparity=min_disp,
+        numDisparities=num_disp,
+        blockSize=block,
+        P1=8 * block * block,
+        P2=32 * block * block,
+        disp12MaxDiff=1,
+        uniquenessRatio=10,
+        speckleWindowSize=100,
+        speckleRange=2,
+        mode=cv2.STEREO_SGBM_MODE_SGBM,
+    )
     if (rect_l > 0).mean() < 0.1:  # rectification pushed the view off the canvas: no pair to match
         return np.zeros((0, 3)), np.nan
     disp = matcher.compute(rect_l, rect_r).astype(np.float32) / 16.0
     valid = (disp > min_disp) & (rect_l > 0)
     points = cv2.reprojectImageTo3D(disp, q)[valid]
     points = points[np.isfinite(points).all(axis=1) & (points[:, 2] > 0)]
-    cam_a = points @ r1          # rectified -> camera a (r1 rotates camera a into the rectified frame)
+    cam_a = points @ r1  # rectified -> camera a (r1 rotates camera a into the rectified frame)
     world = (cam_a - pose_a[:, 3]) @ pose_a[:, :3]
     depth = np.median(cam[:, 2]) if len(cam) else 1.0
     return world, float(abs(depth / p1[0, 0]))

@@ -5,6 +5,7 @@ grows with every one of them. A frame is kept when it is sharp compared with its
 neighbours (variance of the Laplacian, a standard focus measure) and when the view has
 moved enough since the last kept frame (median optical flow, as a fraction of the width).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -19,27 +20,29 @@ VIDEO_SUFFIXES = {".mp4", ".avi", ".mov", ".mkv", ".m4v", ".mts", ".webm"}
 
 @dataclass(frozen=True)
 class FrameOptions:
-    fps: float | None = None         # decode rate; None: the video's own (the paper: 25)
-    select: bool = True              # False: keep every decoded frame
-    sharpness_ratio: float = 0.6     # drop a frame below this fraction of its neighbours' median
-    min_motion: float = 0.012        # keep once the view moved this fraction of the width
+    fps: float | None = None  # decode rate; None: the video's own (the paper: 25)
+    select: bool = True  # False: keep every decoded frame
+    sharpness_ratio: float = 0.6  # drop a frame below this fraction of its neighbours' median
+    min_motion: float = 0.012  # keep once the view moved this fraction of the width
     max_frames: int | None = None
-    window: int = 9                  # frames in the sharpness neighbourhood
+    window: int = 9  # frames in the sharpness neighbourhood
 
 
 @dataclass
 class FrameReport:
     paths: list[Path]
     decoded: int
-    blurred: int                     # dropped: less sharp than their neighbours
-    still: int                       # dropped: too little motion since the last kept frame
+    blurred: int  # dropped: less sharp than their neighbours
+    still: int  # dropped: too little motion since the last kept frame
     video_fps: float
     sample_fps: float
     times: list[float] = field(default_factory=list)
 
     def summary(self) -> str:
-        return (f"kept {len(self.paths)} of {self.decoded} frames decoded at {self.sample_fps:g} fps "
-                f"({self.blurred} blurred, {self.still} with too little motion)")
+        return (
+            f"kept {len(self.paths)} of {self.decoded} frames decoded at {self.sample_fps:g} fps "
+            f"({self.blurred} blurred, {self.still} with too little motion)"
+        )
 
 
 def sharpness(gray: np.ndarray) -> float:
@@ -71,8 +74,10 @@ def decode(video, fps: float | None = None):
     except FileNotFoundError:
         raise GeoStructureError(f"{video}: no such file.") from None
     except (av.error.FFmpegError, ValueError) as exc:
-        raise GeoStructureError(f"{video}: not a video that can be decoded ({exc.__class__.__name__}); "
-                                "give an mp4, avi or mov file, or a folder of photos.") from None
+        raise GeoStructureError(
+            f"{video}: not a video that can be decoded ({exc.__class__.__name__}); "
+            "give an mp4, avi or mov file, or a folder of photos."
+        ) from None
     with container:
         if not container.streams.video:
             raise GeoStructureError(f"{video}: holds no video stream.")
@@ -96,8 +101,9 @@ def video_rate(video) -> float:
             rate = container.streams.video[0].average_rate
             return float(rate) if rate else 25.0
     except (av.error.FFmpegError, IndexError, ValueError):
-        raise GeoStructureError(f"{video}: not a video that can be decoded; give an mp4, avi or mov file, "
-                                "or a folder of photos.") from None
+        raise GeoStructureError(
+            f"{video}: not a video that can be decoded; give an mp4, avi or mov file, or a folder of photos."
+        ) from None
 
 
 def extract_frames(video, outdir, options: FrameOptions = FrameOptions(), progress=None) -> FrameReport:
@@ -110,8 +116,9 @@ def extract_frames(video, outdir, options: FrameOptions = FrameOptions(), progre
 
     report = progress or (lambda stage, done, total: None)
     if not Path(video).is_file():
-        raise GeoStructureError(f"{video}: no such file." if not Path(video).exists() else
-                                f"{video}: is a folder, not a video file.")
+        raise GeoStructureError(
+            f"{video}: no such file." if not Path(video).exists() else f"{video}: is a folder, not a video file."
+        )
     video_fps = video_rate(video)
     sample_fps = min(options.fps or video_fps, video_fps)
     outdir = Path(outdir)

@@ -14,6 +14,7 @@ positions (EXIF GPS, OpenSfM GCP JSON), a local east-north-up frame in metres ab
 latitude and longitude at altitude 0 (recorded as ``enu_origin``); either way the measuring
 stage's ``enu`` frame applies to the transformed cloud.
 """
+
 from __future__ import annotations
 
 import csv
@@ -34,21 +35,27 @@ class Georeference:
     scale: float
     rotation: np.ndarray
     translation: np.ndarray
-    source: str                        # gcp | exif-gps | manual
+    source: str  # gcp | exif-gps | manual
     approximate: bool = False
-    residuals: dict = field(default_factory=dict)   # control point -> residual (world units)
-    enu_origin: tuple | None = None    # (lat, lon, alt) that world (0, 0, 0) stands for, when from WGS84
+    residuals: dict = field(default_factory=dict)  # control point -> residual (world units)
+    enu_origin: tuple | None = None  # (lat, lon, alt) that world (0, 0, 0) stands for, when from WGS84
 
     def apply(self, points: np.ndarray) -> np.ndarray:
         return self.scale * np.asarray(points, float) @ self.rotation.T + self.translation
 
     def to_dict(self) -> dict:
-        return {"source": self.source, "approximate": self.approximate, "scale": float(self.scale),
-                "rotation": self.rotation.tolist(), "translation": self.translation.tolist(),
-                "residuals": {k: float(v) for k, v in self.residuals.items()},
-                "enu_origin": None if self.enu_origin is None else [float(v) for v in self.enu_origin],
-                "rms_residual": float(np.sqrt(np.mean(np.square(list(self.residuals.values())))))
-                if self.residuals else None}
+        return {
+            "source": self.source,
+            "approximate": self.approximate,
+            "scale": float(self.scale),
+            "rotation": self.rotation.tolist(),
+            "translation": self.translation.tolist(),
+            "residuals": {k: float(v) for k, v in self.residuals.items()},
+            "enu_origin": None if self.enu_origin is None else [float(v) for v in self.enu_origin],
+            "rms_residual": float(np.sqrt(np.mean(np.square(list(self.residuals.values())))))
+            if self.residuals
+            else None,
+        }
 
 
 def describe_georeference(record: dict) -> str:
@@ -69,7 +76,7 @@ def umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = True):
     if np.linalg.det(u) * np.linalg.det(vt) < 0:
         sign[2, 2] = -1
     rotation = u @ sign @ vt
-    variance = (a ** 2).sum() / len(source)
+    variance = (a**2).sum() / len(source)
     scale = float(np.trace(np.diag(d) @ sign) / variance) if with_scale else 1.0
     return scale, rotation, mu_t - scale * rotation @ mu_s
 
@@ -78,8 +85,10 @@ def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
     """Similarity from control points seen in the model; residual per point."""
     names = sorted(set(model_points) & set(world_points))
     if len(names) < 3:
-        raise GeoStructureError(f"ground control: {len(names)} point(s) located in the model; at least 3 "
-                                "(not in a line) are needed. Check the names match and each is seen in 2+ images.")
+        raise GeoStructureError(
+            f"ground control: {len(names)} point(s) located in the model; at least 3 "
+            "(not in a line) are needed. Check the names match and each is seen in 2+ images."
+        )
     src = np.array([model_points[n] for n in names])
     dst = np.array([world_points[n] for n in names])
     if np.linalg.matrix_rank(src - src.mean(axis=0), tol=1e-9 * np.ptp(src, axis=0).max()) < 2:
@@ -118,8 +127,10 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
     need = ["name", "e", "n", "up"]
     has_model, has_pixels = all(c in columns for c in "xyz"), all(c in columns for c in ("image", "u", "v"))
     if not all(c in columns for c in need) or not (has_model or has_pixels):
-        raise GeoStructureError(f"{path}: needs columns name, E, N, Up and either x, y, z (model) or image, u, v "
-                                f"(pixels); it has {', '.join(columns.values())}.")
+        raise GeoStructureError(
+            f"{path}: needs columns name, E, N, Up and either x, y, z (model) or image, u, v "
+            f"(pixels); it has {', '.join(columns.values())}."
+        )
     world, observations, model = {}, [], {}
     for line, row in enumerate(rows, start=2):
         get = lambda c: row[columns[c]].strip()  # noqa: E731
@@ -132,8 +143,11 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
                 model[name] = [float(get("x")), float(get("y")), float(get("z"))]
         except (ValueError, TypeError, AttributeError):
             raise GeoStructureError(f"{path}, line {line}: a coordinate is missing or not a number.") from None
-        values = world[name] + (list(observations[-1][2:]) if observations and observations[-1][0] == name else []) \
+        values = (
+            world[name]
+            + (list(observations[-1][2:]) if observations and observations[-1][0] == name else [])
             + model.get(name, [])
+        )
         if not np.isfinite(values).all():
             raise GeoStructureError(f"{path}, line {line}: a coordinate is NaN or infinite.")
     return world, observations, model
@@ -163,8 +177,13 @@ def read_opensfm_gcp(path, image_dir) -> tuple[dict, list, dict, tuple | None]:
     try:
         points = json.loads(path.read_text())["points"]
         located = [p for p in points if p.get("position")]
-        fixes = np.array([[p["position"]["latitude"], p["position"]["longitude"], p["position"].get("altitude", 0.0)]
-                          for p in located], float).reshape(-1, 3)
+        fixes = np.array(
+            [
+                [p["position"]["latitude"], p["position"]["longitude"], p["position"].get("altitude", 0.0)]
+                for p in located
+            ],
+            float,
+        ).reshape(-1, 3)
     except FileNotFoundError:
         raise GeoStructureError(f"{path}: no such file.") from None
     except (ValueError, KeyError, TypeError, UnicodeDecodeError) as exc:
@@ -185,12 +204,14 @@ def read_opensfm_gcp(path, image_dir) -> tuple[dict, list, dict, tuple | None]:
                     with Image.open(Path(image_dir or path.parent / "images") / shot) as image:
                         sizes[shot] = image.size
                 except OSError:
-                    raise GeoStructureError(f"{path}: image {shot} of control point {p['id']} not found in "
-                                            f"{image_dir}.") from None
+                    raise GeoStructureError(
+                        f"{path}: image {shot} of control point {p['id']} not found in {image_dir}."
+                    ) from None
             width, height = sizes[shot]
             x, y = obs["projection"]
-            observations.append((str(p["id"]), shot, x * max(width, height) + width / 2,
-                                 y * max(width, height) + height / 2))
+            observations.append(
+                (str(p["id"]), shot, x * max(width, height) + width / 2, y * max(width, height) + height / 2)
+            )
     return world, observations, {}, origin
 
 
@@ -226,8 +247,8 @@ def gps_from_exif(path) -> tuple[float, float, float] | None:
         return None
     if not gps or 2 not in gps or 4 not in gps:
         return None
-    lat = sum(float(v) / 60 ** i for i, v in enumerate(gps[2])) * (-1 if gps.get(1) == "S" else 1)
-    lon = sum(float(v) / 60 ** i for i, v in enumerate(gps[4])) * (-1 if gps.get(3) == "W" else 1)
+    lat = sum(float(v) / 60**i for i, v in enumerate(gps[2])) * (-1 if gps.get(1) == "S" else 1)
+    lon = sum(float(v) / 60**i for i, v in enumerate(gps[4])) * (-1 if gps.get(3) == "W" else 1)
     alt = float(gps.get(6, 0.0)) * (-1 if gps.get(5) == b"\x01" else 1)
     return lat, lon, alt
 
@@ -242,8 +263,9 @@ def solve_exif_gps(reconstruction, image_dir) -> Georeference:
             centres.append(image.projection_center())
             gps.append(fix)
     if len(gps) < 3:
-        raise GeoStructureError(f"{image_dir}: {len(gps)} registered photo(s) carry GPS in EXIF; at least 3 are "
-                                "needed.")
+        raise GeoStructureError(
+            f"{image_dir}: {len(gps)} registered photo(s) carry GPS in EXIF; at least 3 are needed."
+        )
     gps = np.array(gps)
     origin = (float(gps[:, 0].mean()), float(gps[:, 1].mean()), 0.0)  # so Up stays the GPS altitude
     enu = geodetic_to_enu(gps[:, 0], gps[:, 1], gps[:, 2], origin)

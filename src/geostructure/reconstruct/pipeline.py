@@ -5,6 +5,7 @@ Each finished stage is recorded in ``OUTDIR/reconstruct.json`` with the options 
 with; a second run skips every stage whose record, options and files are unchanged, so an
 interrupted run resumes from the last finished stage.
 """
+
 from __future__ import annotations
 
 import json
@@ -19,8 +20,15 @@ from ..io.atomic import atomic_path, write_json
 from ..io.outdir import prepare_outdir
 from .dense import DenseOptions, dense_cloud
 from .frames import VIDEO_SUFFIXES, FrameOptions, extract_frames
-from .georef import (camera_up, describe_georeference, manual, read_gcp, solve_exif_gps, solve_gcp,
-                     triangulate_observations)
+from .georef import (
+    camera_up,
+    describe_georeference,
+    manual,
+    read_gcp,
+    solve_exif_gps,
+    solve_gcp,
+    triangulate_observations,
+)
 from .sfm import SfmOptions, list_images, run_sfm, sparse_points
 from .surface import SurfaceOptions, poisson_points
 
@@ -33,13 +41,13 @@ class ReconstructOptions:
     sfm: SfmOptions = SfmOptions()
     dense: DenseOptions = DenseOptions()
     surface: SurfaceOptions = SurfaceOptions()
-    use_dense: bool = True             # False: measure the sparse SfM points (no mesh either)
-    mesh: bool = True                  # False (--no-mesh): measure the dense cloud directly
-    gcp: str | None = None             # ground control CSV
-    up: tuple | None = None            # manual frame, in model axes
+    use_dense: bool = True  # False: measure the sparse SfM points (no mesh either)
+    mesh: bool = True  # False (--no-mesh): measure the dense cloud directly
+    gcp: str | None = None  # ground control CSV
+    up: tuple | None = None  # manual frame, in model axes
     north: tuple | None = None
     scale: float = 1.0
-    assume_level: bool = False         # up from the cameras, north along their mean view: approximate
+    assume_level: bool = False  # up from the cameras, north along their mean view: approximate
 
 
 @dataclass
@@ -52,11 +60,11 @@ class Reconstruction:
     cloud_path: Path | None = None
 
 
-def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions(), progress=None,
-                log=print) -> Reconstruction:
+def reconstruct(
+    source, outdir, options: ReconstructOptions = ReconstructOptions(), progress=None, log=print
+) -> Reconstruction:
     """Run (or resume) the reconstruction stages; ``log`` gets one line per stage."""
     import pycolmap
-
 
     source, outdir = Path(source), prepare_outdir(outdir)
     state_path = outdir / "reconstruct.json"
@@ -69,7 +77,7 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
 
     def finish(stage, opts, report: dict):
         state[stage] = {"options": opts, **report}
-        for later in STAGES[STAGES.index(stage) + 1:]:
+        for later in STAGES[STAGES.index(stage) + 1 :]:
             state.pop(later, None)  # a redone stage invalidates what was built on it
         write_json(state, state_path)
 
@@ -93,8 +101,16 @@ def reconstruct(source, outdir, options: ReconstructOptions = ReconstructOptions
             t = time.perf_counter()
             report = extract_frames(source, image_dir, options.frames, progress)
             log(f"frames: {report.summary()}")
-            finish("frames", opts, {"summary": report.summary(), "kept": len(report.paths), "decoded": report.decoded,
-                                    "seconds": time.perf_counter() - t})
+            finish(
+                "frames",
+                opts,
+                {
+                    "summary": report.summary(),
+                    "kept": len(report.paths),
+                    "decoded": report.decoded,
+                    "seconds": time.perf_counter() - t,
+                },
+            )
 
     opts = {"images": str(image_dir.resolve()), **asdict(options.sfm), "after": state.get("frames", {}).get("summary")}
     if done("sfm", opts, work / "sparse" / "images.bin"):
@@ -164,7 +180,8 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
             f"the model is not georeferenced, so strike and dip would mean nothing ({exc}) The cloud is "
             "reconstructed and kept; run the same command again with --gcp GCP.csv (control points), or "
             "--up X Y Z --north X Y Z [--scale S] (in model axes), or --assume-level for a quick look (up from "
-            "the cameras: dips approximate, azimuths relative to the view).") from None
+            "the cameras: dips approximate, azimuths relative to the view)."
+        ) from None
 
 
 def level_from_cameras(model, scale: float = 1.0):

@@ -4,6 +4,7 @@ rendered by ray casting, written as a video, with ground control points seen in 
 It gives the reconstruction stages exact truth: every face's dip and dip direction, and the
 pixel where each control point appears in each frame.
 """
+
 from __future__ import annotations
 
 import csv
@@ -25,9 +26,9 @@ FACES = (
 class Face:
     name: str
     centre: np.ndarray
-    normal: np.ndarray        # upward unit normal, ENU
-    u: np.ndarray             # strike direction
-    v: np.ndarray             # up-dip direction in the plane
+    normal: np.ndarray  # upward unit normal, ENU
+    u: np.ndarray  # strike direction
+    v: np.ndarray  # up-dip direction in the plane
     width: float
     height: float
     dip: float
@@ -49,7 +50,7 @@ def faces() -> list[Face]:
 class Camera:
     """Pinhole camera in OpenCV/COLMAP axes (x right, y down, z forward)."""
 
-    rotation: np.ndarray      # world -> camera
+    rotation: np.ndarray  # world -> camera
     centre: np.ndarray
     focal: float
     width: int
@@ -75,8 +76,10 @@ def camera_path(n_frames: int, radius: float = 13.0, sweep_deg: float = 70.0, he
     """An arc south of the outcrop, looking at its middle, as someone filming while walking."""
     target = np.array([0.0, 8.5, 1.6])
     angles = np.radians(np.linspace(-sweep_deg / 2, sweep_deg / 2, n_frames))
-    return [look_at(target + [radius * np.sin(a), -radius * np.cos(a), height - target[2] + 0.3 * np.sin(3 * a)], target)
-            for a in angles]
+    return [
+        look_at(target + [radius * np.sin(a), -radius * np.cos(a), height - target[2] + 0.3 * np.sin(3 * a)], target)
+        for a in angles
+    ]
 
 
 def textures(n: int, size: int = 512, seed: int = 0) -> list[np.ndarray]:
@@ -86,8 +89,10 @@ def textures(n: int, size: int = 512, seed: int = 0) -> list[np.ndarray]:
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(n):
-        t = sum(w * gaussian_filter(rng.normal(size=(size, size)), s, mode="wrap")
-                for s, w in ((1.0, 0.6), (3.0, 2.0), (8.0, 5.0), (20.0, 9.0)))
+        t = sum(
+            w * gaussian_filter(rng.normal(size=(size, size)), s, mode="wrap")
+            for s, w in ((1.0, 0.6), (3.0, 2.0), (8.0, 5.0), (20.0, 9.0))
+        )
         t = (t - t.mean()) / t.std()
         out.append(np.clip(128 + 45 * t, 0, 255))
     return out

@@ -5,6 +5,7 @@ detection off: the clip is one pass); photo sets up to ``EXHAUSTIVE_LIMIT`` imag
 matched exhaustively. The largest model is kept; when it holds fewer than half the images,
 mapping is tried again from a start that allows forward motion (walks along a street).
 """
+
 from __future__ import annotations
 
 import time
@@ -18,16 +19,16 @@ from ..errors import GeoStructureError
 
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp"}
 EXHAUSTIVE_LIMIT = 60
-RELAXED_INIT_ANGLE = 4.0   # degrees; COLMAP's default 16 finds no start in forward-moving sequences
+RELAXED_INIT_ANGLE = 4.0  # degrees; COLMAP's default 16 finds no start in forward-moving sequences
 
 
 @dataclass(frozen=True)
 class SfmOptions:
-    matching: str = "auto"            # auto | sequential | exhaustive
-    max_image_size: int = 1600        # SIFT on images downscaled to this (px, longest side)
+    matching: str = "auto"  # auto | sequential | exhaustive
+    max_image_size: int = 1600  # SIFT on images downscaled to this (px, longest side)
     max_features: int = 8192
-    overlap: int = 10                 # sequential matching: each frame with its next N
-    single_camera: bool = True        # one camera for all images (a video, one photographer)
+    overlap: int = 10  # sequential matching: each frame with its next N
+    single_camera: bool = True  # one camera for all images (a video, one photographer)
     threads: int = -1
     seed: int = 0
 
@@ -37,13 +38,15 @@ class SfmReport:
     images: int
     registered: int
     points: int
-    mean_reprojection_error: float   # pixels
+    mean_reprojection_error: float  # pixels
     matching: str
     seconds: dict
 
     def summary(self) -> str:
-        return (f"registered {self.registered} of {self.images} images, {self.points:,} sparse points, "
-                f"mean reprojection error {self.mean_reprojection_error:.2f} px ({self.matching} matching)")
+        return (
+            f"registered {self.registered} of {self.images} images, {self.points:,} sparse points, "
+            f"mean reprojection error {self.mean_reprojection_error:.2f} px ({self.matching} matching)"
+        )
 
 
 @contextmanager
@@ -79,8 +82,9 @@ def check_images(images) -> None:
             with Image.open(path) as image:
                 image.verify()
         except (UnidentifiedImageError, OSError, SyntaxError, ValueError):
-            raise GeoStructureError(f"{path}: is not an image that can be read (damaged, or not a photo); "
-                                    f"remove it from the folder.") from None
+            raise GeoStructureError(
+                f"{path}: is not an image that can be read (damaged, or not a photo); remove it from the folder."
+            ) from None
 
 
 def run_sfm(image_dir, workdir, options: SfmOptions = SfmOptions(), progress=None):
@@ -109,9 +113,14 @@ def _run_sfm(image_dir, workdir, options, progress):
     extraction.max_image_size = options.max_image_size
     extraction.num_threads = options.threads
     extraction.sift.max_num_features = options.max_features
-    pycolmap.extract_features(database, image_dir, image_names=[p.name for p in images],
-                              camera_mode=pycolmap.CameraMode.SINGLE if options.single_camera else pycolmap.CameraMode.AUTO,
-                              extraction_options=extraction, device=pycolmap.Device.cpu)
+    pycolmap.extract_features(
+        database,
+        image_dir,
+        image_names=[p.name for p in images],
+        camera_mode=pycolmap.CameraMode.SINGLE if options.single_camera else pycolmap.CameraMode.AUTO,
+        extraction_options=extraction,
+        device=pycolmap.Device.cpu,
+    )
     seconds["features"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -124,7 +133,9 @@ def _run_sfm(image_dir, workdir, options, progress):
     if matching == "sequential":
         pairing = pycolmap.SequentialPairingOptions()
         pairing.overlap = options.overlap
-        pycolmap.match_sequential(database, matching_options=matcher, pairing_options=pairing, device=pycolmap.Device.cpu)
+        pycolmap.match_sequential(
+            database, matching_options=matcher, pairing_options=pairing, device=pycolmap.Device.cpu
+        )
     elif matching == "exhaustive":
         pycolmap.match_exhaustive(database, matching_options=matcher, device=pycolmap.Device.cpu)
     else:
@@ -153,10 +164,12 @@ def _run_sfm(image_dir, workdir, options, progress):
         raise GeoStructureError(
             f"{image_dir}: SfM registered {registered} of {len(images)} images (at least 3 are needed). "
             "The photos may not overlap: take them so that each shares about two thirds of its view with the "
-            "next, avoid plain or shiny surfaces, or try --matching exhaustive.")
+            "next, avoid plain or shiny surfaces, or try --matching exhaustive."
+        )
     best.write(sparse)  # the kept model at sparse/, for the dense stage and for COLMAP's GUI
-    return best, SfmReport(len(images), registered, best.num_points3D(), float(best.compute_mean_reprojection_error()),
-                           matching, seconds)
+    return best, SfmReport(
+        len(images), registered, best.num_points3D(), float(best.compute_mean_reprojection_error()), matching, seconds
+    )
 
 
 def _map(database, image_dir, folder, options):

@@ -5,6 +5,7 @@ Poisson closes every hole with a smooth invented surface; each vertex's density 
 many input points supported it) tells them apart, and vertices below the ``trim_quantile``
 of density are cut away, so no plane is measured on a surface nobody filmed.
 """
+
 from __future__ import annotations
 
 import time
@@ -17,8 +18,8 @@ from ..errors import GeoStructureError
 
 @dataclass(frozen=True)
 class SurfaceOptions:
-    depth: int = 9                 # octree depth: 2^depth cells across the cloud
-    trim_quantile: float = 0.05    # cut vertices whose support is below this quantile
+    depth: int = 9  # octree depth: 2^depth cells across the cloud
+    trim_quantile: float = 0.05  # cut vertices whose support is below this quantile
     normal_neighbours: int = 30
     samples_per_point: float = 1.0  # points sampled on the mesh per dense point
     seed: int = 0
@@ -33,16 +34,20 @@ class SurfaceReport:
     seconds: float
 
     def summary(self) -> str:
-        return (f"Poisson mesh of {self.triangles:,} triangles ({self.trimmed:,} thin-support vertices trimmed), "
-                f"{self.points:,} points sampled in {self.seconds:.1f} s")
+        return (
+            f"Poisson mesh of {self.triangles:,} triangles ({self.trimmed:,} thin-support vertices trimmed), "
+            f"{self.points:,} points sampled in {self.seconds:.1f} s"
+        )
 
 
 def _open3d():
     try:
         import open3d as o3d
     except ImportError as exc:
-        raise GeoStructureError("the surface stage needs Open3D (pip install 'geostructure[reconstruct]'; on Debian "
-                                f"also apt-get install libgl1 libgomp1); or give --no-mesh ({exc}).") from None
+        raise GeoStructureError(
+            "the surface stage needs Open3D (pip install 'geostructure[reconstruct]'; on Debian "
+            f"also apt-get install libgl1 libgomp1); or give --no-mesh ({exc})."
+        ) from None
     return o3d
 
 
@@ -72,7 +77,9 @@ def poisson_points(points: np.ndarray, viewpoints: np.ndarray, options: SurfaceO
     n = max(1000, int(options.samples_per_point * len(points)))
     sampled = np.asarray(mesh.sample_points_uniformly(n).points) + centre
     mesh.translate(centre)
-    report = SurfaceReport(len(mesh.vertices), len(mesh.triangles), int(cut.sum()), len(sampled), time.perf_counter() - t)
+    report = SurfaceReport(
+        len(mesh.vertices), len(mesh.triangles), int(cut.sum()), len(sampled), time.perf_counter() - t
+    )
     return sampled, mesh, report
 
 

@@ -5,6 +5,7 @@ Plotly draws all three views; its JavaScript bundle, shipped inside the ``plotly
 package, is written into the page, so the file opens without a network. Arrays travel as
 base64 typed arrays (plotly's own JSON encoding), which keeps a 150k-point view near 10 MB.
 """
+
 from __future__ import annotations
 
 import json
@@ -21,9 +22,16 @@ from .stereonet import great_circle_xy, pole_density, pole_xy
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
 MAX_GREAT_CIRCLES = 30
 
-COLUMNS = [("region_id", "Plane", 0), ("strike", "Strike", 1), ("dip", "Dip", 1),
-           ("dip_direction", "Dip dir.", 1), ("normal_uncertainty_deg", "± (°)", 2),
-           ("area_m2", "Area (m²)", 2), ("n_points", "Points", 0), ("fit_residual", "Residual (m)", 4)]
+COLUMNS = [
+    ("region_id", "Plane", 0),
+    ("strike", "Strike", 1),
+    ("dip", "Dip", 1),
+    ("dip_direction", "Dip dir.", 1),
+    ("normal_uncertainty_deg", "± (°)", 2),
+    ("area_m2", "Area (m²)", 2),
+    ("n_points", "Points", 0),
+    ("fit_residual", "Residual (m)", 4),
+]
 
 
 def palette(n: int) -> list[str]:
@@ -51,8 +59,7 @@ def _georeference_note(record: dict | None) -> dict | None:
         return None
     warning = None
     if record.get("source") == "cameras-level":
-        warning = ("up from the cameras (--assume-level): dips approximate, azimuths relative to the view, "
-                   "not to north")
+        warning = "up from the cameras (--assume-level): dips approximate, azimuths relative to the view, not to north"
     elif record.get("approximate"):
         warning = "approximate: up from the cameras, heading from GPS; give control points for true angles"
     return {"text": describe_georeference(record), "warning": warning}
@@ -69,19 +76,27 @@ def render(scene: ReportScene, title: str) -> str:
         "planes": table_rows(scene),
         "columns": [{"key": k, "label": label, "digits": d} for k, label, d in COLUMNS]
         + ([{"key": "truth_error", "label": "Truth error (°)", "digits": 2}] if scene.truth else []),
-        "meta": {"source": scene.source, "crs": scene.crs, "offset": scene.offset.tolist(),
-                 "frame": scene.frame_name, "points_total": scene.n_points_total,
-                 "points_shown": len(scene.points), "n_planes": len(scene.planes),
-                 "georeference": _georeference_note(scene.georeference)},
+        "meta": {
+            "source": scene.source,
+            "crs": scene.crs,
+            "offset": scene.offset.tolist(),
+            "frame": scene.frame_name,
+            "points_total": scene.n_points_total,
+            "points_shown": len(scene.points),
+            "n_planes": len(scene.planes),
+            "georeference": _georeference_note(scene.georeference),
+        },
     }
     data = json.dumps(plain(payload), separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
     assets = resources.files("geostructure.report") / "assets"
     page = (assets / "report.html").read_text(encoding="utf-8")
-    return (page.replace("{{TITLE}}", _escape(title))
-            .replace("{{CSS}}", (assets / "report.css").read_text(encoding="utf-8"))
-            .replace("{{PLOTLY}}", get_plotlyjs())
-            .replace("{{PAYLOAD}}", data)
-            .replace("{{APP}}", (assets / "report.js").read_text(encoding="utf-8")))
+    return (
+        page.replace("{{TITLE}}", _escape(title))
+        .replace("{{CSS}}", (assets / "report.css").read_text(encoding="utf-8"))
+        .replace("{{PLOTLY}}", get_plotlyjs())
+        .replace("{{PAYLOAD}}", data)
+        .replace("{{APP}}", (assets / "report.js").read_text(encoding="utf-8"))
+    )
 
 
 def figure_3d(scene: ReportScene) -> dict:
@@ -93,25 +108,73 @@ def figure_3d(scene: ReportScene) -> dict:
     p = scene.points
     labelled = scene.point_region >= 0
     fig = go.Figure()
-    fig.add_trace(go.Scatter3d(  # 0 filtered cloud, by elevation
-        x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", name="filtered cloud", visible=False,
-        marker=dict(size=1.5, color=(p @ up).astype(np.float32), colorscale="Earth", showscale=False),
-        hoverinfo="skip"))
+    fig.add_trace(
+        go.Scatter3d(  # 0 filtered cloud, by elevation
+            x=p[:, 0],
+            y=p[:, 1],
+            z=p[:, 2],
+            mode="markers",
+            name="filtered cloud",
+            visible=False,
+            marker=dict(size=1.5, color=(p @ up).astype(np.float32), colorscale="Earth", showscale=False),
+            hoverinfo="skip",
+        )
+    )
     region = scene.point_region[labelled]
-    fig.add_trace(go.Scatter3d(  # 1 regions, one colour each
-        x=p[labelled, 0], y=p[labelled, 1], z=p[labelled, 2], mode="markers", name="regions",
-        marker=dict(size=1.5, color=(region % len(colors)).astype(np.float32) + 0.5, cmin=0,
-                    cmax=len(colors), colorscale=_stepped(colors), showscale=False), hoverinfo="skip"))
+    fig.add_trace(
+        go.Scatter3d(  # 1 regions, one colour each
+            x=p[labelled, 0],
+            y=p[labelled, 1],
+            z=p[labelled, 2],
+            mode="markers",
+            name="regions",
+            marker=dict(
+                size=1.5,
+                color=(region % len(colors)).astype(np.float32) + 0.5,
+                cmin=0,
+                cmax=len(colors),
+                colorscale=_stepped(colors),
+                showscale=False,
+            ),
+            hoverinfo="skip",
+        )
+    )
     fig.add_trace(_voxel_mesh(scene))  # 2 voxel planes
     fig.add_trace(_plane_mesh(scene, colors))  # 3 region planes
-    fig.add_trace(go.Mesh3d(x=[], y=[], z=[], i=[], j=[], k=[], color="#ffd400", opacity=1.0,  # 4 highlight
-                            name="selected", hoverinfo="skip", flatshading=True))
-    fig.add_trace(go.Scatter3d(x=[], y=[], z=[], mode="lines", name="selected outline", hoverinfo="skip",  # 5
-                               line=dict(color="#111111", width=8)))
+    fig.add_trace(
+        go.Mesh3d(
+            x=[],
+            y=[],
+            z=[],
+            i=[],
+            j=[],
+            k=[],
+            color="#ffd400",
+            opacity=1.0,  # 4 highlight
+            name="selected",
+            hoverinfo="skip",
+            flatshading=True,
+        )
+    )
+    fig.add_trace(
+        go.Scatter3d(
+            x=[],
+            y=[],
+            z=[],
+            mode="lines",
+            name="selected outline",
+            hoverinfo="skip",  # 5
+            line=dict(color="#111111", width=8),
+        )
+    )
     for trace in _axes(scene):  # 6.. north and up
         fig.add_trace(trace)
-    fig.update_layout(margin=dict(l=0, r=0, t=0, b=0), showlegend=False, uirevision="keep",
-                      scene=dict(aspectmode="data", xaxis_title="x", yaxis_title="y", zaxis_title="z"))
+    fig.update_layout(
+        margin=dict(l=0, r=0, t=0, b=0),
+        showlegend=False,
+        uirevision="keep",
+        scene=dict(aspectmode="data", xaxis_title="x", yaxis_title="y", zaxis_title="z"),
+    )
     return _figure_json(fig)
 
 
@@ -139,9 +202,24 @@ def _voxel_mesh(scene: ReportScene):
     dip_direction = np.degrees(np.arctan2(enu[:, 0], enu[:, 1])) % 360
     i, j, k = _quads(len(c))
     xyz = corners.reshape(-1, 3).astype(np.float32)
-    return go.Mesh3d(x=xyz[:, 0], y=xyz[:, 1], z=xyz[:, 2], i=i, j=j, k=k, name="voxel planes", visible=False,
-                     intensity=np.repeat(dip_direction, 4).astype(np.float32), intensitymode="vertex",
-                     cmin=0, cmax=360, colorscale="Twilight", showscale=False, flatshading=True, hoverinfo="skip")
+    return go.Mesh3d(
+        x=xyz[:, 0],
+        y=xyz[:, 1],
+        z=xyz[:, 2],
+        i=i,
+        j=j,
+        k=k,
+        name="voxel planes",
+        visible=False,
+        intensity=np.repeat(dip_direction, 4).astype(np.float32),
+        intensitymode="vertex",
+        cmin=0,
+        cmax=360,
+        colorscale="Twilight",
+        showscale=False,
+        flatshading=True,
+        hoverinfo="skip",
+    )
 
 
 def _quads(n: int):
@@ -160,15 +238,29 @@ def _plane_mesh(scene: ReportScene, colors):
     i, j, k = _quads(n)
     text = np.repeat([hover_text(row, scene.truth.get(row["region_id"])) for row in scene.planes], 4)
     face_colors = [colors[f % n] for f in range(n)] * 2 if n else []
-    return go.Mesh3d(x=corners[:, 0] if n else [], y=corners[:, 1] if n else [], z=corners[:, 2] if n else [],
-                     i=i, j=j, k=k, facecolor=face_colors, opacity=0.55, name="region planes", flatshading=True,
-                     text=text.tolist(), customdata=np.repeat(np.arange(n), 4), hovertemplate="%{text}<extra></extra>")
+    return go.Mesh3d(
+        x=corners[:, 0] if n else [],
+        y=corners[:, 1] if n else [],
+        z=corners[:, 2] if n else [],
+        i=i,
+        j=j,
+        k=k,
+        facecolor=face_colors,
+        opacity=0.55,
+        name="region planes",
+        flatshading=True,
+        text=text.tolist(),
+        customdata=np.repeat(np.arange(n), 4),
+        hovertemplate="%{text}<extra></extra>",
+    )
 
 
 def hover_text(row: dict, truth: dict | None) -> str:
-    text = (f"<b>Plane {row['region_id']}</b><br>strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, "
-            f"dip direction {row['dip_direction']:.1f}° (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
-            f"<br>area {row['area_m2']:.2f} m², {row['n_points']:,} points, residual {row['fit_residual']:.4f} m")
+    text = (
+        f"<b>Plane {row['region_id']}</b><br>strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, "
+        f"dip direction {row['dip_direction']:.1f}° (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
+        f"<br>area {row['area_m2']:.2f} m², {row['n_points']:,} points, residual {row['fit_residual']:.4f} m"
+    )
     if truth:
         text += f"<br>truth '{truth['surface']}': error {float(truth['normal_error_deg']):.2f}°"
     return text
@@ -183,9 +275,19 @@ def _axes(scene: ReportScene):
     traces = []
     for name, vector, color in (("N", scene.frame_rotation[1], "#d62728"), ("Up", scene.frame_rotation[2], "#1f77b4")):
         tip = lo + 0.2 * size * vector
-        traces.append(go.Scatter3d(x=[lo[0], tip[0]], y=[lo[1], tip[1]], z=[lo[2], tip[2]], mode="lines+text",
-                                   text=["", name], textfont=dict(color=color, size=14), name=name,
-                                   line=dict(color=color, width=6), hoverinfo="skip"))
+        traces.append(
+            go.Scatter3d(
+                x=[lo[0], tip[0]],
+                y=[lo[1], tip[1]],
+                z=[lo[2], tip[2]],
+                mode="lines+text",
+                text=["", name],
+                textfont=dict(color=color, size=14),
+                name=name,
+                line=dict(color=color, width=6),
+                hoverinfo="skip",
+            )
+        )
     return traces
 
 
@@ -198,33 +300,85 @@ def figure_stereonet(scene: ReportScene) -> dict:
     fig = go.Figure()
     if len(dd) >= 3:
         x, y, density = pole_density(dd, dip)
-        fig.add_trace(go.Contour(x=x, y=y, z=density, colorscale="Blues", showscale=True, ncontours=8, hoverinfo="skip",
-                                 contours=dict(coloring="fill", showlines=False), opacity=0.7,
-                                 colorbar=dict(title="MUD", thickness=10, len=0.6)))
+        fig.add_trace(
+            go.Contour(
+                x=x,
+                y=y,
+                z=density,
+                colorscale="Blues",
+                showscale=True,
+                ncontours=8,
+                hoverinfo="skip",
+                contours=dict(coloring="fill", showlines=False),
+                opacity=0.7,
+                colorbar=dict(title="MUD", thickness=10, len=0.6),
+            )
+        )
     theta = np.linspace(0, 2 * np.pi, 181)
-    fig.add_trace(go.Scatter(x=np.sin(theta), y=np.cos(theta), mode="lines", line=dict(color="black", width=1.5),
-                             hoverinfo="skip", name="primitive"))
+    fig.add_trace(
+        go.Scatter(
+            x=np.sin(theta),
+            y=np.cos(theta),
+            mode="lines",
+            line=dict(color="black", width=1.5),
+            hoverinfo="skip",
+            name="primitive",
+        )
+    )
     gx, gy = [], []
     for i in range(min(len(dd), MAX_GREAT_CIRCLES)):
         x, y = great_circle_xy(dd[i], dip[i])
         gx += [*x, None]
         gy += [*y, None]
-    fig.add_trace(go.Scatter(x=gx, y=gy, mode="lines", line=dict(color="rgba(0,0,0,0.45)", width=1), hoverinfo="skip",
-                             name="great circles"))
+    fig.add_trace(
+        go.Scatter(
+            x=gx,
+            y=gy,
+            mode="lines",
+            line=dict(color="rgba(0,0,0,0.45)", width=1),
+            hoverinfo="skip",
+            name="great circles",
+        )
+    )
     px, py = pole_xy(dd, dip)
-    fig.add_trace(go.Scatter(x=px, y=py, mode="markers", name="poles", customdata=np.arange(len(dd)),
-                             marker=dict(color="#d62728", size=7, line=dict(color="white", width=1)),
-                             text=[hover_text(r, scene.truth.get(r["region_id"])) for r in scene.planes],
-                             hovertemplate="%{text}<extra></extra>"))
-    fig.add_trace(go.Scatter(x=[], y=[], mode="lines", name="selected circle", hoverinfo="skip",
-                             line=dict(color="#e6a100", width=3)))
-    fig.add_trace(go.Scatter(x=[], y=[], mode="markers", name="selected pole", hoverinfo="skip",
-                             marker=dict(color="#ffd400", size=14, line=dict(color="black", width=1.5))))
+    fig.add_trace(
+        go.Scatter(
+            x=px,
+            y=py,
+            mode="markers",
+            name="poles",
+            customdata=np.arange(len(dd)),
+            marker=dict(color="#d62728", size=7, line=dict(color="white", width=1)),
+            text=[hover_text(r, scene.truth.get(r["region_id"])) for r in scene.planes],
+            hovertemplate="%{text}<extra></extra>",
+        )
+    )
+    fig.add_trace(
+        go.Scatter(
+            x=[], y=[], mode="lines", name="selected circle", hoverinfo="skip", line=dict(color="#e6a100", width=3)
+        )
+    )
+    fig.add_trace(
+        go.Scatter(
+            x=[],
+            y=[],
+            mode="markers",
+            name="selected pole",
+            hoverinfo="skip",
+            marker=dict(color="#ffd400", size=14, line=dict(color="black", width=1.5)),
+        )
+    )
     axis = dict(visible=False, range=[-1.12, 1.12], fixedrange=True)
-    fig.update_layout(xaxis=dict(axis, scaleanchor="y"), yaxis=axis, showlegend=False, plot_bgcolor="white",
-                      margin=dict(l=10, r=10, t=30, b=10), height=380,
-                      title=dict(text="Poles and great circles, lower hemisphere (equal area)", font=dict(size=13)),
-                      annotations=[dict(x=0, y=1.08, text="N", showarrow=False, font=dict(size=14))])
+    fig.update_layout(
+        xaxis=dict(axis, scaleanchor="y"),
+        yaxis=axis,
+        showlegend=False,
+        plot_bgcolor="white",
+        margin=dict(l=10, r=10, t=30, b=10),
+        height=380,
+        title=dict(text="Poles and great circles, lower hemisphere (equal area)", font=dict(size=13)),
+        annotations=[dict(x=0, y=1.08, text="N", showarrow=False, font=dict(size=14))],
+    )
     return _figure_json(fig)
 
 
@@ -235,10 +389,24 @@ def figure_rose(scene: ReportScene, bin_width: float = 10.0) -> dict:
     both = np.concatenate([strike, (strike + 180) % 360])
     edges = np.arange(0, 360 + bin_width, bin_width)
     counts, _ = np.histogram(both, edges)
-    fig = go.Figure(go.Barpolar(r=counts, theta=edges[:-1] + bin_width / 2, width=bin_width, marker_color="#4c78a8",
-                                marker_line_color="black", marker_line_width=0.5, hovertemplate="%{theta}°: %{r}<extra></extra>"))
-    fig.update_layout(polar=dict(angularaxis=dict(rotation=90, direction="clockwise")), showlegend=False, height=340,
-                      margin=dict(l=30, r=30, t=40, b=20), title=dict(text="Strikes (rose diagram)", font=dict(size=13)))
+    fig = go.Figure(
+        go.Barpolar(
+            r=counts,
+            theta=edges[:-1] + bin_width / 2,
+            width=bin_width,
+            marker_color="#4c78a8",
+            marker_line_color="black",
+            marker_line_width=0.5,
+            hovertemplate="%{theta}°: %{r}<extra></extra>",
+        )
+    )
+    fig.update_layout(
+        polar=dict(angularaxis=dict(rotation=90, direction="clockwise")),
+        showlegend=False,
+        height=340,
+        margin=dict(l=30, r=30, t=40, b=20),
+        title=dict(text="Strikes (rose diagram)", font=dict(size=13)),
+    )
     return _figure_json(fig)
 
 
@@ -253,8 +421,12 @@ def table_rows(scene: ReportScene) -> list[dict]:
         out["pole"] = [float(a) for a in pole_xy(row["dip_direction"], row["dip"])]
         if truth:
             out["truth_error"] = float(truth["normal_error_deg"])
-            out["truth"] = {"surface": truth["surface"], "strike": float(truth["true_strike"]),
-                            "dip": float(truth["true_dip"]), "dip_direction": float(truth["true_dip_direction"])}
+            out["truth"] = {
+                "surface": truth["surface"],
+                "strike": float(truth["true_strike"]),
+                "dip": float(truth["true_dip"]),
+                "dip_direction": float(truth["true_dip_direction"]),
+            }
         rows.append(out)
     return rows
 

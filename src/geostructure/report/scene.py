@@ -4,6 +4,7 @@ The report is built from the files ``measure`` writes (``planes.csv``, ``regions
 ``voxel_planes.ply``, ``run.json`` and, after ``evaluate``, ``evaluation.csv``), so
 ``geostructure report OUTDIR`` and ``measure --report`` draw exactly the same thing.
 """
+
 from __future__ import annotations
 
 import csv
@@ -26,25 +27,26 @@ MAX_DISPLAY_VOXELS = 30_000
 class ReportScene:
     """Coordinates are local (absolute minus ``offset``) so float32 keeps millimetres."""
 
-    points: np.ndarray            # (M, 3) decimated filtered points, float32, local
-    point_region: np.ndarray      # (M,) region id or -1
+    points: np.ndarray  # (M, 3) decimated filtered points, float32, local
+    point_region: np.ndarray  # (M,) region id or -1
     n_points_total: int
-    voxel_centroids: np.ndarray   # (V, 3) local
-    voxel_normals: np.ndarray     # (V, 3)
-    voxel_region: np.ndarray      # (V,)
+    voxel_centroids: np.ndarray  # (V, 3) local
+    voxel_normals: np.ndarray  # (V, 3)
+    voxel_region: np.ndarray  # (V,)
     voxel_edge: float
-    planes: list[dict]            # planes.csv rows (floats), with "corners" (4, 3) local
-    frame_rotation: np.ndarray    # rows: east, north, up in cloud axes
+    planes: list[dict]  # planes.csv rows (floats), with "corners" (4, 3) local
+    frame_rotation: np.ndarray  # rows: east, north, up in cloud axes
     frame_name: str
     offset: np.ndarray
     crs: str | None
     source: str
-    truth: dict = field(default_factory=dict)   # region id -> evaluation row
-    georeference: dict | None = None              # how a reconstruction was tied to the world
+    truth: dict = field(default_factory=dict)  # region id -> evaluation row
+    georeference: dict | None = None  # how a reconstruction was tied to the world
 
 
-def load_scene(outdir, max_points: int = MAX_DISPLAY_POINTS, max_voxels: int = MAX_DISPLAY_VOXELS,
-               seed: int = 0) -> ReportScene:
+def load_scene(
+    outdir, max_points: int = MAX_DISPLAY_POINTS, max_voxels: int = MAX_DISPLAY_VOXELS, seed: int = 0
+) -> ReportScene:
     """Read a measured output folder into a :class:`ReportScene`, decimated for display.
 
     Decimation is a seeded uniform sample, so dense and sparse parts keep their proportions.
@@ -61,11 +63,23 @@ def load_scene(outdir, max_points: int = MAX_DISPLAY_POINTS, max_voxels: int = M
     else:  # folders written before voxel_planes.ply existed: no voxel layer
         vox, voxel_normals, voxel_region = np.zeros((0, 3), np.float32), np.zeros((0, 3)), np.zeros(0, int)
     planes = _read_planes(outdir / "planes.csv", offset)
-    return ReportScene(points, point_region[0], total, vox, voxel_normals, voxel_region,
-                       float(run.get("voxel_edge", 0.0)), planes,
-                       np.asarray(run["frame"]["rotation"], dtype=np.float64), run["frame"]["name"],
-                       offset, run.get("crs"), str(run.get("input", "")), _read_truth(outdir / "evaluation.csv"),
-                       run.get("reconstruction", {}).get("georef"))
+    return ReportScene(
+        points,
+        point_region[0],
+        total,
+        vox,
+        voxel_normals,
+        voxel_region,
+        float(run.get("voxel_edge", 0.0)),
+        planes,
+        np.asarray(run["frame"]["rotation"], dtype=np.float64),
+        run["frame"]["name"],
+        offset,
+        run.get("crs"),
+        str(run.get("input", "")),
+        _read_truth(outdir / "evaluation.csv"),
+        run.get("reconstruction", {}).get("georef"),
+    )
 
 
 def _read_run(path: Path) -> dict:

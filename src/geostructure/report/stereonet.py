@@ -1,4 +1,5 @@
 """Static figures: lower-hemisphere equal-area stereonet and rose diagram of strikes."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -57,6 +58,7 @@ def save(fig, stem, formats=("png", "svg")) -> list[Path]:
 # Lower-hemisphere Lambert equal-area net of radius 1, north up, east right. The static
 # figures above come from mplstereonet; tests check both put a pole at the same place.
 
+
 def enu_vectors(trend, plunge) -> np.ndarray:
     """(N, 3) unit (east, north, up) vectors of lines given by trend and plunge (degrees)."""
     t, p = np.radians(np.asarray(trend, float)), np.radians(np.asarray(plunge, float))
@@ -101,12 +103,12 @@ def pole_density(dip_direction, dip, gridsize: int = 81, sigma: float = 3.0):
     n = len(poles)
     x = y = np.linspace(-1, 1, gridsize)
     gx, gy = np.meshgrid(x, y)
-    r2 = gx ** 2 + gy ** 2
+    r2 = gx**2 + gy**2
     inside = r2 <= 1
-    up = r2 - 1                                    # inverse of r = sqrt(1 + up)
-    horizontal = np.sqrt(np.clip(1 - up ** 2, 0, 1)) / np.where(r2 > 0, np.sqrt(r2), 1)
+    up = r2 - 1  # inverse of r = sqrt(1 + up)
+    horizontal = np.sqrt(np.clip(1 - up**2, 0, 1)) / np.where(r2 > 0, np.sqrt(r2), 1)
     grid = np.stack([gx * horizontal, gy * horizontal, up], axis=-1)[inside]
-    k = 2.0 * (1.0 + n / sigma ** 2)
+    k = 2.0 * (1.0 + n / sigma**2)
     density = np.full(gx.shape, np.nan)
     if n:
         density[inside] = np.exp(k * (np.abs(grid @ poles.T) - 1)).sum(axis=1) * k / n
