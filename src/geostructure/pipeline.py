@@ -4,6 +4,7 @@ planes -> orientation."""
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -116,83 +117,88 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
     seconds, counts = {}, {"input": len(cloud)}
     check_measurable(cloud)
 
-    t = time.perf_counter()
-    report("filter", 0, None)
-    edge = voxel_edge(cloud.local, params.zeta)
-    filt = filter_outliers(cloud.local, params.filter, edge=edge, threshold=params.filter_sigma)
-    filtered = cloud.subset(filt.keep)
-    counts["filtered"] = len(filtered)
-    seconds["filter"] = time.perf_counter() - t
+    with _stage(seconds, "filter", report):
+        edge = voxel_edge(cloud.local, params.zeta)
+        filt = filter_outliers(cloud.local, params.filter, edge=edge, threshold=params.filter_sigma)
+        filtered = cloud.subset(filt.keep)
+        counts["filtered"] = len(filtered)
     if len(filtered) < 3:
         raise GeoStructureError(f"{cloud.source}: the outlier filter left {len(filtered)} point(s); try --filter none.")
 
-    t = time.perf_counter()
-    report("voxel", 0, None)
-    voxels = fit_voxels(
-        filtered.local, params.zeta, min_points=params.min_voxel_points, max_curvature=params.max_curvature
-    )
-    counts["voxel_planes"] = len(voxels)
-    seconds["voxel"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    growth = grow_regions(
-        voxels,
-        params.theta,
-        params.psi,
-        params.k,
-        reference=params.reference,
-        max_gap=params.max_gap,
-        progress=lambda done: report("regions", done, len(voxels)),
-    )
-    region_of_voxel = growth.labels
-    if params.merge:
-        region_of_voxel, counts["merges"] = merge_coplanar(
-            voxels, growth.labels, params.theta, params.psi * voxels.edge
+    with _stage(seconds, "voxel", report):
+        voxels = fit_voxels(
+            filtered.local, params.zeta, min_points=params.min_voxel_points, max_curvature=params.max_curvature
         )
-    seconds["regions"] = time.perf_counter() - t
+        counts["voxel_planes"] = len(voxels)
 
-    t = time.perf_counter()
-    min_points = params.min_points or default_min_points(len(filtered))
-    point_region = np.full(len(filtered), -1, dtype=np.int64)
-    fitted = voxels.point_voxel >= 0
-    point_region[fitted] = region_of_voxel[voxels.point_voxel[fitted]]
-    planes, kept = _region_planes(filtered.local, point_region, region_of_voxel, min_points, params.rectangle, report)
-    labels = np.full(len(filtered), -1, dtype=np.int64)
-    voxel_labels = np.full(len(voxels), -1, dtype=np.int64)
-    for new_id, old_id in enumerate(kept):
-        labels[point_region == old_id] = new_id
-        voxel_labels[region_of_voxel == old_id] = new_id
-    counts["regions"] = growth.n_regions
-    counts["planes"] = len(planes)
-    counts["labelled_points"] = int((labels >= 0).sum())
-    seconds["planes"] = time.perf_counter() - t
+    with _stage(seconds, "regions"):  # region growing reports its own progress
+        growth = grow_regions(
+            voxels,
+            params.theta,
+            params.psi,
+            params.k,
+            reference=params.reference,
+            max_gap=params.max_gap,
+            progress=lambda done: report("regions", done, len(voxels)),
+        )
+        region_of_voxel = growth.labels
+        if params.merge:
+            region_of_voxel, counts["merges"] = merge_coplanar(
+                voxels, growth.labels, params.theta, params.psi * voxels.edge
+            )
 
-    t = time.perf_counter()
-    report("orientation", 0, None)
-    raw = np.array([p.normal for p in planes]).reshape(-1, 3)
-    outward = _outward(filtered, labels, len(planes))
-    normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
-    orientation = orientation_from_normals(normals, frame, outward)
-    n_voxels, scatter, uncertainty = normal_spread(voxels.normal, voxel_labels, normals)
-    seconds["orientation"] = time.perf_counter() - t
+    with _stage(seconds, "planes"):
+        min_points = params.min_points or default_min_points(len(filtered))
+        point_region = np.full(len(filtered), -1, dtype=np.int64)
+        fitted = voxels.point_voxel >= 0
+        point_region[fitted] = region_of_voxel[voxels.point_voxel[fitted]]
+        planes, kept = _region_planes(
+            filtered.local, point_region, region_of_voxel, min_points, params.rectangle, report
+        )
+        # Old region id -> plane number (largest first); -1 (the table's last entry) stays -1.
+        renumber = np.full(max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 2, -1)
+        renumber[kept] = np.arange(len(kept))
+        labels, voxel_labels = renumber[point_region], renumber[region_of_voxel]
+        counts["regions"] = growth.n_regions
+        counts["planes"] = len(planes)
+        counts["labelled_points"] = int((labels >= 0).sum())
+
+    with _stage(seconds, "orientation", report):
+        raw = np.array([p.normal for p in planes]).reshape(-1, 3)
+        outward = _outward(filtered, labels, len(planes))
+        normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
+        orientation = orientation_from_normals(normals, frame, outward)
+        n_voxels, scatter, uncertainty = normal_spread(voxels.normal, voxel_labels, normals)
     return Result(
-        cloud,
-        params,
-        frame,
-        filtered,
-        filt,
-        voxels,
-        voxel_labels,
-        planes,
-        normals,
-        orientation,
-        labels,
-        n_voxels,
-        scatter,
-        uncertainty,
-        seconds,
-        counts,
+        cloud=cloud,
+        params=params,
+        frame=frame,
+        filtered=filtered,
+        filter_result=filt,
+        voxels=voxels,
+        voxel_labels=voxel_labels,
+        planes=planes,
+        normals=normals,
+        orientation=orientation,
+        labels=labels,
+        n_voxels=n_voxels,
+        scatter=scatter,
+        uncertainty=uncertainty,
+        seconds=seconds,
+        counts=counts,
     )
+
+
+@contextmanager
+def _stage(seconds: dict, name: str, report=None):
+    """Time one stage into ``seconds[name]``; with ``report``, announce it first."""
+    if report is not None:
+        report(name, 0, None)
+    start = time.perf_counter()
+    try:
+        yield
+    finally:
+        seconds[name] = time.perf_counter() - start
 
 
 def normal_spread(voxel_normals, voxel_labels, plane_normals):
