@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .alignment import rotation_onto
 from .orientation import Frame, angle_between_normals
 
 
@@ -22,14 +23,6 @@ class FrameFit:
     @property
     def mean_residual(self) -> float:
         return float(self.residuals.mean())
-
-
-def kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation R minimising sum |R a_i - b_i|^2 (rows are vectors)."""
-    h = a.T @ b
-    u, _, vt = np.linalg.svd(h)
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    return vt.T @ np.diag([1.0, 1.0, d]) @ u.T
 
 
 def fit_frame_to_truth(normals, truth_normals, *, start=None, candidates: int = 30, iterations: int = 20) -> FrameFit:
@@ -52,7 +45,7 @@ def fit_frame_to_truth(normals, truth_normals, *, start=None, candidates: int = 
         new = np.full(len(truth), -1)
         new[rows] = cols
         target = normals[new] * np.sign(np.einsum("ij,ij->i", normals[new], rotated))[:, None]
-        rotation = kabsch(truth, target)
+        rotation = rotation_onto(truth, target)
         if np.array_equal(new, matched):
             break
         matched = new

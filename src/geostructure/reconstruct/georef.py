@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..alignment import similarity as umeyama  # the name control-point code and its tests know
 from ..errors import GeoStructureError
 from ..geodesy import geodetic_to_enu
 from ..orientation import Frame
@@ -64,21 +65,6 @@ def describe_georeference(record: dict) -> str:
     if record.get("rms_residual") is not None:
         text += f", RMS residual {record['rms_residual']:.3g} over {len(record['residuals'])} points"
     return text + (" (approximate)" if record.get("approximate") else "")
-
-
-def umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = True):
-    """Least-squares similarity (s, R, t) with target ~ s R source + t (Umeyama 1991)."""
-    source, target = np.asarray(source, float), np.asarray(target, float)
-    mu_s, mu_t = source.mean(axis=0), target.mean(axis=0)
-    a, b = source - mu_s, target - mu_t
-    u, d, vt = np.linalg.svd(b.T @ a / len(source))
-    sign = np.eye(3)
-    if np.linalg.det(u) * np.linalg.det(vt) < 0:
-        sign[2, 2] = -1
-    rotation = u @ sign @ vt
-    variance = (a**2).sum() / len(source)
-    scale = float(np.trace(np.diag(d) @ sign) / variance) if with_scale else 1.0
-    return scale, rotation, mu_t - scale * rotation @ mu_s
 
 
 def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
