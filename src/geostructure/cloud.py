@@ -53,6 +53,14 @@ class Cloud:
     enu_origin : (lat, lon, alt) or None
         Set when the coordinates are local east-north-up metres about this WGS84 point (a
         reconstruction georeferenced from GPS), so outputs can be written in longitude and latitude.
+
+    Examples
+    --------
+    >>> cloud = Cloud.from_points([[500000.25, 4600000.5, 10.0], [500001.25, 4600000.5, 10.0]])
+    >>> cloud.offset.tolist(), cloud.local[0].tolist()
+    ([500001.0, 4600000.0, 10.0], [-0.75, 0.5, 0.0])
+    >>> bool((cloud.points == [[500000.25, 4600000.5, 10.0], [500001.25, 4600000.5, 10.0]]).all())
+    True
     """
 
     local: np.ndarray

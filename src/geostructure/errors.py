@@ -7,22 +7,69 @@ a subclass to handle one kind of failure only.
 
 
 class GeoStructureError(Exception):
-    """A user-facing error: the message is one sentence that names the file or the value."""
+    """A user-facing error: the message is one sentence that names the file or the value.
+
+    Examples
+    --------
+    >>> from geostructure import read_cloud
+    >>> try:
+    ...     read_cloud("missing.xyz")
+    ... except GeoStructureError as error:
+    ...     print(error)
+    missing.xyz: no such file.
+    """
 
 
 class InputError(GeoStructureError):
-    """An input file cannot be used: missing, unreadable, malformed, or without a plane in it."""
+    """An input file cannot be used: missing, unreadable, malformed, or without a plane in it.
+
+    Examples
+    --------
+    >>> issubclass(InputError, GeoStructureError)
+    True
+    """
 
 
 class ParameterError(GeoStructureError, ValueError):
-    """A parameter or option value is impossible (not finite, out of range, the wrong shape)."""
+    """A parameter or option value is impossible (not finite, out of range, the wrong shape).
+
+    Examples
+    --------
+    >>> from geostructure import Params
+    >>> try:
+    ...     Params(psi=float("inf"))
+    ... except ParameterError as error:
+    ...     print(error)
+    psi must be a finite number, not inf.
+    """
 
 
 class OutputError(GeoStructureError):
-    """The output folder cannot be written, or holds a set of files that is not one run's."""
+    """The output folder cannot be written, or holds a set of files that is not one run's.
+
+    Examples
+    --------
+    >>> from geostructure import verified_record
+    >>> try:
+    ...     verified_record("no-such-folder")
+    ... except OutputError as error:
+    ...     print(error)
+    no-such-folder/run.json: no such file; run 'geostructure measure' first.
+    """
 
 
 class GeoStructureWarning(UserWarning):
     """Something the user should know that does not stop the run; the command line prints
     these as ``geostructure: warning: ...``. A warning of any other class reaching the
-    command line is a defect of this program and is labelled so."""
+    command line is a defect of this program and is labelled so.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from geostructure import Params
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = Params(theta=45)
+    >>> issubclass(caught[0].category, GeoStructureWarning)
+    True
+    """

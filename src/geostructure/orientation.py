@@ -23,10 +23,26 @@ VERTICAL_TOLERANCE = 1e-3
 
 @dataclass(frozen=True)
 class Frame:
-    """Rows are the unit east, north and up vectors written in the cloud's coordinates.
+    """Which way east, north and up point in the cloud's coordinates.
 
-    ``declination`` (degrees, east positive) makes azimuths read against magnetic north,
-    as a compass does: azimuth_magnetic = azimuth_true - declination.
+    Parameters
+    ----------
+    rotation : 3 x 3 tuple
+        Rows are the unit east, north and up vectors written in the cloud's axes.
+    declination : float
+        Magnetic declination in degrees, east positive: azimuths are read against magnetic
+        north, as a compass does (azimuth_magnetic = azimuth_true - declination).
+    name : str
+        For records and messages.
+
+    Examples
+    --------
+    >>> Frame.named("paper").rotation[1]  # north is the cloud's x axis
+    (1.0, 0.0, 0.0)
+    >>> Frame(declination=float("nan"))
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.ParameterError: declination must be a finite number of degrees, not nan.
     """
 
     rotation: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -110,7 +126,14 @@ class Frame:
 
 @dataclass(frozen=True)
 class Orientation:
-    """Angles in degrees; arrays when computed for many normals at once."""
+    """Strike, dip and dip direction in degrees; arrays when computed for many normals at once.
+
+    Examples
+    --------
+    >>> o = orientation_from_normals([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    >>> o.dip.tolist(), o.dip_direction.tolist()
+    ([0.0, 90.0], [0.0, 90.0])
+    """
 
     strike: np.ndarray
     dip: np.ndarray
@@ -172,7 +195,13 @@ def normal_from_orientation(dip_direction, dip, frame: Frame = Frame()) -> np.nd
 
 
 def azimuth_difference(a, b) -> np.ndarray:
-    """Smallest difference between azimuths in degrees, in [0, 180]: 359 and 1 are 2 apart."""
+    """Smallest difference between azimuths in degrees, in [0, 180]: 359 and 1 are 2 apart.
+
+    Examples
+    --------
+    >>> azimuth_difference([359.0, 90.0], [1.0, 270.0]).tolist()
+    [2.0, 180.0]
+    """
     d = np.abs(np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)) % 360.0
     return np.minimum(d, 360.0 - d)
 
@@ -195,6 +224,12 @@ def angle_between_vectors(v1, v2) -> np.ndarray:
 
 
 def angle_between_normals(n1, n2) -> np.ndarray:
-    """Angle between planes in degrees, arccos(|n1 . n2|): the sign of a normal does not matter."""
+    """Angle between planes in degrees, arccos(|n1 . n2|): the sign of a normal does not matter.
+
+    Examples
+    --------
+    >>> angle_between_normals([0.0, 0.0, 1.0], [0.0, 0.0, -1.0]).tolist()
+    [0.0]
+    """
     angle = angle_between_vectors(n1, n2)
     return np.minimum(angle, 180.0 - angle)

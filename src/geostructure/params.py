@@ -37,6 +37,12 @@ class Params:
     max_gap : region-growing neighbours further than this many voxel edges are ignored.
     rectangle : ``exact`` (rotating calipers) or ``golden`` (the paper's search).
     merge : join coplanar regions split by a small gap (not in the paper; see :mod:`.merge`).
+
+    Examples
+    --------
+    >>> p = Params(theta=4)
+    >>> p.theta, p.with_(k=5).k, p.k
+    (4, 5, 8)
     """
 
     zeta: float = 0.01

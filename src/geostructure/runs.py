@@ -78,6 +78,23 @@ def add_report(outdir, *, max_points: int | None = None) -> dict[str, Path]:
 
     The folder is checked against its manifest first, so a report is never drawn from a
     mixture of two runs.
+
+    Parameters
+    ----------
+    outdir : str or Path
+        A folder written by :func:`save_measurement` (or ``geostructure measure``).
+    max_points : int, optional
+        Points drawn in the 3D view at most (default 100,000).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from geostructure import measure
+    >>> from geostructure.synthetic import observatory_scene
+    >>> out = tempfile.mkdtemp()
+    >>> _ = save_measurement(measure(observatory_scene(30_000, seed=1).cloud), out)
+    >>> sorted(p.name for p in add_report(out, max_points=5000).values())
+    ['report.html', 'rose.png', 'stereonet.png', 'stereonet.svg']
     """
     with output_set(outdir, replace=False, rewrites=REPORT_FILES) as outputs:
         paths = _stage_report(outputs, outputs.outdir, max_points)
@@ -90,9 +107,30 @@ def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Eval
     With ``fit_frame`` (an unreferenced cloud), the frame is first fitted to the truth
     planes and the scores are taken in that frame; the fit is returned and recorded.
 
+    Parameters
+    ----------
+    outdir : str or Path
+        A measured folder.
+    truth_path : str or Path
+        The ground-truth CSV (:mod:`geostructure.io.truth`).
+    fit_frame : bool
+        Fit the frame to the truth first (an SfM model without georeference).
+
     Returns
     -------
     evaluation, fit record (empty without ``fit_frame``), paths
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from geostructure import measure
+    >>> from geostructure.synthetic import observatory_scene
+    >>> out = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = save_measurement(measure(observatory_scene(30_000, seed=1).cloud), out)
+    >>> _ = (out.parent / "truth.csv").write_text("surface,dip,dip_direction\\nslope,40,89\\n")
+    >>> evaluation, _, _ = add_evaluation(out, out.parent / "truth.csv")
+    >>> evaluation.n_found
+    1
     """
     with output_set(outdir, replace=False, rewrites=EVALUATION_FILES, inputs=[truth_path]) as outputs:
         frame = Frame.from_dict(outputs.record.get("frame") or {})

@@ -135,6 +135,29 @@ def verified_record(outdir, record_name: str = "run.json", command: str = "geost
     Raises :class:`OutputError` naming the first file that is missing or changed, so no
     reader ever works from a mixture of two runs. Files named in ``ignore`` (about to be
     rewritten) are not checked.
+
+    Parameters
+    ----------
+    outdir : str or Path
+        A folder written by GeoStructure.
+    record_name : str
+        ``run.json``, or ``sweep.json`` for a sweep's folder.
+    command : str
+        The command the messages tell the user to run again.
+    ignore : sequence of str
+        Output names not to check.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = tempfile.mkdtemp()
+    >>> with output_set(out) as outputs:
+    ...     _ = outputs.path("planes.csv").write_text("region_id\\n")
+    >>> _ = open(f"{out}/planes.csv", "a").write("0\\n")  # edited after the run
+    >>> verified_record(out)
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.OutputError: ...planes.csv is not the file run.json lists (changed since, or left by another run), so the folder mixes two sets; run 'geostructure measure' again.
     """
     outdir = Path(outdir)
     path = outdir / record_name

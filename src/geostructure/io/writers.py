@@ -189,8 +189,32 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None) -> dict[
 
 def write_outputs(result, outdir, extra: dict | None = None, *, inputs=()) -> dict[str, Path]:
     """Write planes.csv, planes_dips.csv, planes.geojson, regions.ply, voxel_planes.ply and
-    run.json into ``outdir``, all or none, replacing the folder's previous set; returns
-    their paths. ``inputs`` are files the run read, which are refused if they are outputs."""
+    run.json into ``outdir``, all or none, replacing the folder's previous set.
+
+    Parameters
+    ----------
+    result : Result
+    outdir : str or Path
+    extra : dict, optional
+        More entries for ``run.json``.
+    inputs : sequence of paths
+        Files the run read, refused if they are among the outputs.
+
+    Returns
+    -------
+    dict
+        Output kind -> final path. :func:`geostructure.save_measurement` adds the evaluation
+        and the report to the same set.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from geostructure import measure
+    >>> from geostructure.synthetic import observatory_scene
+    >>> paths = write_outputs(measure(observatory_scene(30_000, seed=1).cloud), tempfile.mkdtemp())
+    >>> paths["planes"].name, paths["run"].name
+    ('planes.csv', 'run.json')
+    """
     with output_set(outdir, inputs=inputs) as outputs:
         paths = write_result(result, outputs, extra)
     return paths

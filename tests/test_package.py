@@ -1,6 +1,7 @@
-"""The package's dependency graph: no import cycle among its modules (imports inside
+"""The package as a whole: no import cycle among its modules (imports inside
 functions count), and no import of its own modules hidden in a function unless it is
-lazy on purpose, which its line says ("lazy")."""
+lazy on purpose, which its line says ("lazy"); and every public name documented with an
+example (the examples run as doctests)."""
 
 from __future__ import annotations
 
@@ -99,3 +100,14 @@ def test_imports_of_the_package_inside_functions_are_lazy_on_purpose():
                     if "lazy" not in said.lower():
                         hidden.append(f"{path.relative_to(PACKAGE)}:{node.lineno}")
     assert hidden == []
+
+
+def test_every_public_name_has_a_docstring_with_an_example():
+    import geostructure
+
+    missing = [
+        name
+        for name in geostructure.__all__
+        if name != "__version__" and ">>>" not in (getattr(geostructure, name).__doc__ or "")
+    ]
+    assert missing == []
