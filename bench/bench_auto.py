@@ -4,14 +4,14 @@
 
 Prints a Markdown table: z(R) with the automatic choice, with the fixed defaults, and the
 best z(R) of the four one-factor sweeps (42 runs per variant), and whether each lands within
-1.1 x best + 0.001 (see geostructure.autocheck).
+1.1 x best + 0.001 (see geostructure.testing.autocheck).
 """
 
 import argparse
 import time
 import warnings
 
-from geostructure.autocheck import TOLERANCE, VARIANTS, check_variant
+from geostructure.testing.autocheck import TOLERANCE, VARIANTS, check_variant
 
 
 def main():

@@ -1,6 +1,6 @@
 """Benchmark: `geostructure run` stage by stage, the two CPU dense paths side by side.
 
-On the rendered outcrop video (exact truth; `reconstruct/render.py`), and on a folder of
+On the rendered outcrop video (exact truth; `testing/render.py`), and on a folder of
 photos if given, runs the whole reconstruction once with each CPU dense path:
 
 - ``sgbm``: OpenCV's semi-global block matching on rectified pairs (the peer: the usual
@@ -95,7 +95,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--images", help="also a folder of photos (measured with --assume-level)")
     args = parser.parse_args()
-    from geostructure.reconstruct.render import write_scene_video
+    from geostructure.testing.render import write_scene_video
 
     with tempfile.TemporaryDirectory(prefix="bench-outcrop-") as folder:
         video, gcp, truth = write_scene_video(folder)

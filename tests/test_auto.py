@@ -4,8 +4,8 @@
 import pytest
 
 from geostructure.auto import choose_params
-from geostructure.autocheck import check_variant
 from geostructure.synthetic import observatory_scene
+from geostructure.testing.autocheck import check_variant
 
 
 @pytest.mark.parametrize(

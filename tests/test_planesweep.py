@@ -3,7 +3,7 @@
 import numpy as np
 
 from geostructure.reconstruct.planesweep import sweep_depth
-from geostructure.reconstruct.render import faces, look_at, render, textures
+from geostructure.testing.render import faces, look_at, render, textures
 
 
 def _view(camera):

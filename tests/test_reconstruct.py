@@ -10,7 +10,7 @@ import pytest
 from geostructure.cli import main
 from geostructure.orientation import angle_between_normals
 from geostructure.reconstruct.frames import FrameOptions, decode, extract_frames
-from geostructure.reconstruct.render import faces, write_scene_video, write_video
+from geostructure.testing.render import faces, write_scene_video, write_video
 
 
 @pytest.fixture(scope="module")
@@ -130,7 +130,7 @@ def test_a_folder_with_no_images(tmp_path, capsys):
 def test_images_that_do_not_overlap(tmp_path, capsys):
     import cv2
 
-    from geostructure.reconstruct.render import textures
+    from geostructure.testing.render import textures
 
     photos = tmp_path / "photos"
     photos.mkdir()
@@ -144,7 +144,7 @@ def test_images_that_do_not_overlap(tmp_path, capsys):
 def test_walking_straight_at_the_outcrop_uses_the_plane_sweep(tmp_path, capsys):
     """Photos taken walking towards the faces: no pair can be rectified, so `--dense auto`
     (no CUDA) falls back to the plane sweep, and the dips still come out true."""
-    from geostructure.reconstruct.render import approach_path, write_scene_photos
+    from geostructure.testing.render import approach_path, write_scene_photos
 
     photos, gcp, _ = write_scene_photos(tmp_path / "scene", approach_path(8))
     out = tmp_path / "run"

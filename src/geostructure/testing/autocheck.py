@@ -11,13 +11,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .auto import choose_params
-from .evaluate import PlaneSet, evaluate, scene_truth
-from .orientation import Frame
-from .params import Params
-from .pipeline import measure
-from .sweep import FACTORS, run_sweep
-from .synthetic import observatory_scene
+from ..auto import choose_params
+from ..evaluate import PlaneSet, evaluate, scene_truth
+from ..orientation import Frame
+from ..params import Params
+from ..pipeline import measure
+from ..sweep import FACTORS, run_sweep
+from ..synthetic import observatory_scene
 
 TOLERANCE = 0.001
 
