@@ -69,7 +69,7 @@ class Frame:
             return cls(declination=declination, name="enu")
         if name == "paper":
             return cls(((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)), declination, "paper")
-        raise ParameterError(f"unknown frame '{name}'; use 'enu' or 'paper', or give up and north vectors.")
+        raise ParameterError(f"unknown frame '{name}'; use 'enu' or 'paper', or give `up` and `north` vectors.")
 
     @classmethod
     def from_up_north(cls, up, north, declination: float = 0.0) -> "Frame":
@@ -85,15 +85,15 @@ class Frame:
         up = np.asarray(up, dtype=np.float64)
         north = np.asarray(north, dtype=np.float64)
         if up.shape != (3,) or north.shape != (3,):
-            raise ParameterError("up and north each need three numbers.")
+            raise ParameterError("`up` and `north` each need three numbers.")
         if not (np.isfinite(up).all() and np.isfinite(north).all()):
-            raise ParameterError(f"up and north must be finite numbers, not up {up.tolist()}, north {north.tolist()}.")
+            raise ParameterError(f"`up` and `north` must be finite numbers, not {up.tolist()} and {north.tolist()}.")
         if np.linalg.norm(up) == 0:
-            raise ParameterError("up must not be the zero vector.")
+            raise ParameterError("`up` must not be the zero vector.")
         up = up / np.linalg.norm(up)
         north = north - (north @ up) * up
         if np.linalg.norm(north) < 1e-6:
-            raise ParameterError("north must not be parallel to up.")
+            raise ParameterError("`north` must not be parallel to `up`.")
         north = north / np.linalg.norm(north)
         east = np.cross(north, up)
         return cls(tuple(map(tuple, np.vstack([east, north, up]).tolist())), declination, "custom")

@@ -130,7 +130,9 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         filtered = cloud.subset(filt.keep)
         counts["filtered"] = len(filtered)
     if len(filtered) < 3:
-        raise GeoStructureError(f"{cloud.source}: the outlier filter left {len(filtered)} point(s); try --filter none.")
+        raise GeoStructureError(
+            f"{cloud.source}: the outlier filter left {len(filtered)} point(s); try `filter='none'`."
+        )
 
     with _stage(seconds, "voxel", report):
         voxels = fit_voxels(

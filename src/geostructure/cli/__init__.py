@@ -9,6 +9,7 @@ this module.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -33,7 +34,7 @@ def main(argv=None) -> int:
         try:
             return args.run(args) or 0
         except GeoStructureError as exc:
-            print(f"geostructure: error: {exc}", file=sys.stderr)
+            print(f"geostructure: error: {as_options(str(exc))}", file=sys.stderr)
             return EXIT_USER_ERROR
         except OSError as exc:  # the machine's, not the data's: a disk, a permission, a device
             where = f"{exc.filename}: " if exc.filename else ""
@@ -45,6 +46,33 @@ def main(argv=None) -> int:
                 file=sys.stderr,
             )
             return 130
+
+
+#: `name=value` in a library message: a parameter, written here as its option.
+_PARAMETER = re.compile(r"`(\w+)(?:=([^`]*))?`")
+_QUOTES_AND_PARENS = "'\"()"
+
+
+def as_options(message: str) -> str:
+    """A library message as a command-line user reads it: the parameters it names in
+    backticks become options (`filter='none'` -> --filter none, `mesh=False` -> --no-mesh).
+
+    Examples
+    --------
+    >>> as_options("try `filter='none'`, `mesh=False`, `up=(X, Y, Z)` or `assume_level=True`.")
+    'try --filter none, --no-mesh, --up X Y Z or --assume-level.'
+    """
+
+    def option(match: re.Match) -> str:
+        flag = "--" + match.group(1).replace("_", "-")
+        value = match.group(2)
+        if value is None or value == "True":
+            return flag
+        if value == "False":
+            return "--no-" + flag[2:]
+        return f"{flag} {value.strip(_QUOTES_AND_PARENS).replace(',', '')}"
+
+    return _PARAMETER.sub(option, message)
 
 
 def _warning_printer():

@@ -169,12 +169,9 @@ def params_from(args, cloud=None) -> tuple[Params, dict | None]:
 def frame_from(args) -> Frame:
     if (args.up is None) != (args.north is None):
         raise GeoStructureError("give both --up and --north, or neither.")
-    try:
-        if args.up is not None:
-            return Frame.from_up_north(args.up, args.north, args.declination)
-        return Frame.named(args.frame, args.declination)
-    except GeoStructureError as exc:  # the library names its parameters; here they are options
-        raise GeoStructureError(str(exc).replace("up ", "--up ").replace("north ", "--north ")) from None
+    if args.up is not None:
+        return Frame.from_up_north(args.up, args.north, args.declination)
+    return Frame.named(args.frame, args.declination)
 
 
 def check_before_work(args, inputs) -> None:

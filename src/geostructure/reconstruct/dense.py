@@ -71,8 +71,8 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
     method = options.method
     if method == "colmap" and not pycolmap.has_cuda:
         raise GeoStructureError(
-            "--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a "
-            "machine with an NVIDIA GPU); use --dense sgbm or sweep here."
+            "`dense='colmap'` needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a "
+            "machine with an NVIDIA GPU); use `dense='sgbm'` or `dense='sweep'` here."
         )
     if method not in ("auto", "colmap", "sgbm", "sweep"):
         raise GeoStructureError(f"unknown dense method '{method}'; use auto, colmap, sgbm or sweep.")
@@ -99,8 +99,8 @@ def dense_cloud(sparse_dir, image_dir, workdir, options: DenseOptions = DenseOpt
         raise GeoStructureError(
             f"the dense stage found {len(points)} points from {pairs} {unit}; the images may be "
             "too few, too far apart, or taken walking straight towards the scene (stereo "
-            "needs sideways steps). Try --dense-neighbours 4, or measure the sparse cloud "
-            "(--dense none)."
+            "needs sideways steps). Try `dense_neighbours=4`, or measure the sparse cloud "
+            "(`dense='none'`)."
         )
     return points, DenseReport(method, len(points), pairs, time.perf_counter() - t)
 

@@ -88,7 +88,7 @@ def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
 def manual(up, north, scale: float = 1.0) -> Georeference:
     """The user's word on which model directions are up and north, and the model's scale."""
     if not (np.isfinite(scale) and scale > 0):
-        raise GeoStructureError(f"scale must be a positive finite number, not {scale}.")
+        raise GeoStructureError(f"`scale` must be a positive finite number, not {scale}.")
     frame = Frame.from_up_north(up, north)
     return Georeference(float(scale), frame.matrix, np.zeros(3), "manual", approximate=False)
 

@@ -169,7 +169,7 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
         return geo
     if options.up is not None or options.north is not None:
         if options.up is None or options.north is None:
-            raise GeoStructureError("give both --up and --north (model axes), or neither.")
+            raise GeoStructureError("give both `up` and `north` (model axes), or neither.")
         return manual(options.up, options.north, options.scale)
     if options.assume_level:
         return level_from_cameras(model, options.scale)
@@ -178,8 +178,8 @@ def georeference_model(model, image_dir, options: ReconstructOptions):
     except GeoStructureError as exc:
         raise GeoStructureError(
             f"the model is not georeferenced, so strike and dip would mean nothing ({exc}) The cloud is "
-            "reconstructed and kept; run the same command again with --gcp GCP.csv (control points), or "
-            "--up X Y Z --north X Y Z [--scale S] (in model axes), or --assume-level for a quick look (up from "
+            "reconstructed and kept; run the same command again with `gcp='GCP.csv'` (control points), or "
+            "`up=(X, Y, Z)` and `north=(X, Y, Z)` [`scale=S`] (in model axes), or `assume_level=True` for a quick look (up from "
             "the cameras: dips approximate, azimuths relative to the view)."
         ) from None
 

@@ -164,7 +164,7 @@ def _run_sfm(image_dir, workdir, options, progress):
         raise GeoStructureError(
             f"{image_dir}: SfM registered {registered} of {len(images)} images (at least 3 are needed). "
             "The photos may not overlap: take them so that each shares about two thirds of its view with the "
-            "next, avoid plain or shiny surfaces, or try --matching exhaustive."
+            "next, avoid plain or shiny surfaces, or try `matching='exhaustive'`."
         )
     best.write(sparse)  # the kept model at sparse/, for the dense stage and for COLMAP's GUI
     return best, SfmReport(

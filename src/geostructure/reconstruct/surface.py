@@ -46,7 +46,7 @@ def _open3d():
     except ImportError as exc:
         raise GeoStructureError(
             "the surface stage needs Open3D (pip install 'geostructure[reconstruct]'; on Debian "
-            f"also apt-get install libgl1 libgomp1); or give --no-mesh ({exc})."
+            f"also apt-get install libgl1 libgomp1); or give `mesh=False` ({exc})."
         ) from None
     return o3d
 
@@ -73,7 +73,7 @@ def poisson_points(points: np.ndarray, viewpoints: np.ndarray, options: SurfaceO
     mesh.remove_vertices_by_mask(cut)
     mesh.remove_unreferenced_vertices()
     if len(mesh.triangles) == 0:
-        raise GeoStructureError("the Poisson surface is empty after trimming; try --no-mesh.")
+        raise GeoStructureError("the Poisson surface is empty after trimming; try `mesh=False`.")
     n = max(1000, int(options.samples_per_point * len(points)))
     sampled = np.asarray(mesh.sample_points_uniformly(n).points) + centre
     mesh.translate(centre)
