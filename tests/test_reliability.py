@@ -392,6 +392,13 @@ def test_impossible_counts_are_refused_by_the_parser(capsys, argv, words):
     assert stop.value.code == 2 and words in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", ["measure", "frames", "run"])
+def test_an_empty_output_folder_name_is_refused(capsys, command):
+    with pytest.raises(SystemExit) as stop:
+        run_cli(capsys, command, "input.xyz", "-o", "")
+    assert stop.value.code == 2 and "the output folder's name is empty" in capsys.readouterr().err
+
+
 def test_frames_on_a_missing_file_says_so(tmp_path, capsys):
     code, _, err = run_cli(capsys, "frames", tmp_path / "gone.mp4", "-o", tmp_path / "f")
     assert code == 2

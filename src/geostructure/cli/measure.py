@@ -26,6 +26,7 @@ from .options import (
     check_before_work,
     check_outdir,
     finite_float,
+    folder,
     frame_from,
     params_from,
     positive_float,
@@ -37,7 +38,7 @@ def add_measure_commands(sub) -> None:
     """The parsers of measure, evaluate, report, sweep and demo."""
     m = sub.add_parser("measure", help="measure the planes of a point cloud file")
     m.add_argument("input", type=Path, help="PLY, LAS, LAZ, E57, XYZ, TXT or CSV file")
-    m.add_argument("-o", "--outdir", type=Path, required=True, help="folder for planes.csv, regions.ply, run.json")
+    m.add_argument("-o", "--outdir", type=folder, required=True, help="folder for planes.csv, regions.ply, run.json")
     m.add_argument(
         "--mesh-samples",
         type=whole(0),
@@ -75,7 +76,7 @@ def add_measure_commands(sub) -> None:
     w.add_argument("input", type=Path, nargs="?", help="cloud file (or --demo for the bundled scene)")
     w.add_argument("--demo", action="store_true", help="sweep the bundled synthetic scene against its exact truth")
     w.add_argument("--truth", type=Path, help="ground-truth CSV (required unless --demo)")
-    w.add_argument("-o", "--outdir", type=Path, default=Path("out/sweep"))
+    w.add_argument("-o", "--outdir", type=folder, default=Path("out/sweep"))
     w.add_argument("--factor", choices=("zeta", "theta", "psi", "k", "all"), default="all")
     w.add_argument("--start", type=finite_float)
     w.add_argument("--end", type=finite_float)
@@ -87,7 +88,7 @@ def add_measure_commands(sub) -> None:
     w.set_defaults(run=run_sweep)
 
     d = sub.add_parser("demo", help="measure the bundled synthetic observatory scene")
-    d.add_argument("-o", "--outdir", type=Path, default=Path("out/demo"))
+    d.add_argument("-o", "--outdir", type=folder, default=Path("out/demo"))
     d.add_argument("--points", type=whole(1000), default=300_000, help="points in the scene")
     d.add_argument("--seed", type=int, default=0)
     d.add_argument(

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 from ..auto import choose_params
 from ..errors import GeoStructureError
@@ -48,6 +49,13 @@ def whole(minimum: int):
 
     parse.__name__ = f"whole number >= {minimum}"
     return parse
+
+
+def folder(text: str) -> Path:
+    """An output folder's name; an empty one is refused (it would mean the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the output folder's name is empty")
+    return Path(text)
 
 
 def non_negative_float(text: str) -> float:

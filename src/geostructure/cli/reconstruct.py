@@ -24,6 +24,7 @@ from .options import (
     add_measure_options,
     base_params,
     check_before_work,
+    folder,
     frame_from,
     non_negative_float,
     positive_float,
@@ -35,14 +36,14 @@ def add_reconstruct_commands(sub) -> None:
     defaults = FrameOptions()
     f = sub.add_parser("frames", help="pick the sharp, moving frames of a video for SfM")
     f.add_argument("video", type=Path, help="mp4, avi, mov, mkv ... file")
-    f.add_argument("-o", "--outdir", type=Path, required=True, help="folder for frame_NNNNNN.jpg")
+    f.add_argument("-o", "--outdir", type=folder, required=True, help="folder for frame_NNNNNN.jpg")
     add_frame_options(f, defaults)
     f.add_argument("-q", "--quiet", action="store_true")
     f.set_defaults(run=run_frames)
 
     r = sub.add_parser("run", help="video or photos -> frames -> SfM -> dense -> surface -> georeference -> planes")
     r.add_argument("source", type=Path, help="a video file or a folder of photos")
-    r.add_argument("-o", "--outdir", type=Path, required=True, help="folder for the cloud, planes and report")
+    r.add_argument("-o", "--outdir", type=folder, required=True, help="folder for the cloud, planes and report")
     g = r.add_argument_group("reconstruction")
     add_frame_options(g, defaults)
     g.add_argument(
