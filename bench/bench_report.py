@@ -26,19 +26,6 @@ import tempfile
 import time
 from pathlib import Path
 
-BROWSER_FLAGS = (
-    "--headless=new",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-dev-shm-usage",
-    "--window-size=1400,1000",
-)
-
 
 def build(kind: str, outdir: str) -> dict:
     """Runs in its own process so that its peak memory is its own."""
@@ -80,16 +67,11 @@ OPEN_TIMEOUT = 300
 
 def open_seconds(path: str, timeout: float = OPEN_TIMEOUT) -> float:
     """Seconds from navigation start to window.reportReady, read from the page's own clock."""
-    from selenium import webdriver
     from selenium.common.exceptions import TimeoutException
-    from selenium.webdriver.chrome.service import Service
 
-    options = webdriver.ChromeOptions()
-    options.binary_location = shutil.which("chromium") or "/usr/bin/chromium"
-    profile = tempfile.mkdtemp()
-    for flag in (*BROWSER_FLAGS, f"--user-data-dir={profile}"):
-        options.add_argument(flag)
-    driver = webdriver.Chrome(service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"), options=options)
+    from geostructure.testing.browser import start_chromium
+
+    driver, profile = start_chromium()
     driver.set_page_load_timeout(timeout)
     try:
         try:

@@ -2,7 +2,6 @@
 
 import os
 import shutil
-import tempfile
 import time
 
 import pytest
@@ -10,24 +9,7 @@ import pytest
 from geostructure.evaluate import match_scene
 from geostructure.io.writers import write_evaluation, write_outputs
 from geostructure.report.html import build_report
-
-CHROMIUM, DRIVER = (
-    shutil.which("chromium") or "/usr/bin/chromium",
-    shutil.which("chromedriver") or "/usr/bin/chromedriver",
-)
-# This machine has no network: keep Chromium from trying (and from failing loudly).
-FLAGS = (
-    "--headless=new",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-dev-shm-usage",
-    "--window-size=1400,1000",
-)
+from geostructure.testing.browser import CHROMIUM, DRIVER, start_chromium
 
 
 @pytest.fixture(scope="module")
@@ -37,16 +19,8 @@ def browser():
         if os.environ.get("CI"):
             pytest.fail(message)
         pytest.skip(message)
-    webdriver = pytest.importorskip("selenium.webdriver")
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    profile = tempfile.mkdtemp(prefix="gs-chromium-")
-    for flag in (*FLAGS, f"--user-data-dir={profile}"):
-        options.add_argument(flag)
-    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    pytest.importorskip("selenium.webdriver")
+    driver, profile = start_chromium(log_console=True)
     yield driver
     driver.quit()
     shutil.rmtree(profile, ignore_errors=True)

@@ -51,6 +51,26 @@ class AutoChoice:
     normal_noise_deg: float
     offset_noise: float  # voxel edges
 
+    def to_dict(self, overridden=()) -> dict:
+        """The choice as ``run.json`` records it; ``overridden`` names factors the user gave.
+
+        Examples
+        --------
+        >>> AutoChoice(Params(), 32.0, 3.5, 0.03).to_dict(["k"])["overridden_by_user"]
+        ['k']
+        """
+        p = self.params
+        return {
+            "zeta": p.zeta,
+            "theta": p.theta,
+            "psi": p.psi,
+            "k": p.k,
+            "points_per_voxel": self.points_per_voxel,
+            "normal_noise_deg": self.normal_noise_deg,
+            "offset_noise_voxel_edges": self.offset_noise,
+            "overridden_by_user": sorted(overridden),
+        }
+
     def describe(self) -> str:
         p = self.params
         return (

@@ -133,9 +133,14 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
 FACTOR_OPTIONS = ("zeta", "theta", "psi", "k")
 
 
+def given_factors(args) -> dict:
+    """The paper's factors the user set on the command line."""
+    return {name: getattr(args, name) for name in FACTOR_OPTIONS if getattr(args, name) is not None}
+
+
 def base_params(args) -> Params:
     """The parameters the options give, checked (and warned about) once, before any reading."""
-    given = {name: getattr(args, name) for name in FACTOR_OPTIONS if getattr(args, name) is not None}
+    given = given_factors(args)
     return Params(
         min_points=args.min_points,
         filter=args.filter,
@@ -152,7 +157,7 @@ def params_from(args, cloud=None) -> tuple[Params, dict | None]:
 
     Returns the parameters and, for --auto, a record of the choice for run.json.
     """
-    given = {name: getattr(args, name) for name in FACTOR_OPTIONS if getattr(args, name) is not None}
+    given = given_factors(args)
     base = base_params(args)
     if not (args.auto and cloud is not None) or len(given) == len(FACTOR_OPTIONS):
         return base, None
@@ -161,17 +166,7 @@ def params_from(args, cloud=None) -> tuple[Params, dict | None]:
     params = choice.params.with_(**given) if given else choice.params
     if not args.quiet:
         print(f"geostructure: {choice.describe()}" + (f"; given: {given}" if given else ""), file=sys.stderr)
-    record = {
-        "zeta": choice.params.zeta,
-        "theta": choice.params.theta,
-        "psi": choice.params.psi,
-        "k": choice.params.k,
-        "points_per_voxel": choice.points_per_voxel,
-        "normal_noise_deg": choice.normal_noise_deg,
-        "offset_noise_voxel_edges": choice.offset_noise,
-        "overridden_by_user": sorted(given),
-    }
-    return params, record
+    return params, choice.to_dict(given)
 
 
 def frame_from(args) -> Frame:

@@ -104,8 +104,6 @@ def add_frame_options(parser, defaults) -> None:
 
 
 def frame_options(args):
-    if args.fps is not None and args.fps <= 0:
-        raise GeoStructureError(f"--fps must be positive, not {args.fps}.")
     return FrameOptions(
         fps=args.fps, select=not args.all_frames, min_motion=args.min_motion, max_frames=args.max_frames
     )
