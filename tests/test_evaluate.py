@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 from geostructure.errors import GeoStructureError
-from geostructure.evaluate import PlaneSet, evaluate, run_score, z_score
+from geostructure.evaluate import evaluate, run_score, z_score
 from geostructure.io.truth import GroundTruth, TruthWarning, dip_direction_from_strike, read_truth
 from geostructure.orientation import Frame, normal_from_orientation, orientation_from_normals
+from geostructure.planes import Planes
 
 PAPER_TRUTH = Path(__file__).parent / "data" / "paper_truth.csv"
 
@@ -20,8 +21,17 @@ def plane_set(dd_dip, centres=None):
     u = np.cross(normals, [0, 0, 1.0])
     u[np.linalg.norm(u, axis=1) < 1e-9] = [1, 0, 0]
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    return PlaneSet(
-        np.arange(n, 0, -1) * 100, centres, normals, o.strike, o.dip, o.dip_direction, centres, u, np.full((n, 2), 2.0)
+    return Planes(
+        normal=normals,
+        local_centroid=centres,
+        n_points=np.arange(n, 0, -1) * 100,
+        strike=o.strike,
+        dip=o.dip,
+        dip_direction=o.dip_direction,
+        local_rect_center=centres,
+        rect_u=u,
+        rect_width=2.0,
+        rect_height=2.0,
     )
 
 

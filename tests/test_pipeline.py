@@ -72,8 +72,8 @@ def test_runs_are_deterministic(scene):
 def test_golden_section_gives_the_same_orientations(scene, scene_result):
     golden = measure(scene.cloud, Params(rectangle="golden"))
     np.testing.assert_allclose(golden.normals, scene_result.normals)
-    widths = np.array([p.perimeter for p in golden.planes])
-    exact = np.array([p.perimeter for p in scene_result.planes])
+    widths = golden.planes.perimeter
+    exact = scene_result.planes.perimeter
     assert np.all(widths <= exact * 1.005) and np.all(exact <= widths + 1e-9)
 
 

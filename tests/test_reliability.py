@@ -17,9 +17,9 @@ from helpers import assert_one_sentence, digest, folder_digests, run_cli, scene_
 
 from geostructure import Cloud, Frame, GeoStructureError, measure
 from geostructure.errors import InputError, OutputError, ParameterError
-from geostructure.evaluate import PlaneSet
 from geostructure.io.atomic import json_text
 from geostructure.io.outdir import output_set, verified_record
+from geostructure.planes import Planes
 
 FIXED = ["--no-auto", "--zeta", "0.02", "-q"]
 
@@ -299,7 +299,7 @@ def test_a_damaged_planes_csv(measured, capsys, content):
         assert code == 2
         assert_one_sentence(err, "planes.csv")
     with pytest.raises(GeoStructureError, match="not a GeoStructure planes.csv"):
-        PlaneSet.from_csv(measured / "planes.csv")
+        Planes.from_csv(measured / "planes.csv")
 
 
 # 12 and 16. run: bad control points found before any reconstruction.

@@ -49,7 +49,7 @@ def test_exports_written_by_measure(tmp_path, scene, capsys):
 
 def test_geojson_names_the_crs_of_a_georeferenced_input():
     cloud = read_cloud(shared_file("pdal_autzen/autzen_trim.laz"))
-    data = geojson(measure(cloud, Params(zeta=0.02)))
+    data = geojson(measure(cloud, Params(zeta=0.02)).planes, cloud.crs)
     assert data["features"] and ("crs" in data or "Lambert" in data.get("crs_wkt", ""))
     x, y, _ = data["features"][0]["geometry"]["coordinates"][0][0]
     assert x > 600_000 and y > 800_000  # in the input's own coordinates
@@ -63,9 +63,9 @@ def test_geojson_of_a_gps_referenced_cloud_is_in_longitude_and_latitude(scene):
     origin = (55.7, 13.19, 40.0)
     cloud = replace(scene.cloud, enu_origin=origin)
     result = measure(cloud, Params())
-    data = geojson(result)
+    data = geojson(result.planes, enu_origin=origin)
     ring = np.array(data["features"][0]["geometry"]["coordinates"][0])
     lon, lat, alt = ring[0]
     assert 13.18 < lon < 13.20 and 55.69 < lat < 55.71  # a building-sized scene about the origin
     back = geodetic_to_enu(ring[:-1, 1], ring[:-1, 0], ring[:-1, 2], origin)
-    assert np.allclose(back, result.planes[0].corners + cloud.offset, atol=1e-6)
+    assert np.allclose(back, result.planes.local_corners[0] + cloud.offset, atol=1e-6)

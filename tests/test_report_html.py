@@ -9,9 +9,9 @@ import pytest
 from geostructure.cli import main
 from geostructure.evaluate import match_scene
 from geostructure.io.writers import write_evaluation, write_outputs
+from geostructure.projection import great_circle_xy, pole_density, pole_xy
 from geostructure.report.html import build_report
 from geostructure.report.scene import load_scene
-from geostructure.report.stereonet import great_circle_xy, pole_density, pole_xy
 
 
 def payload(html: str) -> dict:
@@ -82,7 +82,7 @@ def test_report_is_self_contained_and_lists_every_plane(measured, scene_result):
     assert first["dip"] == pytest.approx(scene_result.orientation.dip[0])
     assert first["truth_error"] < 0.5 and first["truth"]["surface"]
     # the rectangle drawn is the region plane's, in offset-free coordinates
-    expected = scene_result.planes[0].corners + scene_result.cloud.offset - np.array(data["meta"]["offset"])
+    expected = scene_result.planes.local_corners[0] + scene_result.cloud.offset - np.array(data["meta"]["offset"])
     np.testing.assert_allclose(np.array(first["corners"]), expected, atol=1e-3)
     assert data["scene"]["data"][3]["type"] == "mesh3d" and len(data["stereonet"]["data"]) >= 4
 

@@ -15,7 +15,8 @@ from .filter import FilterResult, filter_outliers
 from .merge import merge_coplanar
 from .orientation import Frame, Orientation, orientation_from_normals, upward
 from .params import Params
-from .rectangle import RegionPlane, region_plane
+from .planes import Planes
+from .rectangle import region_plane
 from .regions import grow_regions
 from .voxel import VoxelPlanes, fit_voxels, voxel_edge
 
@@ -26,15 +27,16 @@ STAGES = ("filter", "voxel", "regions", "planes", "orientation")
 class Result:
     """What a run found.
 
-    ``planes`` are sorted largest first and numbered 0, 1, ... in that order;
-    ``labels`` gives each filtered point its plane's number or -1; ``normals`` are unit,
-    in the cloud's axes, pointing upward in ``frame``; ``centroids`` are absolute.
+    ``planes`` is the plane table (:class:`~.planes.Planes`), largest first and numbered
+    0, 1, ... in that order, with normals pointing upward in ``frame`` and centroids in the
+    input's own coordinates; ``labels`` gives each filtered point its plane's number or -1,
+    and ``voxel_labels`` each voxel plane's.
 
     Examples
     --------
     >>> from geostructure.synthetic import observatory_scene
     >>> result = measure(observatory_scene(30_000, seed=2).cloud)
-    >>> bool(result.labels.max() == len(result) - 1), result.centroids.shape[1]
+    >>> bool(result.labels.max() == len(result) - 1), result.planes.centroid.shape[1]
     (True, 3)
     """
 
@@ -45,19 +47,23 @@ class Result:
     filter_result: FilterResult
     voxels: VoxelPlanes
     voxel_labels: np.ndarray
-    planes: list[RegionPlane]
-    normals: np.ndarray
-    orientation: Orientation
+    planes: Planes
     labels: np.ndarray
-    n_voxels: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
-    scatter: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    uncertainty: np.ndarray = field(default_factory=lambda: np.zeros(0))
     seconds: dict = field(default_factory=dict)
     counts: dict = field(default_factory=dict)
 
+    # Shorthands for the plane table's columns, which the API's users reach for most.
+    @property
+    def normals(self) -> np.ndarray:
+        return self.planes.normal
+
     @property
     def centroids(self) -> np.ndarray:
-        return np.array([p.centroid for p in self.planes]).reshape(-1, 3) + self.cloud.offset
+        return self.planes.centroid
+
+    @property
+    def orientation(self) -> Orientation:
+        return self.planes.orientation
 
     def __len__(self) -> int:
         return len(self.planes)
@@ -161,7 +167,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         point_region = np.full(len(filtered), -1, dtype=np.int64)
         fitted = voxels.point_voxel >= 0
         point_region[fitted] = region_of_voxel[voxels.point_voxel[fitted]]
-        planes, kept = _region_planes(
+        regions, kept = _region_planes(
             filtered.local, point_region, region_of_voxel, min_points, params.rectangle, report
         )
         # Old region id -> plane number (largest first); -1 (the table's last entry) stays -1.
@@ -169,15 +175,24 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         renumber[kept] = np.arange(len(kept))
         labels, voxel_labels = renumber[point_region], renumber[region_of_voxel]
         counts["regions"] = growth.n_regions
-        counts["planes"] = len(planes)
+        counts["planes"] = len(regions)
         counts["labelled_points"] = int((labels >= 0).sum())
 
     with _stage(seconds, "orientation", report):
-        raw = np.array([p.normal for p in planes]).reshape(-1, 3)
-        outward = _outward(filtered, labels, len(planes))
+        raw = np.array([r.normal for r in regions]).reshape(-1, 3)
+        outward = _outward(filtered, labels, len(regions))
         normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
         orientation = orientation_from_normals(normals, frame, outward)
         n_voxels, scatter, uncertainty = normal_spread(voxels.normal, voxel_labels, normals)
+        planes = Planes.from_regions(
+            regions,
+            normals,
+            orientation,
+            offset=cloud.offset,
+            n_voxels=n_voxels,
+            scatter=scatter,
+            uncertainty=uncertainty,
+        )
     return Result(
         cloud=cloud,
         params=params,
@@ -187,12 +202,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         voxels=voxels,
         voxel_labels=voxel_labels,
         planes=planes,
-        normals=normals,
-        orientation=orientation,
         labels=labels,
-        n_voxels=n_voxels,
-        scatter=scatter,
-        uncertainty=uncertainty,
         seconds=seconds,
         counts=counts,
     )
@@ -224,7 +234,8 @@ def normal_spread(voxel_normals, voxel_labels, plane_normals):
 
 
 def _region_planes(points, point_region, voxel_region, min_points, method, report):
-    """Region planes of the regions with ``min_points`` points and 3 voxels, largest first."""
+    """Region planes (:class:`~.rectangle.RegionPlane`) of the regions with ``min_points``
+    points and 3 voxels, largest first, with the region ids they came from."""
     n_voxels = np.bincount(voxel_region[voxel_region >= 0], minlength=1)
     labelled = point_region >= 0
     sizes = np.bincount(point_region[labelled], minlength=len(n_voxels))

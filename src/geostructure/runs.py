@@ -8,17 +8,17 @@ from a folder is checked against the folder's manifest first.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from .evaluate import Evaluation, PlaneSet, evaluate
+from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
-from .io.outdir import EVALUATION_FILES, REPORT_FILES, OutputSet, output_set
+from .io.outdir import EVALUATION_FILES, REPORT_FILES, OutputSet, output_set, read_planes
 from .io.truth import GroundTruth, read_truth
 from .io.writers import write_evaluation_files, write_result
-from .orientation import Frame, orientation_from_normals
+from .orientation import Frame
+from .planes import Planes, reoriented
 
 
 def save_measurement(
@@ -134,7 +134,7 @@ def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Eval
     """
     with output_set(outdir, replace=False, rewrites=EVALUATION_FILES, inputs=[truth_path]) as outputs:
         frame = Frame.from_dict(outputs.record.get("frame") or {})
-        planes = PlaneSet.from_csv(outputs.final("planes.csv"))
+        planes = read_planes(outputs.outdir)
         truth = read_truth(truth_path, frame)
         extra, matched = {}, None
         if fit_frame:
@@ -145,16 +145,15 @@ def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Eval
     return evaluation, extra, paths
 
 
-def refit_frame(planes: PlaneSet, truth: GroundTruth, frame: Frame, truth_path):
+def refit_frame(planes: Planes, truth: GroundTruth, frame: Frame, truth_path):
     """Planes and truth re-expressed in the frame fitted from the truth itself (see framefit)."""
     order = np.argsort(-planes.n_points, kind="stable")
-    fit = fit_frame_to_truth(planes.normals[order], truth.normals, candidates=30)
+    fit = fit_frame_to_truth(planes.normal[order], truth.normals, candidates=30)
     fit.matched = order[fit.matched]
     new = fitted_frame(frame, fit)
-    o = orientation_from_normals(planes.normals, new)
-    planes = replace(planes, strike=o.strike, dip=o.dip, dip_direction=o.dip_direction)
+    planes = reoriented(planes, new)
     truth = read_truth(truth_path, new)
-    pairwise = pairwise_angle_error(planes.normals[fit.matched], truth.normals)
+    pairwise = pairwise_angle_error(planes.normal[fit.matched], truth.normals)
     record = {
         "rotation_deg": fit.rotation_angle,
         "residuals_deg": fit.residuals.tolist(),
@@ -178,7 +177,7 @@ def _stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> d
     from .report.html import build_report
     from .report.stereonet import rose_figure, save, stereonet_figure
 
-    planes = PlaneSet.from_csv(Path(source) / "planes.csv")
+    planes = read_planes(source)
     build_report(source, outputs.path("report.html"), max_points=max_points)
     save(stereonet_figure(planes.strike, planes.dip)[0], outputs.staging / "stereonet")
     save(rose_figure(planes.strike)[0], outputs.staging / "rose", formats=("png",))

@@ -17,7 +17,7 @@ from functools import partial
 import numpy as np
 
 from .errors import GeoStructureError
-from .evaluate import PlaneSet, evaluate
+from .evaluate import evaluate
 from .io.atomic import write_figure
 from .params import TABLE1, Params
 from .pipeline import measure
@@ -76,7 +76,7 @@ def run_one(task, cloud, truth, frame) -> SweepRow:
     t = time.perf_counter()
     result = measure(cloud, params, frame)
     total = time.perf_counter() - t
-    ev = evaluate(PlaneSet.from_result(result), truth)
+    ev = evaluate(result.planes, truth)
     return SweepRow(
         factor,
         float(value),

@@ -49,18 +49,16 @@ def print_planes(result, console: Console | None = None) -> None:
     table = Table(title=f"Planes in {Path(str(result.cloud.source)).name} (frame: {result.frame.name})")
     for column in ("id", "points", "area", "strike", "dip", "dip dir", "± deg", "centroid"):
         table.add_column(column, justify="right")
-    o = result.orientation
-    for i, plane in enumerate(result.planes):
-        c = result.centroids[i]
+    for row in result.planes.rows():
         table.add_row(
-            str(i),
-            f"{plane.n_points:,}",
-            f"{plane.area:.4g}",
-            f"{o.strike[i]:05.1f}",
-            f"{o.dip[i]:04.1f}",
-            f"{o.dip_direction[i]:05.1f}",
-            f"{result.uncertainty[i]:.2f}",
-            f"{c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}",
+            str(row["region_id"]),
+            f"{row['n_points']:,}",
+            f"{row['area_m2']:.4g}",
+            f"{row['strike']:05.1f}",
+            f"{row['dip']:04.1f}",
+            f"{row['dip_direction']:05.1f}",
+            f"{row['normal_uncertainty_deg']:.2f}",
+            f"{row['centroid_x']:.2f}, {row['centroid_y']:.2f}, {row['centroid_z']:.2f}",
         )
     console.print(table)
 

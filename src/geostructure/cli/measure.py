@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ..errors import GeoStructureError
-from ..evaluate import PlaneSet, evaluate, match_scene, scene_truth
+from ..evaluate import evaluate, match_scene, scene_truth
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.truth import read_truth
@@ -122,7 +122,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         auto_seconds = time.perf_counter() - t
         result = measure(cloud, params, frame, progress)
         result.seconds = {**seconds, "auto": auto_seconds, **result.seconds}
-        evaluation = evaluate(PlaneSet.from_result(result), truth) if truth is not None else None
+        evaluation = evaluate(result.planes, truth) if truth is not None else None
         progress("write", 0, None)
         paths = save_measurement(
             result,

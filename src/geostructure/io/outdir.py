@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import OutputError
+from ..planes import Planes
 from .atomic import TEMP_PATTERN, write_json
 
 STAGING = ".geostructure-staging"
@@ -192,6 +193,28 @@ def verified_record(outdir, record_name: str = "run.json", command: str = "geost
                 f"another run), so the folder mixes two sets; run '{command}' again."
             )
     return record
+
+
+def read_run(folder) -> dict:
+    """``run.json`` of a measured folder (or of a staged set) as a dict, with its frame.
+
+    It does not check the manifest: readers of a finished folder call
+    :func:`verified_record` first.
+    """
+    path = Path(folder) / "run.json"
+    if not path.is_file():
+        raise OutputError(f"{path}: no such file; run 'geostructure measure' first.")
+    record = _read_record(path)
+    try:
+        record["frame"]["rotation"]
+    except (KeyError, TypeError):
+        raise OutputError(f"{path}: not a GeoStructure run record.") from None
+    return record
+
+
+def read_planes(folder, offset=None) -> Planes:
+    """The plane table in ``planes.csv`` of a measured folder, positions relative to ``offset``."""
+    return Planes.from_csv(Path(folder) / "planes.csv", offset)
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""Writers: planes.csv, regions.ply, voxel_planes.ply and run.json.
+"""Writers: planes.csv (through :class:`~geostructure.planes.Planes`), regions.ply, voxel_planes.ply and run.json.
 
 Each writer writes one file atomically (:mod:`.atomic`); :func:`write_outputs` writes the
 whole set through :mod:`.outdir`, so it appears in the folder together or not at all.
@@ -16,68 +16,11 @@ from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv, write_geojson
 from .outdir import EVALUATION_FILES, OutputSet, output_set
 
-#: The stable contract other tools and issues read; more columns may follow these.
-PLANE_COLUMNS = (
-    "region_id",
-    "n_points",
-    "area_m2",
-    "centroid_x",
-    "centroid_y",
-    "centroid_z",
-    "normal_x",
-    "normal_y",
-    "normal_z",
-    "strike",
-    "dip",
-    "dip_direction",
-)
-EXTRA_COLUMNS = (
-    "rect_width",
-    "rect_height",
-    "fit_residual",
-    "n_voxels",
-    "normal_scatter_deg",
-    "normal_uncertainty_deg",
-    "rect_center_x",
-    "rect_center_y",
-    "rect_center_z",
-    "rect_u_x",
-    "rect_u_y",
-    "rect_u_z",
-)
-
-
-def plane_rows(result) -> list[dict]:
-    """One dict per plane with :data:`PLANE_COLUMNS` then :data:`EXTRA_COLUMNS`."""
-    rows = []
-    centroids = result.centroids
-    o = result.orientation
-    for i, plane in enumerate(result.planes):
-        values = [
-            i,
-            plane.n_points,
-            plane.area,
-            *centroids[i],
-            *result.normals[i],
-            o.strike[i],
-            o.dip[i],
-            o.dip_direction[i],
-            plane.width,
-            plane.height,
-            plane.residual,
-            int(result.n_voxels[i]),
-            result.scatter[i],
-            result.uncertainty[i],
-            *(plane.center + result.cloud.offset),
-            *plane.u,
-        ]
-        rows.append(dict(zip(PLANE_COLUMNS + EXTRA_COLUMNS, values)))
-    return rows
-
 
 def write_planes_csv(result, path) -> Path:
-    """``planes.csv``: one row per plane, largest first, in the input's own coordinates."""
-    return write_table_csv(plane_rows(result), path, columns=PLANE_COLUMNS + EXTRA_COLUMNS)
+    """``planes.csv``: one row per plane, largest first, in the input's own coordinates
+    (:meth:`~geostructure.planes.Planes.to_csv`)."""
+    return result.planes.to_csv(path)
 
 
 def _ascii(text: str) -> str:
@@ -149,11 +92,7 @@ def run_record(result, extra: dict | None = None) -> dict:
         "crs": result.cloud.crs,
         "enu_origin": None if result.cloud.enu_origin is None else list(result.cloud.enu_origin),
         "params": result.params.to_dict(),
-        "frame": {
-            "name": result.frame.name,
-            "rotation": [list(r) for r in result.frame.rotation],
-            "declination": result.frame.declination,
-        },
+        "frame": result.frame.to_dict(),
         "voxel_edge": result.voxels.edge,
         "counts": {k: int(v) for k, v in result.counts.items()},
         "seconds": {k: round(float(v), 4) for k, v in result.seconds.items()},
@@ -178,8 +117,10 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None) -> dict[
         "voxels": "voxel_planes.ply",
     }
     write_planes_csv(result, outputs.path(files["planes"]))
-    write_dips_csv(result, outputs.path(files["dips"]))
-    write_geojson(result, outputs.path(files["geojson"]))
+    write_dips_csv(result.planes, outputs.path(files["dips"]))
+    write_geojson(
+        result.planes, outputs.path(files["geojson"]), crs=result.cloud.crs, enu_origin=result.cloud.enu_origin
+    )
     write_regions_ply(result, outputs.path(files["regions"]))
     write_voxel_planes_ply(result, outputs.path(files["voxels"]))
     outputs.record = run_record(result, extra)

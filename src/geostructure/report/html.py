@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path, plain
+from ..orientation import orientation_from_normals
+from ..projection import great_circle_xy, pole_density, pole_xy
 from ..reconstruct.georef import describe_georeference
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
-from .stereonet import great_circle_xy, pole_density, pole_xy
 
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
 MAX_GREAT_CIRCLES = 30
@@ -59,7 +60,7 @@ def _georeference_note(record: dict | None) -> dict | None:
         return None
     warning = None
     if record.get("source") == "cameras-level":
-        warning = "up from the cameras (--assume-level): dips approximate, azimuths relative to the view, not to north"
+        warning = "up assumed from the cameras (the photos taken level): dips approximate, azimuths relative to the view, not to north"
     elif record.get("approximate"):
         warning = "approximate: up from the cameras, heading from GPS; give control points for true angles"
     return {"text": describe_georeference(record), "warning": warning}
@@ -80,7 +81,7 @@ def render(scene: ReportScene, title: str) -> str:
             "source": scene.source,
             "crs": scene.crs,
             "offset": scene.offset.tolist(),
-            "frame": scene.frame_name,
+            "frame": scene.frame.name,
             "points_total": scene.n_points_total,
             "points_shown": len(scene.points),
             "n_planes": len(scene.planes),
@@ -104,7 +105,7 @@ def figure_3d(scene: ReportScene) -> dict:
     import plotly.graph_objects as go
 
     colors = palette(max(len(scene.planes), 1))
-    up = scene.frame_rotation[2]
+    up = scene.frame.matrix[2]
     p = scene.points
     labelled = scene.point_region >= 0
     fig = go.Figure()
@@ -197,9 +198,7 @@ def _voxel_mesh(scene: ReportScene):
     b = np.cross(n, a)
     h = 0.45 * scene.voxel_edge
     corners = np.stack([c - h * a - h * b, c + h * a - h * b, c + h * a + h * b, c - h * a + h * b], axis=1)
-    enu = n @ scene.frame_rotation.T
-    enu = np.where(enu[:, 2:3] < 0, -enu, enu)
-    dip_direction = np.degrees(np.arctan2(enu[:, 0], enu[:, 1])) % 360
+    dip_direction = orientation_from_normals(n, scene.frame).dip_direction if len(n) else np.zeros(0)
     i, j, k = _quads(len(c))
     xyz = corners.reshape(-1, 3).astype(np.float32)
     return go.Mesh3d(
@@ -233,10 +232,10 @@ def _quads(n: int):
 def _plane_mesh(scene: ReportScene, colors):
     import plotly.graph_objects as go
 
-    corners = np.array([row["corners"] for row in scene.planes]).reshape(-1, 3)
+    corners = scene.planes.local_corners.reshape(-1, 3)
     n = len(scene.planes)
     i, j, k = _quads(n)
-    text = np.repeat([hover_text(row, scene.truth.get(row["region_id"])) for row in scene.planes], 4)
+    text = np.repeat([hover_text(row, scene.truth.get(row["region_id"])) for row in scene.planes.rows()], 4)
     face_colors = [colors[f % n] for f in range(n)] * 2 if n else []
     return go.Mesh3d(
         x=corners[:, 0] if n else [],
@@ -273,7 +272,7 @@ def _axes(scene: ReportScene):
     p = scene.points if len(scene.points) else np.zeros((1, 3), np.float32)
     lo, size = p.min(axis=0).astype(float), float(np.ptp(p, axis=0).max() or 1.0)
     traces = []
-    for name, vector, color in (("N", scene.frame_rotation[1], "#d62728"), ("Up", scene.frame_rotation[2], "#1f77b4")):
+    for name, vector, color in (("N", scene.frame.matrix[1], "#d62728"), ("Up", scene.frame.matrix[2], "#1f77b4")):
         tip = lo + 0.2 * size * vector
         traces.append(
             go.Scatter3d(
@@ -295,8 +294,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
     """Poles (all), great circles (largest planes), exponential Kamb density, primitive circle."""
     import plotly.graph_objects as go
 
-    dd = np.array([r["dip_direction"] for r in scene.planes])
-    dip = np.array([r["dip"] for r in scene.planes])
+    dd, dip = scene.planes.dip_direction, scene.planes.dip
     fig = go.Figure()
     if len(dd) >= 3:
         x, y, density = pole_density(dd, dip)
@@ -311,7 +309,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
                 hoverinfo="skip",
                 contours=dict(coloring="fill", showlines=False),
                 opacity=0.7,
-                colorbar=dict(title="MUD", thickness=10, len=0.6),
+                colorbar=dict(title="Kamb σ", thickness=10, len=0.6),
             )
         )
     theta = np.linspace(0, 2 * np.pi, 181)
@@ -349,7 +347,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
             name="poles",
             customdata=np.arange(len(dd)),
             marker=dict(color="#d62728", size=7, line=dict(color="white", width=1)),
-            text=[hover_text(r, scene.truth.get(r["region_id"])) for r in scene.planes],
+            text=[hover_text(r, scene.truth.get(r["region_id"])) for r in scene.planes.rows()],
             hovertemplate="%{text}<extra></extra>",
         )
     )
@@ -385,7 +383,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
 def figure_rose(scene: ReportScene, bin_width: float = 10.0) -> dict:
     import plotly.graph_objects as go
 
-    strike = np.array([r["strike"] for r in scene.planes])
+    strike = scene.planes.strike
     both = np.concatenate([strike, (strike + 180) % 360])
     edges = np.arange(0, 360 + bin_width, bin_width)
     counts, _ = np.histogram(both, edges)
@@ -413,10 +411,10 @@ def figure_rose(scene: ReportScene, bin_width: float = 10.0) -> dict:
 def table_rows(scene: ReportScene) -> list[dict]:
     """Plane rows for the page: table values, info text, 3D corners and stereonet data."""
     rows = []
-    for row in scene.planes:
+    for row, corners in zip(scene.planes.rows(), scene.planes.local_corners):
         truth = scene.truth.get(row["region_id"])
         out = {key: row.get(key) for key, _, _ in COLUMNS}
-        out["corners"] = np.round(row["corners"], 4).tolist()
+        out["corners"] = np.round(corners, 4).tolist()
         out["great_circle"] = [np.round(a, 4).tolist() for a in great_circle_xy(row["dip_direction"], row["dip"])]
         out["pole"] = [float(a) for a in pole_xy(row["dip_direction"], row["dip"])]
         if truth:

@@ -8,13 +8,15 @@ The report is built from the files ``measure`` writes (``planes.csv``, ``regions
 from __future__ import annotations
 
 import csv
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import GeoStructureError
+from ..io.outdir import read_planes, read_run
+from ..orientation import Frame
+from ..planes import Planes
 
 #: Points drawn in 3D at most: enough to read the outcrop's shape, few enough for WebGL
 #: to turn it fluently and for the file to stay small whatever the input's size.
@@ -34,9 +36,8 @@ class ReportScene:
     voxel_normals: np.ndarray  # (V, 3)
     voxel_region: np.ndarray  # (V,)
     voxel_edge: float
-    planes: list[dict]  # planes.csv rows (floats), with "corners" (4, 3) local
-    frame_rotation: np.ndarray  # rows: east, north, up in cloud axes
-    frame_name: str
+    planes: Planes  # planes.csv, positions relative to ``offset``
+    frame: Frame
     offset: np.ndarray
     crs: str | None
     source: str
@@ -52,7 +53,7 @@ def load_scene(
     Decimation is a seeded uniform sample, so dense and sparse parts keep their proportions.
     """
     outdir = Path(outdir)
-    run = _read_run(outdir / "run.json")
+    run = read_run(outdir)
     offset = np.asarray(run.get("offset", [0, 0, 0]), dtype=np.float64)
     rng = np.random.default_rng(seed)
     points, point_region, total = _read_ply_sample(outdir / "regions.ply", ("region_id",), offset, max_points, rng)
@@ -62,35 +63,22 @@ def load_scene(
         voxel_normals, voxel_region = np.stack(extra[:3], axis=1), extra[3]
     else:  # folders written before voxel_planes.ply existed: no voxel layer
         vox, voxel_normals, voxel_region = np.zeros((0, 3), np.float32), np.zeros((0, 3)), np.zeros(0, int)
-    planes = _read_planes(outdir / "planes.csv", offset)
     return ReportScene(
-        points,
-        point_region[0],
-        total,
-        vox,
-        voxel_normals,
-        voxel_region,
-        float(run.get("voxel_edge", 0.0)),
-        planes,
-        np.asarray(run["frame"]["rotation"], dtype=np.float64),
-        run["frame"]["name"],
-        offset,
-        run.get("crs"),
-        str(run.get("input", "")),
-        _read_truth(outdir / "evaluation.csv"),
-        run.get("reconstruction", {}).get("georef"),
+        points=points,
+        point_region=point_region[0],
+        n_points_total=total,
+        voxel_centroids=vox,
+        voxel_normals=voxel_normals,
+        voxel_region=voxel_region,
+        voxel_edge=float(run.get("voxel_edge", 0.0)),
+        planes=read_planes(outdir, offset),
+        frame=Frame.from_dict(run["frame"]),
+        offset=offset,
+        crs=run.get("crs"),
+        source=str(run.get("input", "")),
+        truth=_read_truth(outdir / "evaluation.csv"),
+        georeference=run.get("reconstruction", {}).get("georef"),
     )
-
-
-def _read_run(path: Path) -> dict:
-    try:
-        run = json.loads(path.read_text())
-        run["frame"]["rotation"]
-    except FileNotFoundError:
-        raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
-    except (ValueError, KeyError, TypeError):
-        raise GeoStructureError(f"{path}: not a GeoStructure run record.") from None
-    return run
 
 
 def _read_ply_sample(path: Path, names, offset, limit, rng):
@@ -107,30 +95,6 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
     pick = np.sort(rng.choice(total, limit, replace=False)) if total > limit else slice(None)
     xyz = (np.stack(columns[:3], axis=1)[pick].astype(np.float64) - offset).astype(np.float32)
     return xyz, [np.asarray(c[pick]) for c in columns[3:]], total
-
-
-def _read_planes(path: Path, offset) -> list[dict]:
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
-    except FileNotFoundError:
-        raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
-    except (ValueError, TypeError, UnicodeDecodeError, csv.Error):
-        raise GeoStructureError(f"{path}: not a GeoStructure planes table.") from None
-    for row in rows:
-        row["region_id"] = int(row["region_id"])
-        row["n_points"] = int(row["n_points"])
-        row["corners"] = rectangle_corners(row, offset)
-    return rows
-
-
-def rectangle_corners(row: dict, offset) -> np.ndarray:
-    """(4, 3) local corners of a plane's rectangle from its planes.csv row."""
-    center = np.array([row["rect_center_x"], row["rect_center_y"], row["rect_center_z"]]) - offset
-    u = np.array([row["rect_u_x"], row["rect_u_y"], row["rect_u_z"]])
-    v = np.cross([row["normal_x"], row["normal_y"], row["normal_z"]], u)
-    hu, hv = u * row["rect_width"] / 2, v * row["rect_height"] / 2
-    return center + np.array([-hu - hv, hu - hv, hu + hv, -hu + hv])
 
 
 def _read_truth(path: Path) -> dict:

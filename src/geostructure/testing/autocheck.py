@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..auto import choose_params
-from ..evaluate import PlaneSet, evaluate, scene_truth
+from ..evaluate import evaluate, scene_truth
 from ..orientation import Frame
 from ..params import Params
 from ..pipeline import measure
@@ -59,7 +59,7 @@ def check_variant(name: str, seed: int, size_factor: float = 1.0, workers: int =
 
     def score(params):
         result = measure(scene.cloud, params)
-        return evaluate(PlaneSet.from_result(result), truth, max_distance=5 * result.voxels.edge)
+        return evaluate(result.planes, truth, max_distance=5 * result.voxels.edge)
 
     choice = choose_params(scene.cloud.local)
     auto, default = score(choice.params), score(Params())
