@@ -15,93 +15,24 @@ never improve a run's score; the count of missed surfaces is reported beside it.
 
 from __future__ import annotations
 
-import csv
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .errors import GeoStructureError
 from .io.truth import GroundTruth
 from .orientation import angle_between_normals, azimuth_difference, orientation_from_normals
+from .planes import Planes
 
 RANGES = {"strike": 360.0, "dip": 90.0, "dip_direction": 360.0}
 
 
-@dataclass
-class PlaneSet:
-    """The measured planes as evaluation needs them (from a Result or a planes.csv)."""
-
-    n_points: np.ndarray
-    centroids: np.ndarray
-    normals: np.ndarray
-    strike: np.ndarray
-    dip: np.ndarray
-    dip_direction: np.ndarray
-    rect_centers: np.ndarray
-    rect_u: np.ndarray
-    rect_size: np.ndarray  # (P, 2) width, height
-
-    def __len__(self) -> int:
-        return len(self.n_points)
-
-    @classmethod
-    def from_result(cls, result) -> "PlaneSet":
-        o = result.orientation
-        planes = result.planes
-        return cls(
-            np.array([p.n_points for p in planes]),
-            result.centroids,
-            result.normals,
-            o.strike,
-            o.dip,
-            o.dip_direction,
-            np.array([p.center for p in planes]).reshape(-1, 3) + result.cloud.offset,
-            np.array([p.u for p in planes]).reshape(-1, 3),
-            np.array([[p.width, p.height] for p in planes]).reshape(-1, 2),
-        )
-
-    @classmethod
-    def from_csv(cls, path) -> "PlaneSet":
-        path = Path(path)
-        if not path.is_file():
-            raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.")
-        try:
-            with open(path, newline="", encoding="utf-8") as fh:
-                rows = list(csv.DictReader(fh))
-        except (UnicodeDecodeError, csv.Error):
-            raise GeoStructureError(f"{path}: not a GeoStructure planes.csv (not a text table).") from None
-        try:
-
-            def col(*names):
-                return np.array([[float(r[n]) for n in names] for r in rows]).reshape(len(rows), len(names))
-
-            return cls(
-                col("n_points")[:, 0].astype(int),
-                col("centroid_x", "centroid_y", "centroid_z"),
-                col("normal_x", "normal_y", "normal_z"),
-                col("strike")[:, 0],
-                col("dip")[:, 0],
-                col("dip_direction")[:, 0],
-                col("rect_center_x", "rect_center_y", "rect_center_z"),
-                col("rect_u_x", "rect_u_y", "rect_u_z"),
-                col("rect_width", "rect_height"),
-            )
-        except (KeyError, ValueError, TypeError):
-            raise GeoStructureError(
-                f"{path}: not a GeoStructure planes.csv (a row is short, or a cell is not a number)."
-            ) from None
-
-
-def distance_to_rectangles(point, planes: PlaneSet) -> np.ndarray:
+def distance_to_rectangles(point, planes: Planes) -> np.ndarray:
     """Distance from a point to each plane's bounding rectangle (0 inside a flat one)."""
-    d = np.asarray(point, dtype=np.float64) - planes.rect_centers
-    n = planes.normals
-    v = np.cross(n, planes.rect_u)
-    a = np.abs(np.einsum("ij,ij->i", d, planes.rect_u)) - planes.rect_size[:, 0] / 2
-    b = np.abs(np.einsum("ij,ij->i", d, v)) - planes.rect_size[:, 1] / 2
-    c = np.einsum("ij,ij->i", d, n)
+    d = np.asarray(point, dtype=np.float64) - planes.rect_center
+    a = np.abs(np.einsum("ij,ij->i", d, planes.rect_u)) - planes.rect_width / 2
+    b = np.abs(np.einsum("ij,ij->i", d, planes.rect_v)) - planes.rect_height / 2
+    c = np.einsum("ij,ij->i", d, planes.normal)
     return np.sqrt(np.maximum(a, 0) ** 2 + np.maximum(b, 0) ** 2 + c**2)
 
 
@@ -126,7 +57,7 @@ def _assign(cost: np.ndarray, limit) -> np.ndarray:
 
 
 def match_planes(
-    planes: PlaneSet,
+    planes: Planes,
     truth: GroundTruth,
     *,
     max_distance: float = np.inf,
@@ -154,7 +85,7 @@ def match_planes(
         if len(pool):
             angle = np.array(
                 [
-                    angle_between_normals(np.repeat(n[None], len(pool), 0), planes.normals[pool])
+                    angle_between_normals(np.repeat(n[None], len(pool), 0), planes.normal[pool])
                     for n in truth.normals[free]
                 ]
             )
@@ -250,7 +181,7 @@ def run_score(region_scores) -> float:
     return float(np.sqrt(np.sum(z**2)) / len(z)) if len(z) else float("nan")
 
 
-def evaluate(planes: PlaneSet, truth: GroundTruth, *, matched=None, **match_options) -> Evaluation:
+def evaluate(planes: Planes, truth: GroundTruth, *, matched=None, **match_options) -> Evaluation:
     """Match planes to the ground truth (unless ``matched`` gives the plane per surface, -1
     for none) and score every surface (missed ones score 1)."""
     matched = match_planes(planes, truth, **match_options) if matched is None else np.asarray(matched)
@@ -271,7 +202,7 @@ def evaluate(planes: PlaneSet, truth: GroundTruth, *, matched=None, **match_opti
             s.z_strike, s.z_dip, s.z_dip_direction = parts
             s.z_region = sum(parts) / 3
             s.z_region_wrapped = sum(wrapped) / 3
-            s.normal_error_deg = float(angle_between_normals(truth.normals[i], planes.normals[j])[0])
+            s.normal_error_deg = float(angle_between_normals(truth.normals[i], planes.normal[j])[0])
         scores.append(s)
     return Evaluation(scores)
 
@@ -290,6 +221,45 @@ def scene_truth(scene, frame) -> GroundTruth:
 
 def match_scene(result, scene) -> Evaluation:
     """Evaluate a result against its synthetic scene, matching by location."""
-    return evaluate(
-        PlaneSet.from_result(result), scene_truth(scene, result.frame), max_distance=0.5 * result.voxels.edge * 10
-    )
+    return evaluate(result.planes, scene_truth(scene, result.frame), max_distance=0.5 * result.voxels.edge * 10)
+
+
+@dataclass
+class FacetMatch:
+    """How many of an outcrop's facets a run found (see :func:`match_facets`)."""
+
+    found: np.ndarray  # (F,) bool, per truth facet
+    plane_facet: np.ndarray  # (P,) the facet each plane's centroid lies on, -1 for none
+    eligible: np.ndarray  # (F,) bool: large enough to count
+    errors: np.ndarray  # (F,) normal error (deg) of the best plane on the facet, NaN for none
+
+    @property
+    def recall(self) -> float:
+        """Share of the eligible facets found."""
+        return float(self.found[self.eligible].mean()) if self.eligible.any() else float("nan")
+
+
+def match_facets(planes: Planes, scene, *, max_angle: float = 5.0, min_diameter: float = 0.3) -> FacetMatch:
+    """Which facets of a synthetic outcrop (:func:`~geostructure.synthetic.outcrop_scene`)
+    the planes found: a facet is found when a plane's centroid lies on it (its nearest
+    noise-free point belongs to the facet, within a few point spacings) and the plane's
+    normal is within ``max_angle`` degrees of the facet's. Facets under ``min_diameter``
+    metres across do not count."""
+    from scipy.spatial import cKDTree
+
+    n_facets = len(scene.facet_set)
+    on_facet = scene.facet_index >= 0
+    distance, nearest = cKDTree(scene.clean[on_facet]).query(planes.centroid) if len(planes) else ([], [])
+    plane_facet = np.full(len(planes), -1, dtype=np.int64)
+    if len(planes):
+        close = np.asarray(distance) <= 3.0 * scene.point_spacing + 3.0 * np.asarray(planes.fit_residual)
+        plane_facet[close] = scene.facet_index[on_facet][np.asarray(nearest)[close]]
+    errors = np.full(n_facets, np.nan)
+    hit = plane_facet >= 0
+    if hit.any():
+        angle = angle_between_normals(planes.normal[hit], scene.facet_normal[plane_facet[hit]])
+        best = np.full(n_facets, np.inf)
+        np.minimum.at(best, plane_facet[hit], angle)
+        errors = np.where(np.isfinite(best), best, np.nan)
+    found = np.nan_to_num(errors, nan=np.inf) <= max_angle
+    return FacetMatch(found, plane_facet, scene.facet_diameter >= min_diameter, errors)

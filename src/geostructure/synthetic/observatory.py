@@ -1,4 +1,4 @@
-"""Synthetic scenes with exact ground truth: the bundled default dataset, tests, benchmarks.
+"""The observatory scene: the bundled default dataset, for the demo, tests and benchmarks.
 
 :func:`observatory_scene` builds the paper's six measured surfaces (``ORIENTATION.md``,
 normals converted from the paper's x=N, y=W frame to ENU) as textured rectangular faces,
@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cloud import Cloud
-from .orientation import Frame, orientation_from_normals
+from ..cloud import Cloud
+from ..orientation import Frame, orientation_from_normals
 
 #: The paper's ground-truth normals (x=North, y=West, z=Up), surfaces 1..6.
 PAPER_NORMALS = np.array(

@@ -1,0 +1,33 @@
+"""Synthetic scenes with exact ground truth: the bundled default dataset, tests, benchmarks.
+
+- :func:`observatory_scene`: the paper's six large surfaces in an outdoor scene (the demo).
+- :func:`outcrop_scene`: a rough rock face cut by hundreds of small joint facets from a few
+  sets, with SfM-like noise and occlusion: the case a rock-slope engineer brings.
+"""
+
+from .observatory import (
+    PAPER_NORMALS,
+    PAPER_TABLE,
+    Scene,
+    Surface,
+    observatory_scene,
+    paper_surfaces,
+    paper_to_enu,
+    sample_rectangle,
+)
+from .outcrop import JointSet, OutcropScene, fisher_directions, outcrop_scene
+
+__all__ = [
+    "PAPER_NORMALS",
+    "PAPER_TABLE",
+    "JointSet",
+    "OutcropScene",
+    "Scene",
+    "Surface",
+    "fisher_directions",
+    "observatory_scene",
+    "outcrop_scene",
+    "paper_surfaces",
+    "paper_to_enu",
+    "sample_rectangle",
+]
