@@ -30,6 +30,8 @@ from geostructure.io.truth import read_truth
 from geostructure.planes import Planes
 from geostructure.reconstruct.georef import read_gcp_csv
 
+pytestmark = pytest.mark.slow
+
 #: More cases on request (``GEOSTRUCTURE_FUZZ_SCALE=20 make test``), new ones each time with a seed.
 SCALE = int(os.environ.get("GEOSTRUCTURE_FUZZ_SCALE", "1"))
 FUZZ = settings(

@@ -62,6 +62,7 @@ def test_enu_to_geodetic_inverts_geodetic_to_enu():
     assert geodetic[1, 0] > origin[0] and geodetic[1, 1] > origin[1]  # north-east is north-east
 
 
+@pytest.mark.real_data
 def test_gps_from_exif_of_a_real_photo():
     folder = shared_file("opensfm_lund/images")
     lat, lon, alt = gps_from_exif(sorted(folder.iterdir())[0])
@@ -78,6 +79,7 @@ def test_gcp_csv_errors_name_the_file_and_the_problem(tmp_path):
         read_gcp_csv(bad)
 
 
+@pytest.mark.real_data
 def test_opensfm_gcp_json_of_the_berlin_set(tmp_path):
     """WGS84 positions become local ENU metres; OpenSfM's normalised projections become pixels."""
     path = shared_file("opensfm_berlin/ground_control_points.json")

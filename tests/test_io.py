@@ -101,23 +101,27 @@ def test_text_layouts(tmp_path, content, header):
     np.testing.assert_allclose(read_cloud(path).points, pts)
 
 
+@pytest.mark.real_data
 def test_real_outcrop_text_in_utm():
     cloud = read_cloud(shared_file("jfm_outcrop_test/test.txt"))
     assert len(cloud) == 1133
     assert cloud.points[:, 1].min() > 5_000_000
 
 
+@pytest.mark.real_data
 def test_real_airborne_laz_with_crs():
     cloud = read_cloud(shared_file("pdal_autzen/autzen_trim.laz"))
     assert len(cloud) == 110_000
     assert cloud.crs and "Lambert" in cloud.crs
 
 
+@pytest.mark.real_data
 def test_real_e57_scan():
     cloud = read_cloud(shared_file("pye57_pump/pumpAVisualReferenceImage.e57"))
     assert len(cloud) == 155_201
 
 
+@pytest.mark.real_data
 def test_real_poisson_mesh_from_the_paper():
     path = shared_file("observatory/dense_poisson_oc_6.ply")
     assert len(read_cloud(path, mesh_samples=None)) == 9693

@@ -23,6 +23,8 @@ from geostructure.errors import OutputError
 from geostructure.io import outdir as outdir_module
 from geostructure.io.outdir import JOURNAL, STAGING, recover, verified_record
 
+pytestmark = pytest.mark.slow
+
 ARGS = ["--no-auto", "--zeta", "0.015", "-q"]
 
 

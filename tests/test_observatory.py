@@ -18,6 +18,8 @@ from geostructure.params import Params
 from geostructure.pipeline import measure
 from geostructure.synthetic import PAPER_NORMALS
 
+pytestmark = pytest.mark.real_data  # every test here reads the paper's cloud
+
 
 @pytest.fixture(scope="module")
 def observatory():

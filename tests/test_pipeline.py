@@ -105,6 +105,7 @@ def test_a_cloud_too_sparse_for_its_voxels_gives_no_plane_and_no_crash():
     assert len(result) == 0 and (result.labels == -1).all()
 
 
+@pytest.mark.real_data
 def test_real_outcrop_gives_planes_at_a_zeta_its_density_supports():
     from conftest import shared_file
 

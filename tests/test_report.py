@@ -2,6 +2,7 @@ import csv
 import json
 
 import numpy as np
+import pytest
 from conftest import shared_file
 
 from geostructure.cli import main
@@ -47,6 +48,7 @@ def test_exports_written_by_measure(tmp_path, scene, capsys):
         assert (out / name).stat().st_size > 1000
 
 
+@pytest.mark.real_data
 def test_geojson_names_the_crs_of_a_georeferenced_input():
     cloud = read_cloud(shared_file("pdal_autzen/autzen_trim.laz"))
     data = geojson(measure(cloud, Params(zeta=0.02)).planes, cloud.crs)

@@ -11,6 +11,8 @@ from geostructure.io.writers import write_evaluation, write_outputs
 from geostructure.report.html import build_report
 from geostructure.testing.browser import CHROMIUM, DRIVER, start_chromium
 
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
 
 @pytest.fixture(scope="module")
 def browser():

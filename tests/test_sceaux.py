@@ -15,6 +15,8 @@ from conftest import shared_file
 
 from geostructure.cli import main
 
+pytestmark = [pytest.mark.real_data, pytest.mark.slow]
+
 
 def read_planes(out):
     with open(out / "planes.csv") as fh:

@@ -10,6 +10,8 @@ from conftest import shared_file
 from geostructure.reconstruct.georef import umeyama
 from geostructure.reconstruct.sfm import run_sfm
 
+pytestmark = [pytest.mark.real_data, pytest.mark.slow]
+
 
 @pytest.fixture(scope="module")
 def door(tmp_path_factory):

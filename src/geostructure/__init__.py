@@ -40,6 +40,7 @@ _PUBLIC = {
     "azimuth_difference": "orientation",
     "orientation_from_normals": "orientation",
     "Params": "params",
+    "Planes": "planes",
     "Result": "pipeline",
     "measure": "pipeline",
     "save_measurement": "runs",

@@ -8,6 +8,7 @@ import warnings
 from dataclasses import asdict, dataclass, replace
 
 from .errors import GeoStructureWarning, ParameterError
+from .facets import DETECTORS
 from .filter import METHODS as FILTER_METHODS
 from .rectangle import METHODS as RECTANGLE_METHODS
 from .regions import REFERENCES
@@ -37,6 +38,9 @@ class Params:
     max_gap : region-growing neighbours further than this many voxel edges are ignored.
     rectangle : ``exact`` (rotating calipers) or ``golden`` (the paper's search).
     merge : join coplanar regions split by a small gap (not in the paper; see :mod:`.merge`).
+    detector : ``facets`` (facets grown on per-point planes, down to small joints on rough
+        rock, with the paper's voxel growing where a grown facet is curved; see :mod:`.facets`)
+        or ``voxel`` (the paper's region growing over voxel planes alone).
 
     Examples
     --------
@@ -58,6 +62,7 @@ class Params:
     max_gap: float = 2.0
     rectangle: str = "exact"
     merge: bool = True
+    detector: str = "facets"
 
     def __post_init__(self):
         for name in ("zeta", "theta", "psi", "filter_sigma", "max_curvature", "max_gap"):
@@ -85,6 +90,7 @@ class Params:
             (0 < self.max_curvature <= 1 / 3, f"max curvature must lie in (0, 1/3], got {self.max_curvature}"),
             (self.reference in REFERENCES, f"reference must be one of {', '.join(REFERENCES)}, got '{self.reference}'"),
             (self.max_gap > 0, f"max gap must be positive, got {self.max_gap}"),
+            (self.detector in DETECTORS, f"detector must be one of {', '.join(DETECTORS)}, got '{self.detector}'"),
             (
                 self.rectangle in RECTANGLE_METHODS,
                 f"rectangle must be one of {', '.join(RECTANGLE_METHODS)}, got '{self.rectangle}'",

@@ -11,6 +11,7 @@ import numpy as np
 
 from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
+from .facets import detect_facets, voxel_majority
 from .filter import FilterResult, filter_outliers
 from .merge import merge_coplanar
 from .orientation import Frame, Orientation, orientation_from_normals, upward
@@ -18,7 +19,7 @@ from .params import Params
 from .planes import Planes
 from .rectangle import region_plane
 from .regions import grow_regions
-from .voxel import VoxelPlanes, fit_voxels, voxel_edge
+from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
 
@@ -51,6 +52,7 @@ class Result:
     labels: np.ndarray
     seconds: dict = field(default_factory=dict)
     counts: dict = field(default_factory=dict)
+    detection: dict = field(default_factory=dict)  # what the detector read from the cloud
 
     # Shorthands for the plane table's columns, which the API's users reach for most.
     @property
@@ -69,9 +71,11 @@ class Result:
         return len(self.planes)
 
 
-def default_min_points(n_points: int) -> int:
-    """Smallest region reported when the user gives none: 0.1% of the points, at least 30."""
-    return max(30, int(0.001 * n_points))
+def default_min_points(n_points: int, detector: str = "voxel") -> int:
+    """Smallest region reported when the user gives none: for the voxel detector 0.1% of the
+    points, at least 30; for facets grown on the points, 30 (a facet some 6 point spacings
+    across, so joints down to 10 spacings are found whatever the cloud's size)."""
+    return 30 if detector == "facets" else max(30, int(0.001 * n_points))
 
 
 def check_measurable(cloud: Cloud) -> None:
@@ -146,35 +150,40 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         )
         counts["voxel_planes"] = len(voxels)
 
-    with _stage(seconds, "regions"):  # region growing reports its own progress
-        growth = grow_regions(
-            voxels,
-            params.theta,
-            params.psi,
-            params.k,
-            reference=params.reference,
-            max_gap=params.max_gap,
-            progress=lambda done: report("regions", done, len(voxels)),
-        )
-        region_of_voxel = growth.labels
-        if params.merge:
-            region_of_voxel, counts["merges"] = merge_coplanar(
-                voxels, growth.labels, params.theta, params.psi * voxels.edge
+    facet_record = {}
+    if params.detector == "facets":
+        with _stage(seconds, "regions", report):
+            point_region, region_of_voxel, facet_record = _grow_facets_then_voxels(
+                filtered, voxels, params, report, counts
             )
+    else:
+        with _stage(seconds, "regions"):  # region growing reports its own progress
+            point_region, region_of_voxel = _grow_voxel_regions(filtered, voxels, params, report, counts)
 
     with _stage(seconds, "planes"):
-        min_points = params.min_points or default_min_points(len(filtered))
-        point_region = np.full(len(filtered), -1, dtype=np.int64)
-        fitted = voxels.point_voxel >= 0
-        point_region[fitted] = region_of_voxel[voxels.point_voxel[fitted]]
+        # Facets grown on the points need min_points only; regions grown over voxel planes
+        # (all of them with the voxel detector) also need 3 voxels and the voxel rule's size.
+        n_facets = facet_record.get("planar_facets", 0)
+        n_regions = max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 1
+        is_facet = np.arange(n_regions) < n_facets
+        min_points = np.where(
+            is_facet,
+            params.min_points or default_min_points(len(filtered), "facets"),
+            params.min_points or default_min_points(len(filtered), "voxel"),
+        )
         regions, kept = _region_planes(
-            filtered.local, point_region, region_of_voxel, min_points, params.rectangle, report
+            filtered.local,
+            point_region,
+            region_of_voxel,
+            min_points,
+            params.rectangle,
+            report,
+            min_voxels=np.where(is_facet, 0, 3),
         )
         # Old region id -> plane number (largest first); -1 (the table's last entry) stays -1.
         renumber = np.full(max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 2, -1)
         renumber[kept] = np.arange(len(kept))
         labels, voxel_labels = renumber[point_region], renumber[region_of_voxel]
-        counts["regions"] = growth.n_regions
         counts["planes"] = len(regions)
         counts["labelled_points"] = int((labels >= 0).sum())
 
@@ -205,6 +214,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         labels=labels,
         seconds=seconds,
         counts=counts,
+        detection=facet_record,
     )
 
 
@@ -220,6 +230,51 @@ def _stage(seconds: dict, name: str, report=None):
         seconds[name] = time.perf_counter() - start
 
 
+def _grow_voxel_regions(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict):
+    """The paper's region growing over voxel planes (then the coplanar merge): each point's
+    and each voxel's region."""
+    growth = grow_regions(
+        voxels,
+        params.theta,
+        params.psi,
+        params.k,
+        reference=params.reference,
+        max_gap=params.max_gap,
+        progress=lambda done: report("regions", done, len(voxels)),
+    )
+    region_of_voxel = growth.labels
+    if params.merge:
+        region_of_voxel, counts["merges"] = merge_coplanar(
+            voxels, growth.labels, params.theta, params.psi * voxels.edge
+        )
+    counts["regions"] = growth.n_regions
+    point_region = np.full(len(filtered), -1, dtype=np.int64)
+    fitted = voxels.point_voxel >= 0
+    point_region[fitted] = region_of_voxel[voxels.point_voxel[fitted]]
+    return point_region, region_of_voxel
+
+
+def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict):
+    """Facets grown on per-point planes (:func:`.facets.detect_facets`); where a grown group
+    is not planar (it drifted round a curved surface), the paper's voxel region growing over
+    its voxels."""
+    found = detect_facets(filtered.local)
+    point_region, curved = found.labels.copy(), found.curved
+    n_facets = int(point_region.max(initial=-1)) + 1
+    in_curved = np.zeros(len(voxels), dtype=bool)
+    in_curved[np.unique(voxels.point_voxel[curved & (voxels.point_voxel >= 0)])] = True
+    region_of_voxel = voxel_majority(voxels.point_voxel, point_region, len(voxels))
+    sub_counts: dict = {}
+    if in_curved.any():
+        subset = subset_voxels(voxels, in_curved)
+        sub_points, sub_region = _grow_voxel_regions(filtered, subset, params, report, sub_counts)
+        take = curved & (sub_points >= 0)
+        point_region[take] = n_facets + sub_points[take]
+        region_of_voxel[in_curved] = np.where(sub_region >= 0, n_facets + sub_region, -1)
+    counts["regions"] = n_facets + sub_counts.get("regions", 0)
+    return point_region, region_of_voxel, found.record()
+
+
 def normal_spread(voxel_normals, voxel_labels, plane_normals):
     """Voxel count, RMS angle (deg) of voxel normals about each plane's normal, and its
     standard error (RMS / sqrt(voxels)): the plane's scatter and the uncertainty of its normal."""
@@ -233,13 +288,15 @@ def normal_spread(voxel_normals, voxel_labels, plane_normals):
     return count, scatter, scatter / np.sqrt(np.maximum(count, 1))
 
 
-def _region_planes(points, point_region, voxel_region, min_points, method, report):
+def _region_planes(points, point_region, voxel_region, min_points, method, report, *, min_voxels=3):
     """Region planes (:class:`~.rectangle.RegionPlane`) of the regions with ``min_points``
-    points and 3 voxels, largest first, with the region ids they came from."""
-    n_voxels = np.bincount(voxel_region[voxel_region >= 0], minlength=1)
+    points and ``min_voxels`` voxels (numbers, or arrays per region), largest first, with the
+    region ids they came from."""
+    n_regions = max(int(voxel_region.max(initial=-1)), int(point_region.max(initial=-1))) + 1
+    n_voxels = np.bincount(voxel_region[voxel_region >= 0], minlength=n_regions)
     labelled = point_region >= 0
-    sizes = np.bincount(point_region[labelled], minlength=len(n_voxels))
-    candidates = np.flatnonzero((sizes >= min_points) & (n_voxels >= 3))
+    sizes = np.bincount(point_region[labelled], minlength=n_regions)
+    candidates = np.flatnonzero((sizes >= min_points) & (n_voxels >= min_voxels))
     candidates = candidates[np.argsort(-sizes[candidates], kind="stable")]
     order = np.argsort(point_region, kind="stable")
     starts = np.searchsorted(point_region[order], np.arange(len(n_voxels) + 1))

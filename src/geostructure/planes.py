@@ -219,7 +219,8 @@ class Planes:
         offset = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64)
         values["local_centroid"] = values["local_centroid"] - offset
         values["local_rect_center"] = values["local_rect_center"] - offset
-        extra = {name: column[name] for name in header if name not in COLUMNS}
+        # Extra columns of whole numbers (a set label) come back as integers.
+        extra = {name: _whole_or_float(column[name]) for name in header if name not in COLUMNS}
         return cls(**values, offset=offset, extra=extra)
 
     @classmethod
@@ -252,6 +253,13 @@ class Planes:
             rect_v=stacked("v", 3),
             offset=offset,
         )
+
+
+def _whole_or_float(values: np.ndarray) -> np.ndarray:
+    whole = (
+        np.isfinite(values).all() and np.array_equal(values, np.round(values)) and np.abs(values).max(initial=0) < 2**53
+    )
+    return values.astype(np.int64) if whole else values
 
 
 def reoriented(planes: Planes, frame: Frame) -> Planes:

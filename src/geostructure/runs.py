@@ -8,17 +8,21 @@ from a folder is checked against the folder's manifest first.
 
 from __future__ import annotations
 
+import os
+import shutil
 from pathlib import Path
 
 import numpy as np
 
 from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
-from .io.outdir import EVALUATION_FILES, REPORT_FILES, OutputSet, output_set, read_planes
+from .io.exports import write_dips_csv
+from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set, read_planes
 from .io.truth import GroundTruth, read_truth
-from .io.writers import write_evaluation_files, write_result
+from .io.writers import sets_record, write_evaluation_files, write_result, write_sets_csv
 from .orientation import Frame
 from .planes import Planes, reoriented
+from .sets import JointSets, find_sets
 
 
 def save_measurement(
@@ -31,6 +35,7 @@ def save_measurement(
     report: bool = False,
     max_points: int | None = None,
     inputs=(),
+    sets=None,
 ) -> dict[str, Path]:
     """Write a measurement's files, and optionally its evaluation and report, as one set.
 
@@ -48,6 +53,8 @@ def save_measurement(
         Also write ``report.html``, the stereonet and the rose diagram.
     inputs : sequence of paths
         Files the run read: refused if they are among the outputs it would overwrite.
+    sets : JointSets, optional
+        The planes' joint sets (:func:`plane_sets`): a ``set`` column and ``sets.csv``.
 
     Returns
     -------
@@ -65,12 +72,79 @@ def save_measurement(
     ['dips', 'geojson', 'planes']
     """
     with output_set(outdir, inputs=inputs) as outputs:
-        paths = write_result(result, outputs, extra)
+        paths = write_result(result, outputs, extra, sets)
         if evaluation is not None:
             paths.update(_stage_evaluation(outputs, evaluation, evaluation_extra))
         if report:
             paths.update(_stage_report(outputs, outputs.staging, max_points))
     return paths
+
+
+def plane_sets(planes: Planes, frame: Frame = Frame(), n_sets: int | None = None) -> JointSets:
+    """The joint sets of a plane table: poles weighted by area (:func:`~.sets.find_sets`).
+
+    Examples
+    --------
+    >>> from geostructure.synthetic import fisher_directions
+    >>> rng = np.random.default_rng(0)
+    >>> normals = np.vstack([fisher_directions(n, 60.0, 40, rng) for n in ([0, -0.7, 0.7], [0.9, 0, 0.4])])
+    >>> sets = plane_sets(Planes(normal=normals, area=rng.uniform(0.1, 2.0, 80)))
+    >>> len(sets), sets.n_planes.sum()
+    (2, np.int64(80))
+    """
+    return find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame)
+
+
+def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str, Path]]:
+    """Find the joint sets of a measured folder and add them: ``sets.csv``, and a ``set``
+    column in ``planes.csv`` and ``planes_dips.csv``; a report there is drawn again.
+
+    Parameters
+    ----------
+    outdir : str or Path
+        A measured folder.
+    n_sets : int, optional
+        The number of sets; chosen by BIC when not given.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from geostructure import measure
+    >>> from geostructure.synthetic import outcrop_scene
+    >>> out = tempfile.mkdtemp()
+    >>> _ = save_measurement(measure(outcrop_scene(width=6.0, height=4.0, seed=1).cloud), out)
+    >>> sets, paths = add_sets(out)
+    >>> len(sets), paths["sets"].name  # the outcrop's three joint sets
+    (3, 'sets.csv')
+    """
+    with output_set(outdir, replace=False, rewrites=SETS_FILES + REPORT_FILES) as outputs:
+        frame = Frame.from_dict(outputs.record.get("frame") or {})
+        had_report = (outputs.outdir / "report.html").is_file()
+        planes = read_planes(outputs.outdir)
+        sets = plane_sets(planes, frame, n_sets)
+        planes = planes.with_columns(set=sets.labels)
+        planes.to_csv(outputs.path("planes.csv"))
+        write_dips_csv(planes, outputs.path("planes_dips.csv"))
+        write_sets_csv(sets, outputs.path("sets.csv"))
+        outputs.record["sets"] = sets_record(sets)
+        paths = {"sets": outputs.final("sets.csv"), "planes": outputs.final("planes.csv")}
+        paths["dips"] = outputs.final("planes_dips.csv")
+        if had_report:  # the report shows the sets: draw it again from the new set of files
+            _link_kept(outputs)
+            outputs.write_record()
+            paths.update(_stage_report(outputs, outputs.staging, None))
+    return sets, paths
+
+
+def _link_kept(outputs: OutputSet) -> None:
+    """Put the folder's kept files beside the staged ones, for a reader of the whole set."""
+    for name in outputs.kept:
+        target = outputs.staging / name
+        if not target.exists():
+            try:
+                os.link(outputs.outdir / name, target)
+            except OSError:  # a file system without hard links
+                shutil.copy2(outputs.outdir / name, target)
 
 
 def add_report(outdir, *, max_points: int | None = None) -> dict[str, Path]:

@@ -97,9 +97,11 @@ def run_sweep(
     """Run the experiments for ``factors`` and return one row per run, in order.
 
     ``ranges`` maps a factor to ``(start, end, step)`` (None entries take Table 1's).
-    ``progress(stage, done, total)`` is called as runs finish.
+    ``progress(stage, done, total)`` is called as runs finish. The factors are the voxel
+    method's, so every run uses ``detector="voxel"`` (the paper's method).
     """
     ranges = ranges or {}
+    base = base.with_(detector="voxel")
     tasks = [(f, v, params_for(base, f, v)) for f in factors for v in factor_values(f, *ranges.get(f, (None,) * 3))]
     job = partial(run_one, cloud=cloud, truth=truth, frame=frame)
     report = progress or (lambda *a: None)

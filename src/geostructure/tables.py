@@ -63,6 +63,26 @@ def print_planes(result, console: Console | None = None) -> None:
     console.print(table)
 
 
+def print_sets(sets, console: Console | None = None) -> None:
+    """The joint sets (:class:`~geostructure.sets.JointSets`), one row each."""
+    console = console or stdout_console()
+    table = Table(title=f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)")
+    for column in ("set", "planes", "area m²", "dip", "dip dir", "Fisher K", "α95 deg", "sph. var."):
+        table.add_column(column, justify="right")
+    for row in sets.rows():
+        table.add_row(
+            str(row["set"]),
+            str(row["n_planes"]),
+            f"{row['area_m2']:.4g}",
+            f"{row['dip']:04.1f}",
+            f"{row['dip_direction']:05.1f}",
+            f"{row['fisher_k']:.0f}",
+            f"{row['alpha95_deg']:.1f}",
+            f"{row['spherical_variance']:.3f}",
+        )
+    console.print(table)
+
+
 def print_evaluation(evaluation, console: Console | None = None) -> None:
     console = console or stdout_console()
     table = Table(title="Against the ground truth")

@@ -197,3 +197,28 @@ def fit_voxels(points: np.ndarray, zeta: float, *, min_points: int = 5, max_curv
         point_voxel=lookup[inverse],
         edge=edge,
     )
+
+
+def subset_voxels(voxels: VoxelPlanes, keep: np.ndarray) -> VoxelPlanes:
+    """The voxel planes where ``keep`` (V,) is true, with each point's index remapped (-1 for
+    the points of the others).
+
+    Examples
+    --------
+    >>> v = fit_voxels(np.random.default_rng(0).random((400, 3)) * [4, 4, 0.01], zeta=0.25)
+    >>> len(subset_voxels(v, np.arange(len(v)) < 3))
+    3
+    """
+    keep = np.asarray(keep, dtype=bool)
+    index = np.full(len(voxels) + 1, -1, dtype=np.int64)  # the last entry maps -1 to -1
+    index[np.flatnonzero(keep)] = np.arange(int(keep.sum()))
+    return VoxelPlanes(
+        centroid=voxels.centroid[keep],
+        normal=voxels.normal[keep],
+        residual=voxels.residual[keep],
+        curvature=voxels.curvature[keep],
+        count=voxels.count[keep],
+        keys=voxels.keys[keep],
+        point_voxel=index[voxels.point_voxel],
+        edge=voxels.edge,
+    )

@@ -2,7 +2,7 @@
 
 ``options`` holds what commands share (option types, the measuring options, the frame and
 parameters they give); ``measure`` the commands on clouds and output folders; ``reconstruct``
-the commands from video or photos. Each depends on ``options`` and the library, never on
+the commands from video or photos; ``rockmass`` the commands on a rock mass's planes (sets). Each depends on ``options`` and the library, never on
 this module.
 """
 
@@ -18,6 +18,7 @@ from .. import __version__
 from ..errors import GeoStructureError, GeoStructureWarning
 from .measure import add_measure_commands
 from .reconstruct import add_reconstruct_commands
+from .rockmass import add_rockmass_commands
 
 EXIT_USER_ERROR = 2
 
@@ -106,4 +107,5 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_measure_commands(sub)
     add_reconstruct_commands(sub)
+    add_rockmass_commands(sub)
     return parser

@@ -15,13 +15,14 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
-from ..runs import add_evaluation, add_report, save_measurement
+from ..runs import add_evaluation, add_report, plane_sets, save_measurement
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
-from ..tables import print_evaluation, print_match, print_planes, print_sweep
+from ..tables import print_evaluation, print_match, print_planes, print_sets, print_sweep
 from .options import (
     add_measure_options,
+    add_set_options,
     base_params,
     check_before_work,
     check_outdir,
@@ -30,6 +31,7 @@ from .options import (
     frame_from,
     params_from,
     positive_float,
+    wants_sets,
     whole,
 )
 
@@ -47,6 +49,7 @@ def add_measure_commands(sub) -> None:
     )
     m.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
     m.add_argument("--report", action="store_true", help="also write report.html, stereonet and rose figures")
+    add_set_options(m, "--sets")
     add_measure_options(m)
     m.set_defaults(run=run_measure)
 
@@ -123,6 +126,10 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         result = measure(cloud, params, frame, progress)
         result.seconds = {**seconds, "auto": auto_seconds, **result.seconds}
         evaluation = evaluate(result.planes, truth) if truth is not None else None
+        sets = None
+        if wants_sets(args):
+            progress("sets", 0, None)
+            sets = plane_sets(result.planes, result.frame, args.n_sets)
         progress("write", 0, None)
         paths = save_measurement(
             result,
@@ -131,6 +138,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             evaluation=evaluation,
             report=args.report,
             inputs=inputs,
+            sets=sets,
         )
     if not len(result):
         print(
@@ -140,6 +148,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         )
     if not args.quiet:
         print_planes(result)
+        if sets is not None:
+            print_sets(sets)
         if evaluation is not None:
             print_evaluation(evaluation)
         print(

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..auto import choose_params
 from ..errors import GeoStructureError
+from ..facets import DETECTORS
 from ..io.outdir import check_inputs_not_outputs, check_outdir
 from ..orientation import Frame
 from ..params import Params
@@ -127,7 +128,33 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
         help="join coplanar regions split by a gap no wider than the smaller one (default on; "
         "--no-merge gives the paper's regions)",
     )
+    a.add_argument(
+        "--detector",
+        choices=DETECTORS,
+        default=defaults.detector,
+        help="facets: grown on per-point planes, down to small joints on rough rock, with the paper's "
+        "voxel growing where a facet is curved; voxel: the paper's region growing alone (default %(default)s)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
+
+
+def add_set_options(parser, choose_flag: str) -> None:
+    """``--n-sets N`` or ``choose_flag`` (``--auto`` for ``sets``, ``--sets`` for ``measure``):
+    the number of joint sets, given or chosen."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(
+        "--n-sets", type=whole(1), default=None, help="cluster the planes' poles into this many joint sets"
+    )
+    group.add_argument(
+        choose_flag,
+        dest="choose_sets",
+        action="store_true",
+        help="joint sets, their number chosen by BIC with the sets at least 20 degrees apart",
+    )
+
+
+def wants_sets(args) -> bool:
+    return bool(getattr(args, "choose_sets", False) or getattr(args, "n_sets", None))
 
 
 FACTOR_OPTIONS = ("zeta", "theta", "psi", "k")
@@ -148,6 +175,7 @@ def base_params(args) -> Params:
         reference=args.reference,
         rectangle=args.rectangle,
         merge=args.merge,
+        detector=args.detector,
         **given,
     )
 

@@ -103,12 +103,49 @@ def run_record(result, extra: dict | None = None) -> dict:
             "scipy": scipy.__version__,
         },
     }
+    if result.detection:
+        record["detection"] = result.detection
     record.update(extra or {})
     return record
 
 
-def write_result(result, outputs: OutputSet, extra: dict | None = None) -> dict[str, Path]:
-    """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`."""
+#: The columns of ``sets.csv``.
+SET_COLUMNS = (
+    "set",
+    "n_planes",
+    "area_m2",
+    "dip",
+    "dip_direction",
+    "strike",
+    "fisher_k",
+    "alpha95_deg",
+    "spherical_variance",
+    "normal_x",
+    "normal_y",
+    "normal_z",
+)
+
+
+def write_sets_csv(sets, path) -> Path:
+    """``sets.csv``: one row per joint set (:class:`~geostructure.sets.JointSets`)."""
+    return write_table_csv(sets.rows(), path, columns=SET_COLUMNS)
+
+
+def sets_record(sets) -> dict:
+    """What ``run.json`` says of the sets: how many, how they were chosen, the BIC per number."""
+    return {"n_sets": len(sets), "criterion": sets.criterion, "bic": {str(k): v for k, v in sets.bic.items()}}
+
+
+def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> None:
+    """Stage ``planes.csv``, ``planes_dips.csv`` and ``planes.geojson`` of a plane table."""
+    planes.to_csv(outputs.path("planes.csv"))
+    write_dips_csv(planes, outputs.path("planes_dips.csv"))
+    write_geojson(planes, outputs.path("planes.geojson"), crs=crs, enu_origin=enu_origin)
+
+
+def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=None) -> dict[str, Path]:
+    """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`;
+    with ``sets``, the plane tables carry a ``set`` column and ``sets.csv`` is written."""
     files = {
         "planes": "planes.csv",
         "dips": "planes_dips.csv",
@@ -116,14 +153,15 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None) -> dict[
         "regions": "regions.ply",
         "voxels": "voxel_planes.ply",
     }
-    write_planes_csv(result, outputs.path(files["planes"]))
-    write_dips_csv(result.planes, outputs.path(files["dips"]))
-    write_geojson(
-        result.planes, outputs.path(files["geojson"]), crs=result.cloud.crs, enu_origin=result.cloud.enu_origin
-    )
+    planes = result.planes if sets is None else result.planes.with_columns(set=sets.labels)
+    write_plane_tables(planes, outputs, crs=result.cloud.crs, enu_origin=result.cloud.enu_origin)
     write_regions_ply(result, outputs.path(files["regions"]))
     write_voxel_planes_ply(result, outputs.path(files["voxels"]))
     outputs.record = run_record(result, extra)
+    if sets is not None:
+        write_sets_csv(sets, outputs.path("sets.csv"))
+        outputs.record["sets"] = sets_record(sets)
+        files["sets"] = "sets.csv"
     outputs.write_record()
     return {key: outputs.final(name) for key, name in {**files, "run": "run.json"}.items()}
 

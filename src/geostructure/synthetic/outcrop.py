@@ -102,6 +102,14 @@ class OutcropScene:
     def set_normals(self) -> np.ndarray:
         return np.array([s.normal for s in self.sets])
 
+    def exposed_set_statistics(self, min_diameter: float = 0.0) -> list[dict]:
+        """Fisher statistics of each set's exposed facets (at least ``min_diameter`` across),
+        each facet counted once: the truth a measurement of the exposure can reach."""
+        from ..sets import fisher_statistics  # lazy: the generator does not need the statistics
+
+        big = self.facet_diameter >= min_diameter
+        return [fisher_statistics(self.facet_normal[(self.facet_set == s) & big]) for s in range(len(self.sets))]
+
 
 def fisher_directions(mean, kappa: float, n: int, rng) -> np.ndarray:
     """``n`` unit vectors from a Fisher distribution about ``mean`` (Wood 1994's method).

@@ -61,8 +61,10 @@ def check_variant(name: str, seed: int, size_factor: float = 1.0, workers: int =
         result = measure(scene.cloud, params)
         return evaluate(result.planes, truth, max_distance=5 * result.voxels.edge)
 
-    choice = choose_params(scene.cloud.local)
-    auto, default = score(choice.params), score(Params())
+    # The automatic choice of the voxel method's factors, against the sweep of those factors.
+    voxel = Params(detector="voxel")
+    choice = choose_params(scene.cloud.local, voxel)
+    auto, default = score(choice.params), score(voxel)
     rows = run_sweep(scene.cloud, truth, Frame(), FACTORS, workers=workers)
     best = min([r.z for r in rows] + [auto.z, default.z])
     return AutoCheck(name, auto.z, default.z, best, auto.n_found, default.n_found, choice.describe())
