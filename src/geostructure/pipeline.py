@@ -22,6 +22,10 @@ from .regions import grow_regions
 from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
+#: With the facet detector, the coplanar merge joins only regions of this many voxels or more:
+#: a wall split by a bay is one plane, while the separate exposures of a rock joint stay the
+#: separate facets a geologist maps (joined, their centroid would fall between them).
+MERGE_MIN_VOXELS = 50
 
 
 @dataclass
@@ -272,7 +276,25 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
         point_region[take] = n_facets + sub_points[take]
         region_of_voxel[in_curved] = np.where(sub_region >= 0, n_facets + sub_region, -1)
     counts["regions"] = n_facets + sub_counts.get("regions", 0)
+    if params.merge:  # facets of one plane split by a small gap are one plane, as with the voxel growing
+        t = found.thresholds
+        merged, counts["merges"] = merge_coplanar(
+            voxels, region_of_voxel, t.max_angle, 2.0 * t.max_offset, min_voxels=MERGE_MIN_VOXELS
+        )
+        point_region, region_of_voxel = _relabel(point_region, region_of_voxel, merged)
     return point_region, region_of_voxel, found.record()
+
+
+def _relabel(point_region: np.ndarray, voxel_region: np.ndarray, merged_voxels: np.ndarray):
+    """Carry a merge of the voxels' regions over to the points; regions without a voxel keep
+    a number of their own."""
+    n = max(int(point_region.max(initial=-1)), int(voxel_region.max(initial=-1))) + 1
+    new = np.full(n + 1, -1, dtype=np.int64)  # the last entry maps -1 to -1
+    has = voxel_region >= 0
+    new[voxel_region[has]] = merged_voxels[has]
+    lonely = np.flatnonzero(new[:n] < 0)
+    new[lonely] = int(merged_voxels.max(initial=-1)) + 1 + np.arange(len(lonely))
+    return new[point_region], new[voxel_region]
 
 
 def normal_spread(voxel_normals, voxel_labels, plane_normals):

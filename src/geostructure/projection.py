@@ -63,6 +63,26 @@ def great_circle_xy(dip_direction, dip, segments: int = 61):
     return equal_area_xy(np.cos(a) * strike + np.sin(a) * down_dip)
 
 
+def small_circle_xy(trend, plunge, radius, segments: int = 73):
+    """Net x and y of the cone of half-angle ``radius`` (degrees) about a line (trend and
+    plunge in degrees): an alpha95 confidence cone about a mean pole.
+
+    Examples
+    --------
+    >>> x, y = small_circle_xy(0.0, 90.0, 10.0)  # about the vertical: a circle at the centre
+    >>> bool(np.allclose(np.hypot(x, y), np.sqrt(1 - np.cos(np.radians(10)))))
+    True
+    """
+    axis = enu_vectors(trend, plunge)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    a = np.linspace(0, 2 * np.pi, segments)[:, None]
+    r = np.radians(radius)
+    return equal_area_xy(np.cos(r) * axis + np.sin(r) * (np.cos(a) * e1 + np.sin(a) * e2))
+
+
 def pole_density(dip_direction, dip, gridsize: int = 81, sigma: float = 3.0, weights=None):
     """Exponential Kamb density of poles on a regular (x, y) grid over the net.
 

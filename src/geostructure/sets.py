@@ -30,6 +30,8 @@ from .orientation import Frame, orientation_from_normals
 
 #: Sets tried at most when the number is chosen by BIC.
 MAX_SETS = 6
+#: EM starts per number of sets (the first from the heaviest pole, the others drawn).
+EM_STARTS = 8
 #: Fewest planes a set may hold.
 MIN_SET_PLANES = 3
 #: Smallest angle (degrees) between two sets' mean poles when the number of sets is chosen.
@@ -181,7 +183,8 @@ def find_sets(
     for k in candidates:
         if len(x) < k * MIN_SET_PLANES:
             continue
-        fits[k] = _fit_mixture(x, w, k, rng)
+        # EM finds a local optimum: keep the best of a few starts.
+        fits[k] = max((_fit_mixture(x, w, k, rng) for _ in range(EM_STARTS)), key=lambda f: f["loglik"])
         # Weighted, the log-likelihood counts the planes n / n_eff times over: scale it back.
         bic[k] = -2.0 * fits[k]["loglik"] * n_eff / len(x) + (3 * k + k) * np.log(max(n_eff, 2.0))
     if not fits:

@@ -7,6 +7,8 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from .sets import MIN_SET_PLANES
+
 
 def stdout_console() -> Console:
     """stdout console; wide enough for the tables when stdout is a file or pipe."""
@@ -66,6 +68,9 @@ def print_planes(result, console: Console | None = None) -> None:
 def print_sets(sets, console: Console | None = None) -> None:
     """The joint sets (:class:`~geostructure.sets.JointSets`), one row each."""
     console = console or stdout_console()
+    if not len(sets):
+        console.print(f"No joint set: no {MIN_SET_PLANES} of the {len(sets.labels)} planes share an orientation.")
+        return
     table = Table(title=f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)")
     for column in ("set", "planes", "area m²", "dip", "dip dir", "Fisher K", "α95 deg", "sph. var."):
         table.add_column(column, justify="right")

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path, plain
-from ..projection import great_circle_xy, pole_density, pole_xy
+from ..projection import great_circle_xy, pole_density, pole_xy, small_circle_xy
 from ..reconstruct.georef import describe_georeference
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
-from .view3d import figure_3d, figure_json, hover_text
+from .view3d import figure_3d, figure_json, hover_text, plane_colors, set_color
 
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
 MAX_GREAT_CIRCLES = 30
@@ -69,6 +69,7 @@ def render(scene: ReportScene, title: str) -> str:
         "rose": figure_rose(scene),
         "planes": table_rows(scene),
         "columns": [{"key": k, "label": label, "digits": d} for k, label, d in COLUMNS]
+        + ([{"key": "set", "label": "Set", "digits": 0}] if "set" in scene.planes.extra else [])
         + ([{"key": "truth_error", "label": "Truth error (°)", "digits": 2}] if scene.truth else []),
         "meta": {
             "source": scene.source,
@@ -88,6 +89,7 @@ def render(scene: ReportScene, title: str) -> str:
         page.replace("{{TITLE}}", _escape(title))
         .replace("{{CSS}}", (assets / "report.css").read_text(encoding="utf-8"))
         .replace("{{PLOTLY}}", get_plotlyjs())
+        .replace("{{SETS}}", set_table(scene))
         .replace("{{PAYLOAD}}", data)
         .replace("{{APP}}", (assets / "report.js").read_text(encoding="utf-8"))
     )
@@ -126,22 +128,49 @@ def figure_stereonet(scene: ReportScene) -> dict:
             name="primitive",
         )
     )
-    gx, gy = [], []
-    for i in range(min(len(dd), MAX_GREAT_CIRCLES)):
-        x, y = great_circle_xy(dd[i], dip[i])
-        gx += [*x, None]
-        gy += [*y, None]
-    fig.add_trace(
-        go.Scatter(
-            x=gx,
-            y=gy,
-            mode="lines",
-            line=dict(color="rgba(0,0,0,0.45)", width=1),
-            hoverinfo="skip",
-            name="great circles",
+    if scene.sets:  # each set's mean great circle and alpha95 cone instead of the planes' circles
+        for row in scene.sets:
+            color = set_color(int(row["set"]))
+            x, y = great_circle_xy(row["dip_direction"], row["dip"])
+            fig.add_trace(
+                go.Scatter(
+                    x=x,
+                    y=y,
+                    mode="lines",
+                    line=dict(color=color, width=3),
+                    name=f"set {int(row['set'])}",
+                    hoverinfo="skip",
+                )  # fmt: skip
+            )
+            x, y = small_circle_xy((row["dip_direction"] + 180.0) % 360.0, 90.0 - row["dip"], row["alpha95_deg"])
+            fig.add_trace(
+                go.Scatter(
+                    x=x,
+                    y=y,
+                    mode="lines",
+                    line=dict(color=color, width=1.5, dash="dot"),
+                    name=f"set {int(row['set'])} alpha95",
+                    hoverinfo="skip",
+                )  # fmt: skip
+            )
+    else:
+        gx, gy = [], []
+        for i in range(min(len(dd), MAX_GREAT_CIRCLES)):
+            x, y = great_circle_xy(dd[i], dip[i])
+            gx += [*x, None]
+            gy += [*y, None]
+        fig.add_trace(
+            go.Scatter(
+                x=gx,
+                y=gy,
+                mode="lines",
+                line=dict(color="rgba(0,0,0,0.45)", width=1),
+                hoverinfo="skip",
+                name="great circles",
+            )
         )
-    )
     px, py = pole_xy(dd, dip)
+    pole_colors = plane_colors(scene) if scene.sets else "#d62728"
     fig.add_trace(
         go.Scatter(
             x=px,
@@ -149,7 +178,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
             mode="markers",
             name="poles",
             customdata=np.arange(len(dd)),
-            marker=dict(color="#d62728", size=7, line=dict(color="white", width=1)),
+            marker=dict(color=pole_colors, size=7, line=dict(color="white", width=1)),
             text=[hover_text(r, scene.truth.get(r["region_id"])) for r in scene.planes.rows()],
             hovertemplate="%{text}<extra></extra>",
         )
@@ -211,12 +240,40 @@ def figure_rose(scene: ReportScene, bin_width: float = 10.0) -> dict:
     return figure_json(fig)
 
 
+#: The set table's columns: key in sets.csv, label, decimals.
+SET_COLUMNS = [
+    ("set", "Set", 0),
+    ("n_planes", "Planes", 0),
+    ("area_m2", "Area (m²)", 2),
+    ("dip", "Dip", 1),
+    ("dip_direction", "Dip dir.", 1),
+    ("fisher_k", "Fisher K", 0),
+    ("alpha95_deg", "α95 (°)", 1),
+    ("spherical_variance", "Sph. variance", 3),
+]
+
+
+def set_table(scene: ReportScene) -> str:
+    """The joint sets as an HTML table (empty when the folder has none)."""
+    if not scene.sets:
+        return ""
+    head = "".join(f"<th>{label}</th>" for _, label, _ in SET_COLUMNS)
+    rows = []
+    for row in scene.sets:
+        swatch = f'<span class="swatch" style="background:{set_color(int(row["set"]))}"></span>'
+        cells = [f"{row[key]:,.{digits}f}" for key, _, digits in SET_COLUMNS]
+        rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
+    unassigned = int((scene.planes.extra["set"] < 0).sum())
+    caption = f"Joint sets ({unassigned} plane{'s' if unassigned != 1 else ''} in no set)"
+    return f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}</tbody></table>'
+
+
 def table_rows(scene: ReportScene) -> list[dict]:
     """Plane rows for the page: table values, info text, 3D corners and stereonet data."""
     rows = []
     for row, corners in zip(scene.planes.rows(), scene.planes.local_corners):
         truth = scene.truth.get(row["region_id"])
-        out = {key: row.get(key) for key, _, _ in COLUMNS}
+        out = {key: row.get(key) for key, _, _ in COLUMNS + [("set", "", 0)] if key in row}
         out["corners"] = np.round(corners, 4).tolist()
         out["great_circle"] = [np.round(a, 4).tolist() for a in great_circle_xy(row["dip_direction"], row["dip"])]
         out["pole"] = [float(a) for a in pole_xy(row["dip_direction"], row["dip"])]

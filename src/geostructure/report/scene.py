@@ -42,6 +42,7 @@ class ReportScene:
     crs: str | None
     source: str
     truth: dict = field(default_factory=dict)  # region id -> evaluation row
+    sets: list = field(default_factory=list)  # sets.csv rows (numbers), when the sets were found
     georeference: dict | None = None  # how a reconstruction was tied to the world
 
 
@@ -63,6 +64,7 @@ def load_scene(
         voxel_normals, voxel_region = np.stack(extra[:3], axis=1), extra[3]
     else:  # folders written before voxel_planes.ply existed: no voxel layer
         vox, voxel_normals, voxel_region = np.zeros((0, 3), np.float32), np.zeros((0, 3)), np.zeros(0, int)
+    planes = read_planes(outdir, offset)
     return ReportScene(
         points=points,
         point_region=point_region[0],
@@ -71,12 +73,13 @@ def load_scene(
         voxel_normals=voxel_normals,
         voxel_region=voxel_region,
         voxel_edge=float(run.get("voxel_edge", 0.0)),
-        planes=read_planes(outdir, offset),
+        planes=planes,
         frame=Frame.from_dict(run["frame"]),
         offset=offset,
         crs=run.get("crs"),
         source=str(run.get("input", "")),
         truth=_read_truth(outdir / "evaluation.csv"),
+        sets=_read_sets(outdir / "sets.csv") if "set" in planes.extra else [],
         georeference=run.get("reconstruction", {}).get("georef"),
     )
 
@@ -95,6 +98,14 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
     pick = np.sort(rng.choice(total, limit, replace=False)) if total > limit else slice(None)
     xyz = (np.stack(columns[:3], axis=1)[pick].astype(np.float64) - offset).astype(np.float32)
     return xyz, [np.asarray(c[pick]) for c in columns[3:]], total
+
+
+def _read_sets(path: Path) -> list[dict]:
+    """The rows of ``sets.csv`` as numbers (the folder's manifest vouches for the file)."""
+    if not path.exists():
+        return []
+    with open(path, newline="", encoding="utf-8") as fh:
+        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
 
 
 def _read_truth(path: Path) -> dict:

@@ -18,11 +18,27 @@ def palette(n: int) -> list[str]:
     return [colors[i % len(colors)] for i in range(n)]
 
 
+#: Joint sets' colours (colour-blind safe, Okabe & Ito 2008); planes in no set are grey.
+SET_COLORS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
+NO_SET_COLOR = "#9a9a9a"
+
+
+def set_color(label: int) -> str:
+    return NO_SET_COLOR if label < 0 else SET_COLORS[label % len(SET_COLORS)]
+
+
+def plane_colors(scene: ReportScene) -> list[str]:
+    """Each plane's colour: its joint set's when the planes have sets, else one of a palette."""
+    if "set" in scene.planes.extra:
+        return [set_color(int(s)) for s in scene.planes.extra["set"]] or [NO_SET_COLOR]
+    return palette(max(len(scene.planes), 1))
+
+
 def figure_3d(scene: ReportScene) -> dict:
     """Traces in a fixed order the page's script relies on (see ``trace`` below)."""
     import plotly.graph_objects as go
 
-    colors = palette(max(len(scene.planes), 1))
+    colors = plane_colors(scene)
     up = scene.frame.matrix[2]
     p = scene.points
     labelled = scene.point_region >= 0
@@ -92,9 +108,43 @@ def figure_3d(scene: ReportScene) -> dict:
         margin=dict(l=0, r=0, t=0, b=0),
         showlegend=False,
         uirevision="keep",
-        scene=dict(aspectmode="data", xaxis_title="x", yaxis_title="y", zaxis_title="z"),
+        scene=dict(aspectmode="data", xaxis_title="x", yaxis_title="y", zaxis_title="z", **face_camera(p, up)),
     )
     return figure_json(fig)
+
+
+def face_camera(points: np.ndarray, up: np.ndarray) -> dict:
+    """A camera looking at an outcrop face along its outward normal, when the cloud is one
+    (thin across, and not lying flat); {} (plotly's default view) for anything else.
+
+    The face is the least-squares plane of the points; of its two sides, the one facing up
+    is outward (a slope's face looks up and out). With ``aspectmode="data"`` a direction in
+    the data is a direction of the camera's eye, so the eye sits on that normal.
+
+    Examples
+    --------
+    >>> g = np.random.default_rng(0).random((500, 2)) * [20.0, 8.0]
+    >>> wall = np.c_[g[:, 0], 0.05 * g[:, 1], g[:, 1]]  # a face rising to the north, looking south
+    >>> eye = face_camera(wall, np.array([0.0, 0.0, 1.0]))["camera"]["eye"]
+    >>> round(eye["y"], 2) < 0 < round(eye["z"], 2)
+    True
+    """
+    if len(points) < 10:
+        return {}
+    p = np.asarray(points, dtype=np.float64)
+    values, vectors = np.linalg.eigh(np.cov((p - p.mean(axis=0)).T))
+    normal = vectors[:, 0]
+    up = np.asarray(up, dtype=np.float64)
+    if values[0] > 0.15 * values[1] or abs(normal @ up) > np.cos(np.radians(30.0)):
+        return {}  # not a face: a building, a terrain, a blob
+    normal = normal if normal @ up >= 0 else -normal
+    eye = 2.0 * normal
+    return {
+        "camera": {
+            "eye": {"x": float(eye[0]), "y": float(eye[1]), "z": float(eye[2])},
+            "up": {"x": float(up[0]), "y": float(up[1]), "z": float(up[2])},
+        }
+    }
 
 
 def _stepped(colors):

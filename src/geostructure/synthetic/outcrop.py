@@ -210,7 +210,10 @@ def outcrop_scene(
         positions = positions[positions < reach]
         normals = fisher_directions(mean, joint.kappa, len(positions), rng)
         mine = np.flatnonzero(cell_set == s)
-        nearest = np.abs((seeds3[mine] @ mean)[:, None] - positions[None, :]).argmin(axis=1)
+        # Distance from each cell's centre to each plane, along the plane's own normal (the
+        # planes are not parallel: one is nearest at one end of the face, another at the other).
+        along_own = np.einsum("ck,pk->cp", seeds3[mine], normals) - (positions * (normals @ mean))[None, :]
+        nearest = np.abs(along_own).argmin(axis=1)
         cell_plane[mine] = nearest
         cell_normal[mine] = normals[nearest]
         cell_point[mine] = positions[nearest][:, None] * mean
