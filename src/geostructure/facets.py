@@ -198,7 +198,8 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
     When the normals scatter more than :data:`MAX_FAR_SCATTER` at the cloud's own spacing
     (rock rough at that scale), the detection runs on a thinned copy (a grid of twice the
     spacing, then four times, ...) and every point takes the facet of its nearest kept point
-    when it lies on that point's plane.
+    when it lies on that point's plane. When they still scatter more after the last thinning
+    (a noisy SfM cloud), no facet is trusted: every point is left to the voxel growing.
 
     Examples
     --------
@@ -226,6 +227,8 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
         scatter = far_scatter(planes)
     thresholds = facet_thresholds(planes)
     sub = points[kept]
+    if scatter > MAX_FAR_SCATTER:  # noisy at every scale tried (a rough SfM cloud): no facet is trusted
+        return FacetDetection(np.full(len(points), -1), np.ones(len(points), bool), thresholds, edge, scatter)
     labels = grow_facets(sub, planes, thresholds)
     planar = planar_components(sub, planes, labels, thresholds)
     curved = (labels >= 0) & ~planar[np.maximum(labels, 0)] if len(planar) else np.zeros(len(sub), bool)

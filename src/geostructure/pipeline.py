@@ -22,10 +22,11 @@ from .regions import grow_regions
 from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
-#: With the facet detector, the coplanar merge joins only regions of this many voxels or more:
+#: With the facet detector, the coplanar merge joins only regions of this many points or more:
 #: a wall split by a bay is one plane, while the separate exposures of a rock joint stay the
-#: separate facets a geologist maps (joined, their centroid would fall between them).
-MERGE_MIN_VOXELS = 50
+#: separate facets a geologist maps (joined, their centroid would fall between them). A count
+#: of points, not voxels: the voxel edge follows the cloud's extent, the points its sampling.
+MERGE_MIN_POINTS = 5000
 
 
 @dataclass
@@ -276,11 +277,13 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
         point_region[take] = n_facets + sub_points[take]
         region_of_voxel[in_curved] = np.where(sub_region >= 0, n_facets + sub_region, -1)
     counts["regions"] = n_facets + sub_counts.get("regions", 0)
-    if params.merge:  # facets of one plane split by a small gap are one plane, as with the voxel growing
-        t = found.thresholds
-        merged, counts["merges"] = merge_coplanar(
-            voxels, region_of_voxel, t.max_angle, 2.0 * t.max_offset, min_voxels=MERGE_MIN_VOXELS
+    if params.merge:  # large regions of one plane split by a small gap: one plane, as with the voxel growing
+        size = np.bincount(point_region[point_region >= 0], minlength=int(region_of_voxel.max(initial=-1)) + 1)
+        large = np.where(region_of_voxel >= 0, size[np.maximum(region_of_voxel, 0)] >= MERGE_MIN_POINTS, False)
+        merged, merges = merge_coplanar(
+            voxels, np.where(large, region_of_voxel, -1), params.theta, params.psi * voxels.edge
         )
+        counts["merges"] = sub_counts.get("merges", 0) + merges
         point_region, region_of_voxel = _relabel(point_region, region_of_voxel, merged)
     return point_region, region_of_voxel, found.record()
 
