@@ -128,6 +128,15 @@ class Frame:
 class Orientation:
     """Strike, dip and dip direction in degrees; arrays when computed for many normals at once.
 
+    Parameters
+    ----------
+    strike : ndarray
+        Right-hand-rule strike: dip direction minus 90, in [0, 360).
+    dip : ndarray
+        In [0, 90].
+    dip_direction : ndarray
+        Azimuth of the steepest descent, in [0, 360), clockwise from north.
+
     Examples
     --------
     >>> o = orientation_from_normals([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
@@ -197,6 +206,16 @@ def normal_from_orientation(dip_direction, dip, frame: Frame = Frame()) -> np.nd
 def azimuth_difference(a, b) -> np.ndarray:
     """Smallest difference between azimuths in degrees, in [0, 180]: 359 and 1 are 2 apart.
 
+    Parameters
+    ----------
+    a, b : float or array
+        Azimuths in degrees (any range; they are taken modulo 360).
+
+    Returns
+    -------
+    ndarray
+        The differences, in degrees.
+
     Examples
     --------
     >>> azimuth_difference([359.0, 90.0], [1.0, 270.0]).tolist()
@@ -209,6 +228,16 @@ def azimuth_difference(a, b) -> np.ndarray:
 def angle_between_vectors(v1, v2) -> np.ndarray:
     """Angle between directions in degrees, in [0, 180]; the cosine is clipped to [-1, 1], so
     a dot product that rounds to 1.0000000000000002 gives 0, not NaN.
+
+    Parameters
+    ----------
+    v1, v2 : (N, 3) or (3,) array
+        Directions; their lengths do not matter.
+
+    Returns
+    -------
+    ndarray
+        (N,) angles in degrees.
 
     Examples
     --------
@@ -225,6 +254,16 @@ def angle_between_vectors(v1, v2) -> np.ndarray:
 
 def angle_between_normals(n1, n2) -> np.ndarray:
     """Angle between planes in degrees, arccos(|n1 . n2|): the sign of a normal does not matter.
+
+    Parameters
+    ----------
+    n1, n2 : (N, 3) or (3,) array
+        Plane normals; their lengths and signs do not matter.
+
+    Returns
+    -------
+    ndarray
+        (N,) angles in degrees, in [0, 90].
 
     Examples
     --------

@@ -25,22 +25,39 @@ class ParameterWarning(GeoStructureWarning):
 class Params:
     """Everything that steers a run. Defaults follow the paper's findings (lower is better).
 
-    zeta : voxel edge as a fraction of the cloud's largest extent (paper 0.01-0.07).
-    theta : region-growing angle threshold, degrees (paper's optimum 3-8).
-    psi : region-growing offset threshold, in voxel edges (paper's optimum 0.01-0.2).
-    k : neighbours per seed in region growing (paper's optimum 3-11).
-    min_points : smallest region reported; ``None`` means 0.1% of the filtered points, at least 30.
-    filter : ``local`` (default), ``global`` (the paper's formula) or ``none``.
-    filter_sigma : Mahalanobis distance beyond which a point is an outlier.
-    min_voxel_points : voxels with fewer points fit no plane.
-    max_curvature : voxels less planar than this (smallest eigenvalue / sum) are dropped.
-    reference : region growing compares normals with the ``region`` plane or the ``seed``.
-    max_gap : region-growing neighbours further than this many voxel edges are ignored.
-    rectangle : ``exact`` (rotating calipers) or ``golden`` (the paper's search).
-    merge : join coplanar regions split by a small gap (not in the paper; see :mod:`.merge`).
-    detector : ``facets`` (facets grown on per-point planes, down to small joints on rough
-        rock, with the paper's voxel growing where a grown facet is curved; see :mod:`.facets`)
-        or ``voxel`` (the paper's region growing over voxel planes alone).
+    Parameters
+    ----------
+    zeta : float
+        Voxel edge as a fraction of the cloud's largest extent (paper 0.01-0.07).
+    theta : float
+        Region-growing angle threshold, degrees (paper's optimum 3-8).
+    psi : float
+        Region-growing offset threshold, in voxel edges (paper's optimum 0.01-0.2).
+    k : int
+        Neighbours per seed in region growing (paper's optimum 3-11).
+    min_points : int or None
+        Smallest region reported; ``None``: 30 for facets, and for regions grown over voxels
+        0.1% of the filtered points, at least 30.
+    filter : str
+        ``local`` (default), ``global`` (the paper's formula) or ``none``.
+    filter_sigma : float
+        Mahalanobis distance beyond which a point is an outlier.
+    min_voxel_points : int
+        Voxels with fewer points fit no plane.
+    max_curvature : float
+        Voxels less planar than this (smallest eigenvalue / sum) are dropped.
+    reference : str
+        Region growing compares normals with the ``region`` plane or the ``seed``.
+    max_gap : float
+        Region-growing neighbours further than this many voxel edges are ignored.
+    rectangle : str
+        ``exact`` (rotating calipers) or ``golden`` (the paper's search).
+    merge : bool
+        Join coplanar regions split by a small gap (not in the paper; see :mod:`.merge`).
+    detector : str
+        ``facets`` (facets grown on per-point planes, down to small joints on rough rock, with
+        the paper's voxel growing where a grown facet is curved; see :mod:`.facets`) or
+        ``voxel`` (the paper's region growing over voxel planes alone).
 
     Examples
     --------

@@ -38,6 +38,23 @@ class Result:
     input's own coordinates; ``labels`` gives each filtered point its plane's number or -1,
     and ``voxel_labels`` each voxel plane's.
 
+    Parameters
+    ----------
+    cloud, filtered : Cloud
+        The input, and the points the outlier filter kept.
+    params : Params
+    frame : Frame
+    filter_result : FilterResult
+    voxels : VoxelPlanes
+    voxel_labels : (V,) int array
+    planes : Planes
+    labels : (N,) int array
+        Per filtered point.
+    seconds, counts : dict
+        Seconds per stage; points, voxels, regions and planes counted after each.
+    detection : dict
+        What the facet detector read from the cloud (its thresholds), for ``run.json``.
+
     Examples
     --------
     >>> from geostructure.synthetic import observatory_scene

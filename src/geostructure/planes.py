@@ -59,6 +59,30 @@ class Planes:
     holds further named per-plane columns (a joint set, a kinematic test), written after the
     standard ones.
 
+    Parameters
+    ----------
+    normal : (P, 3) array
+        Unit normals, upward, in the cloud's axes.
+    local_centroid, local_rect_center : (P, 3) array, optional
+        Centroid and rectangle centre, relative to ``offset``.
+    region_id, n_points, n_voxels : (P,) int array, optional
+    area : (P,) array, optional
+        Convex-hull area in the plane (``area_m2``).
+    strike, dip, dip_direction : (P,) array, optional
+        Degrees, in the run's frame.
+    rect_width, rect_height : (P,) array, optional
+        Sides of the minimum-perimeter rectangle.
+    fit_residual : (P,) array, optional
+        RMS distance of the points to the plane.
+    normal_scatter_deg, normal_uncertainty_deg : (P,) array, optional
+        Scatter of the voxel normals and the normal's standard error.
+    rect_u, rect_v : (P, 3) array, optional
+        The rectangle's axes (``rect_v`` defaults to ``normal x rect_u``).
+    offset : (3,) array, optional
+        Added to the local positions to give the input's own coordinates.
+    extra : dict of (P,) arrays, optional
+        Further columns.
+
     Examples
     --------
     >>> planes = Planes(normal=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], local_centroid=[[0, 0, 5], [2, 0, 0]],
