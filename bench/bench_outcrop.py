@@ -1,0 +1,227 @@
+"""Benchmark: GeoStructure against a DSE-style peer on rough synthetic outcrops, from files.
+
+For each seed, writes a synthetic outcrop (``geostructure.synthetic.outcrop_scene``, 40 x 16 m
+at 2.5 cm by default, about 0.9M points after occlusion) as a binary PLY. Then it runs, each
+in its own process and from that file, with their default options:
+
+- ``geostructure measure FILE -o OUT --sets``;
+- the peer.
+
+It prints, for each: the facets found (of 0.3 m and more), each set's mean error against
+the exposed facets, the seconds end to end, the points per second, the peak memory, and the
+ratio of the two.
+
+    python bench/bench_outcrop.py                   # seeds 0 and 1
+    python bench/bench_outcrop.py --seeds 3 --width 20 --height 8 --spacing 0.03
+
+The peer is written here from the method of Discontinuity Set Extractor (Riquelme et al.
+2014), as its paper describes it:
+
+1. per-point normals from the 30 nearest neighbours;
+2. a coplanarity test: the neighbourhood's surface variation below the 75th percentile;
+3. the sets from the peaks of the poles' density (exponential Kamb), each peak at least a
+   fifth of the highest; points within 30 degrees of a set's pole belong to it;
+4. DBSCAN of each set's points in space (eps 2.5 point spacings, 10 points), one cluster
+   a discontinuity;
+5. a least-squares plane per cluster of at least 30 points.
+
+It is a peer written for this benchmark, not DSE itself (MATLAB), and not part of the package.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def write_ply(points: np.ndarray, path: Path) -> None:
+    from plyfile import PlyData, PlyElement
+
+    vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
+    vertex["x"], vertex["y"], vertex["z"] = points.T
+    PlyData([PlyElement.describe(vertex, "vertex")], text=False).write(str(path))
+
+
+def dbscan(points: np.ndarray, eps: float, min_samples: int) -> np.ndarray:
+    """DBSCAN with scipy: core points (min_samples within eps) joined by eps, borders to a core."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(points)
+    core = tree.query_ball_point(points, eps, return_length=True) >= min_samples
+    labels = np.full(len(points), -1)
+    if not core.any():
+        return labels
+    core_index = np.flatnonzero(core)
+    pairs = cKDTree(points[core]).query_pairs(eps, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(core_index),) * 2)
+    _, component = connected_components(graph, directed=False)
+    labels[core_index] = component
+    border = np.flatnonzero(~core)
+    dist, nearest = cKDTree(points[core]).query(points[border], distance_upper_bound=eps)
+    ok = np.isfinite(dist)
+    labels[border[ok]] = component[nearest[ok]]
+    return labels
+
+
+def peer(path: str) -> dict:
+    """The DSE-style pipeline on a PLY file; returns planes (centroid, normal) and set poles."""
+    from plyfile import PlyData
+
+    from geostructure.facets import point_planes
+    from geostructure.orientation import normal_from_orientation, orientation_from_normals
+    from geostructure.projection import pole_density
+    from geostructure.rectangle import fit_plane
+
+    vertex = PlyData.read(path)["vertex"].data
+    points = np.column_stack([vertex["x"], vertex["y"], vertex["z"]]).astype(np.float64)
+    offset = points.mean(axis=0)
+    local = points - offset
+    planes = point_planes(local, k=30)
+    flat = planes.variation <= np.percentile(planes.variation, 75)
+    o = orientation_from_normals(planes.normal[flat])
+    sample = np.random.default_rng(0).choice(int(flat.sum()), min(20_000, int(flat.sum())), replace=False)
+    x, y, density = pole_density(o.dip_direction[sample], o.dip[sample], gridsize=61)
+    d = np.nan_to_num(density, nan=-np.inf)
+    padded = np.pad(d, 1, constant_values=-np.inf)
+    neighbours = np.stack([padded[1 + a : 1 + a + d.shape[0], 1 + b : 1 + b + d.shape[1]]
+                           for a in (-1, 0, 1) for b in (-1, 0, 1) if a or b])  # fmt: skip
+    peak = (d >= neighbours.max(axis=0)) & (d >= 0.2 * np.nanmax(density))
+    rows, cols = np.nonzero(peak)
+    # A pole at (x, y) of the lower-hemisphere net: back to a plane's dip direction and dip.
+    r = np.hypot(x[cols], y[rows])
+    plunge = 90.0 - 2.0 * np.degrees(np.arcsin(np.clip(r / np.sqrt(2.0), 0, 1)))
+    trend = np.degrees(np.arctan2(x[cols], y[rows])) % 360.0
+    set_normals = normal_from_orientation((trend + 180.0) % 360.0, 90.0 - plunge)
+    cos = np.abs(planes.normal[flat] @ set_normals.T)
+    member = np.where(cos.max(axis=1) >= np.cos(np.radians(30.0)), cos.argmax(axis=1), -1)
+    spacing = float(np.median(planes.distances[:, 1]))
+    centroids, normals = [], []
+    flat_points = local[flat]
+    for s in range(len(set_normals)):
+        mine = flat_points[member == s]
+        labels = dbscan(mine, 2.5 * spacing, 10)
+        for c in range(int(labels.max(initial=-1)) + 1):
+            cluster = mine[labels == c]
+            if len(cluster) >= 30:
+                centroid, normal, _, _ = fit_plane(cluster)
+                centroids.append(centroid + offset)
+                normals.append(normal)
+    return {"centroids": np.array(centroids).reshape(-1, 3), "normals": np.array(normals).reshape(-1, 3),
+            "set_normals": set_normals}  # fmt: skip
+
+
+def run_peer_process(path: Path, out: Path) -> dict:
+    """The peer in a process of its own: seconds and peak memory are its own."""
+    t = time.perf_counter()
+    subprocess.run([sys.executable, __file__, "--peer", str(path), str(out)], check=True)
+    seconds = time.perf_counter() - t
+    data = np.load(out)
+    return {"seconds": seconds, "peak_mb": float(data["peak_mb"]), "centroids": data["centroids"],
+            "normals": data["normals"], "set_normals": data["set_normals"]}  # fmt: skip
+
+
+def run_geostructure(path: Path, outdir: Path) -> dict:
+    """``geostructure measure --sets`` in a process of its own, as a user runs it."""
+    t = time.perf_counter()
+    subprocess.run([sys.executable, __file__, "--measure", str(path), str(outdir)], check=True)
+    seconds = time.perf_counter() - t
+    peak_mb = json.loads((outdir / "peak.json").read_text())["peak_mb"]
+    with open(outdir / "planes.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with open(outdir / "sets.csv", newline="") as fh:
+        sets = list(csv.DictReader(fh))
+
+    def vectors(table, name):
+        return np.array([[float(r[f"{name}_{a}"]) for a in "xyz"] for r in table]).reshape(-1, 3)
+
+    return {"seconds": seconds, "peak_mb": peak_mb, "centroids": vectors(rows, "centroid"),
+            "normals": vectors(rows, "normal"), "set_normals": vectors(sets, "normal")}  # fmt: skip
+
+
+def score(scene, found: dict) -> dict:
+    from geostructure.evaluate import match_facets
+    from geostructure.orientation import angle_between_normals
+    from geostructure.planes import Planes
+
+    planes = Planes(normal=found["normals"], local_centroid=found["centroids"], fit_residual=0.0)
+    match = match_facets(planes, scene)
+    truth = scene.exposed_set_statistics(min_diameter=0.3)
+    errors = []
+    for t in truth:
+        if len(found["set_normals"]):
+            tiled = np.tile(t["mean_normal"], (len(found["set_normals"]), 1))
+            errors.append(float(angle_between_normals(tiled, found["set_normals"]).min()))
+    return {"recall": match.recall, "found": int(match.found[match.eligible].sum()), "eligible": int(match.eligible.sum()),
+            "planes": len(planes), "sets": len(found["set_normals"]), "set_errors": errors}  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    parser.add_argument("--width", type=float, default=40.0)
+    parser.add_argument("--height", type=float, default=16.0)
+    parser.add_argument("--spacing", type=float, default=0.025)
+    parser.add_argument("--peer", nargs=2, metavar=("PLY", "OUT"), help=argparse.SUPPRESS)
+    parser.add_argument("--measure", nargs=2, metavar=("PLY", "OUTDIR"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.measure:
+        from geostructure.cli import main as geostructure
+
+        code = geostructure(["measure", args.measure[0], "-o", args.measure[1], "--sets", "-q"])
+        peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        (Path(args.measure[1]) / "peak.json").write_text(json.dumps({"peak_mb": peak_mb}))
+        sys.exit(code)
+    if args.peer:
+        result = peer(args.peer[0])
+        peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        np.savez(args.peer[1], peak_mb=peak_mb, **result)
+        return
+
+    from geostructure.synthetic import outcrop_scene
+
+    print("end to end from a binary PLY, default options; the peer: DSE's method as written here")
+    for seed in args.seeds:
+        scene = outcrop_scene(width=args.width, height=args.height, point_spacing=args.spacing, seed=seed)
+        n = len(scene.cloud)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "outcrop.ply"
+            write_ply(scene.cloud.points, path)
+            ours = run_geostructure(path, Path(tmp) / "out")
+            theirs = run_peer_process(path, Path(tmp) / "peer.npz")
+        for name, run in (("geostructure", ours), ("DSE-style peer", theirs)):
+            s = score(scene, run)
+            print(
+                json.dumps(
+                    {
+                        "seed": seed,
+                        "method": name,
+                        "points": n,
+                        "seconds": round(run["seconds"], 2),
+                        "points_per_s": round(n / run["seconds"]),
+                        "peak_mb": round(run["peak_mb"]),
+                        "facets_found": f"{s['found']}/{s['eligible']} ({100 * s['recall']:.0f}%)",
+                        "planes": s["planes"],
+                        "sets": s["sets"],
+                        "set_mean_errors_deg": [round(e, 2) for e in s["set_errors"]],
+                    }
+                )
+            )
+        print(
+            f"seed {seed}: GeoStructure {theirs['seconds'] / ours['seconds']:.2f}x the peer's speed, "
+            f"{score(scene, ours)['found']} against {score(scene, theirs)['found']} facets found"
+        )
+
+
+if __name__ == "__main__":
+    main()
