@@ -37,7 +37,7 @@ DETECTORS = ("facets", "voxel")
 #: Neighbours per point for its normal (DSE's default) and, of those, the nearest used as
 #: graph edges.
 NORMAL_NEIGHBOURS = 30
-GRAPH_NEIGHBOURS = 10
+GRAPH_NEIGHBOURS = 6
 #: Points per batch of covariance matrices (bounds memory at ~50 MB a batch).
 BATCH = 100_000
 #: Largest median angle (degrees) between a point's normal and its farthest neighbour's for
