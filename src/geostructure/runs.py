@@ -17,7 +17,7 @@ import numpy as np
 from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from .io.exports import write_dips_csv
-from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set, read_planes
+from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set, read_planes, read_sets
 from .io.truth import GroundTruth, read_truth
 from .io.writers import sets_record, write_evaluation_files, write_result, write_sets_csv
 from .orientation import Frame
@@ -253,7 +253,9 @@ def _stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> d
 
     planes = read_planes(source)
     build_report(source, outputs.path("report.html"), max_points=max_points)
-    save(stereonet_figure(planes.strike, planes.dip)[0], outputs.staging / "stereonet")
+    sets = read_sets(source) if "set" in planes.extra else []
+    labels = planes.extra.get("set")
+    save(stereonet_figure(planes.strike, planes.dip, set_labels=labels, sets=sets)[0], outputs.staging / "stereonet")
     save(rose_figure(planes.strike)[0], outputs.staging / "rose", formats=("png",))
     return {
         "report": outputs.final("report.html"),

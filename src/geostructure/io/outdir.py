@@ -21,6 +21,7 @@ is refused instead of reported on.
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import json
 import os
@@ -217,6 +218,18 @@ def read_run(folder) -> dict:
 def read_planes(folder, offset=None) -> Planes:
     """The plane table in ``planes.csv`` of a measured folder, positions relative to ``offset``."""
     return Planes.from_csv(Path(folder) / "planes.csv", offset)
+
+
+def read_sets(folder) -> list[dict]:
+    """The rows of ``sets.csv`` of a folder, as numbers; [] when it has none."""
+    path = Path(folder) / "sets.csv"
+    if not path.is_file():
+        return []
+    with open(path, newline="", encoding="utf-8") as fh:
+        try:
+            return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
+        except (ValueError, TypeError):
+            raise OutputError(f"{path}: not a GeoStructure sets table (a cell is not a number).") from None
 
 
 @dataclass

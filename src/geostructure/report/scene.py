@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
-from ..io.outdir import read_planes, read_run
+from ..io.outdir import read_planes, read_run, read_sets
 from ..orientation import Frame
 from ..planes import Planes
 
@@ -79,7 +79,7 @@ def load_scene(
         crs=run.get("crs"),
         source=str(run.get("input", "")),
         truth=_read_truth(outdir / "evaluation.csv"),
-        sets=_read_sets(outdir / "sets.csv") if "set" in planes.extra else [],
+        sets=read_sets(outdir) if "set" in planes.extra else [],
         georeference=run.get("reconstruction", {}).get("georef"),
     )
 
@@ -98,14 +98,6 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
     pick = np.sort(rng.choice(total, limit, replace=False)) if total > limit else slice(None)
     xyz = (np.stack(columns[:3], axis=1)[pick].astype(np.float64) - offset).astype(np.float32)
     return xyz, [np.asarray(c[pick]) for c in columns[3:]], total
-
-
-def _read_sets(path: Path) -> list[dict]:
-    """The rows of ``sets.csv`` as numbers (the folder's manifest vouches for the file)."""
-    if not path.exists():
-        return []
-    with open(path, newline="", encoding="utf-8") as fh:
-        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
 
 
 def _read_truth(path: Path) -> dict:

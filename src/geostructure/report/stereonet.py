@@ -8,10 +8,16 @@ import numpy as np
 
 from ..io.atomic import write_figure
 from ..projection import quiet_mplstereonet
+from .view3d import NO_SET_COLOR, set_color
 
 
-def stereonet_figure(strike, dip, *, title: str = ""):
-    """Poles, great circles and pole density (Kamb contours) on an equal-area net."""
+def stereonet_figure(strike, dip, *, title: str = "", set_labels=None, sets=()):
+    """Poles, great circles and pole density (Kamb contours) on an equal-area net.
+
+    With joint sets (``set_labels`` per plane, ``sets`` the rows of ``sets.csv``), the poles
+    are coloured by set and each set's mean great circle and alpha95 cone are drawn instead
+    of every plane's great circle.
+    """
     # Lazy: matplotlib takes a second to import, and only figures need it.
     from matplotlib.figure import Figure  # a Figure of its own: the caller's pyplot backend is left alone
 
@@ -21,8 +27,20 @@ def stereonet_figure(strike, dip, *, title: str = ""):
     strike, dip = np.asarray(strike, float), np.asarray(dip, float)
     if len(strike) >= 3:
         ax.density_contourf(strike, dip, measurement="poles", cmap="Blues", alpha=0.6)
-    ax.plane(strike, dip, "k-", linewidth=0.6, alpha=0.7)
-    ax.pole(strike, dip, "ro", markersize=5, label="poles")
+    if sets and set_labels is not None:
+        labels = np.asarray(set_labels)
+        for row in sets:
+            s, color = int(row["set"]), set_color(int(row["set"]))
+            ax.pole(strike[labels == s], dip[labels == s], "o", color=color, markersize=5, label=f"set {s}")
+            ax.plane(row["strike"], row["dip"], "-", color=color, linewidth=2.0)
+            ax.cone(90.0 - row["dip"], (row["dip_direction"] + 180.0) % 360.0, row["alpha95_deg"],
+                    facecolor="none", edgecolor=color, bidirectional=False)  # fmt: skip
+        if (labels < 0).any():
+            ax.pole(strike[labels < 0], dip[labels < 0], "o", color=NO_SET_COLOR, markersize=4, label="no set")
+        ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=8, frameon=False)
+    else:
+        ax.plane(strike, dip, "k-", linewidth=0.6, alpha=0.7)
+        ax.pole(strike, dip, "ro", markersize=5, label="poles")
     ax.grid(True)
     ax.set_title(title or f"{len(strike)} planes (lower hemisphere, equal area)", y=1.08)
     return fig, ax
