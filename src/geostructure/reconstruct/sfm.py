@@ -106,6 +106,9 @@ def _run_sfm(image_dir, workdir, options, progress):
     database = workdir / "database.db"
     database.unlink(missing_ok=True)  # features of an earlier, different image set must not leak in
     seconds = {}
+    # COLMAP's RANSAC (geometric verification, registration) draws from a global generator:
+    # seeded, a run repeats (up to the order its threads finish in).
+    pycolmap.set_random_seed(options.seed)
 
     t = time.perf_counter()
     report("features", 0, None)
