@@ -105,7 +105,7 @@ def peer(path: str) -> dict:
     set_normals = normal_from_orientation((trend + 180.0) % 360.0, 90.0 - plunge)
     cos = np.abs(planes.normal[flat] @ set_normals.T)
     member = np.where(cos.max(axis=1) >= np.cos(np.radians(30.0)), cos.argmax(axis=1), -1)
-    spacing = float(np.median(planes.distances[:, 1]))
+    spacing = planes.spacing
     centroids, normals = [], []
     flat_points = local[flat]
     for s in range(len(set_normals)):

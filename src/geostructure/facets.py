@@ -59,6 +59,11 @@ class PointPlanes:
     neighbours: np.ndarray
     distances: np.ndarray
 
+    @property
+    def spacing(self) -> float:
+        """The cloud's point spacing: the median distance to the nearest neighbour."""
+        return float(np.median(self.distances[:, 1])) if self.distances.shape[1] > 1 else 0.0
+
 
 @dataclass(frozen=True)
 class FacetThresholds:
@@ -113,7 +118,7 @@ def facet_thresholds(planes: PointPlanes) -> FacetThresholds:
       different sets meet;
     - the surface variation is 3 times its median, clipped to 0.01 to 0.1.
     """
-    spacing = float(np.median(planes.distances[:, 1])) if planes.distances.shape[1] > 1 else 0.0
+    spacing = planes.spacing
     first = planes.neighbours[:, 1] if planes.neighbours.shape[1] > 1 else np.arange(len(planes.normal))
     cosine = np.abs(np.einsum("ij,ij->i", planes.normal, planes.normal[first]))
     scatter = float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0)))))
@@ -213,7 +218,7 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
     kept = np.arange(len(points))
     planes = point_planes(points)
     scatter = far_scatter(planes)
-    spacing = float(np.median(planes.distances[:, 1])) if planes.distances.shape[1] > 1 else 0.0
+    spacing = planes.spacing
     edge = 0.0
     for round_ in range(1, THINNING_ROUNDS + 1):
         if scatter <= MAX_FAR_SCATTER or spacing <= 0:

@@ -285,7 +285,8 @@ def _summarise(x, area, labels, frame, criterion, bic) -> JointSets:
     """Sets of at least MIN_SET_PLANES planes, numbered by decreasing total area."""
     sets = [j for j in range(int(labels.max(initial=-1)) + 1) if (labels == j).sum() >= MIN_SET_PLANES]
     totals = np.array([area[labels == j].sum() for j in sets])
-    order = [sets[i] for i in np.argsort(-totals, kind="stable")]
+    rank = np.argsort(-totals, kind="stable")
+    order = [sets[i] for i in rank]
     renumber = np.full(int(labels.max(initial=-1)) + 2, -1)
     renumber[order] = np.arange(len(order))
     stats = [fisher_statistics(x[labels == j], frame) for j in order]
@@ -295,7 +296,7 @@ def _summarise(x, area, labels, frame, criterion, bic) -> JointSets:
         dip=np.array([s["dip"] for s in stats]),
         dip_direction=np.array([s["dip_direction"] for s in stats]),
         n_planes=np.array([s["n"] for s in stats], dtype=np.int64),
-        area=np.array([area[labels == j].sum() for j in order]),
+        area=totals[rank] if len(sets) else np.zeros(0),
         resultant=np.array([s["resultant"] for s in stats]),
         fisher_k=np.array([s["fisher_k"] for s in stats]),
         alpha95=np.array([s["alpha95"] for s in stats]),

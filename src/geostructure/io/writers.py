@@ -17,12 +17,6 @@ from .exports import write_dips_csv, write_geojson
 from .outdir import EVALUATION_FILES, OutputSet, output_set
 
 
-def write_planes_csv(result, path) -> Path:
-    """``planes.csv``: one row per plane, largest first, in the input's own coordinates
-    (:meth:`~geostructure.planes.Planes.to_csv`)."""
-    return result.planes.to_csv(path)
-
-
 def _ascii(text: str) -> str:
     """A PLY comment must be ASCII: other characters are written as escapes (café -> caf\\xe9)."""
     return text.encode("ascii", "backslashreplace").decode("ascii")
