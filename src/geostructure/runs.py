@@ -17,11 +17,21 @@ import numpy as np
 from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from .io.exports import write_dips_csv
-from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set, read_planes, read_sets
+from .io.outdir import (
+    EVALUATION_FILES,
+    REPORT_FILES,
+    SETS_FILES,
+    OutputSet,
+    output_set,
+    read_planes,
+    read_regions,
+    read_sets,
+)
 from .io.truth import GroundTruth, read_truth
-from .io.writers import sets_record, write_evaluation_files, write_result, write_sets_csv
+from .io.writers import sets_record, write_evaluation_files, write_result, write_sets_csv, write_spacing_csv
 from .orientation import Frame
 from .planes import Planes, reoriented
+from .rockmass import RockMass, rock_mass
 from .sets import JointSets, find_sets
 
 
@@ -36,6 +46,7 @@ def save_measurement(
     max_points: int | None = None,
     inputs=(),
     sets=None,
+    rock=None,
 ) -> dict[str, Path]:
     """Write a measurement's files, and optionally its evaluation and report, as one set.
 
@@ -55,6 +66,9 @@ def save_measurement(
         Files the run read: refused if they are among the outputs it would overwrite.
     sets : JointSets, optional
         The planes' joint sets (:func:`plane_sets`): a ``set`` column and ``sets.csv``.
+    rock : RockMass, optional
+        Their spacing, persistence and intensity (:func:`plane_rock_mass`), in ``sets.csv``,
+        ``planes.csv`` and ``run.json``.
 
     Returns
     -------
@@ -72,7 +86,7 @@ def save_measurement(
     ['dips', 'geojson', 'planes']
     """
     with output_set(outdir, inputs=inputs) as outputs:
-        paths = write_result(result, outputs, extra, sets)
+        paths = write_result(result, outputs, extra, sets, rock)
         if evaluation is not None:
             paths.update(_stage_evaluation(outputs, evaluation, evaluation_extra))
         if report:
@@ -95,9 +109,29 @@ def plane_sets(planes: Planes, frame: Frame = Frame(), n_sets: int | None = None
     return find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame)
 
 
+def plane_rock_mass(points, labels, planes: Planes, sets: JointSets, frame: Frame = Frame()) -> RockMass:
+    """Spacing, persistence and intensity of the sets of a plane table (:func:`~.rockmass.rock_mass`).
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        The labelled points, relative to ``planes.offset``.
+    labels : (N,) int array
+        Each point's plane (its row in ``planes``), -1 for none.
+    planes : Planes
+    sets : JointSets
+        The planes' sets (:func:`plane_sets`).
+    frame : Frame
+        The run's frame, whose up gives strike and dip.
+    """
+    up = frame.matrix[2]
+    return rock_mass(points, labels, planes.normal, sets.labels, sets.mean_normal, up)
+
+
 def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str, Path]]:
-    """Find the joint sets of a measured folder and add them: ``sets.csv``, and a ``set``
-    column in ``planes.csv`` and ``planes_dips.csv``; a report there is drawn again.
+    """Find the joint sets of a measured folder and add them with their spacing, persistence
+    and intensity: ``sets.csv``, and ``set``, trace and ``censored`` columns in ``planes.csv``
+    (``set`` in ``planes_dips.csv``); a report there is drawn again.
 
     Parameters
     ----------
@@ -122,18 +156,30 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str,
         had_report = (outputs.outdir / "report.html").is_file()
         planes = read_planes(outputs.outdir)
         sets = plane_sets(planes, frame, n_sets)
-        planes = planes.with_columns(set=sets.labels)
+        points, region = read_regions(outputs.outdir, planes.offset)
+        labels = _plane_rows(region, planes.region_id)
+        rock = plane_rock_mass(points, labels, planes, sets, frame)
+        planes = planes.with_columns(set=sets.labels, **rock.plane_columns())
         planes.to_csv(outputs.path("planes.csv"))
         write_dips_csv(planes, outputs.path("planes_dips.csv"))
-        write_sets_csv(sets, outputs.path("sets.csv"))
-        outputs.record["sets"] = sets_record(sets)
-        paths = {"sets": outputs.final("sets.csv"), "planes": outputs.final("planes.csv")}
+        write_sets_csv(sets, outputs.path("sets.csv"), rock)
+        write_spacing_csv(rock, outputs.path("spacing.csv"))
+        outputs.record["sets"] = sets_record(sets, rock)
+        paths = {"sets": outputs.final("sets.csv"), "spacing": outputs.final("spacing.csv")}
+        paths["planes"] = outputs.final("planes.csv")
         paths["dips"] = outputs.final("planes_dips.csv")
         if had_report:  # the report shows the sets: draw it again from the new set of files
             _link_kept(outputs)
             outputs.write_record()
             paths.update(_stage_report(outputs, outputs.staging, None))
     return sets, paths
+
+
+def _plane_rows(region, region_ids) -> np.ndarray:
+    """Each point's row in the plane table, from its ``region_id`` (-1 where it has none)."""
+    lookup = np.full(int(max(region.max(initial=-1), region_ids.max(initial=-1))) + 2, -1, dtype=np.int64)
+    lookup[region_ids + 1] = np.arange(len(region_ids))
+    return lookup[np.clip(region, -1, len(lookup) - 2) + 1]
 
 
 def _link_kept(outputs: OutputSet) -> None:

@@ -15,7 +15,7 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
-from ..runs import add_evaluation, add_report, plane_sets, save_measurement
+from ..runs import add_evaluation, add_report, plane_rock_mass, plane_sets, save_measurement
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
@@ -126,10 +126,12 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         result = measure(cloud, params, frame, progress)
         result.seconds = {**seconds, "auto": auto_seconds, **result.seconds}
         evaluation = evaluate(result.planes, truth) if truth is not None else None
-        sets = None
+        sets = rock = None
         if wants_sets(args):
             progress("sets", 0, None)
             sets = plane_sets(result.planes, result.frame, args.n_sets)
+            progress("spacing and persistence", 0, None)
+            rock = plane_rock_mass(result.filtered.local, result.labels, result.planes, sets, result.frame)
         progress("write", 0, None)
         paths = save_measurement(
             result,
@@ -139,6 +141,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             report=args.report,
             inputs=inputs,
             sets=sets,
+            rock=rock,
         )
     if not len(result):
         print(

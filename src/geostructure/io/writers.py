@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..rockmass import ROCK_SET_COLUMNS
 from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv, write_geojson
 from .outdir import EVALUATION_FILES, OutputSet, output_set
@@ -120,14 +121,34 @@ SET_COLUMNS = (
 )
 
 
-def write_sets_csv(sets, path) -> Path:
-    """``sets.csv``: one row per joint set (:class:`~geostructure.sets.JointSets`)."""
-    return write_table_csv(sets.rows(), path, columns=SET_COLUMNS)
+def write_sets_csv(sets, path, rock=None) -> Path:
+    """``sets.csv``: one row per joint set (:class:`~geostructure.sets.JointSets`), with its
+    spacing, persistence and intensity when ``rock`` (:class:`~geostructure.rockmass.RockMass`) is given."""
+    if rock is None:
+        return write_table_csv(sets.rows(), path, columns=SET_COLUMNS)
+    rows = [{**a, **b} for a, b in zip(sets.rows(), rock.set_rows())]
+    return write_table_csv(rows, path, columns=SET_COLUMNS + ROCK_SET_COLUMNS)
 
 
-def sets_record(sets) -> dict:
-    """What ``run.json`` says of the sets: how many, how they were chosen, the BIC per number."""
-    return {"n_sets": len(sets), "criterion": sets.criterion, "bic": {str(k): v for k, v in sets.bic.items()}}
+def write_spacing_csv(rock, path) -> Path:
+    """``spacing.csv``: every spacing measured, one row each: set, method (``scanline``, along
+    the virtual scanlines, or ``nearest``, to the nearest overlapping plane of the set), metres."""
+    rows = [
+        {"set": s, "method": method, "spacing_m": float(v)}
+        for s in range(len(rock.scanlines))
+        for method, values in (("scanline", rock.scanlines[s].gaps), ("nearest", rock.nearest_gaps[s]))
+        for v in values
+    ]
+    return write_table_csv(rows, path, columns=("set", "method", "spacing_m"))
+
+
+def sets_record(sets, rock=None) -> dict:
+    """What ``run.json`` says of the sets: how many, how they were chosen, the BIC per number,
+    and the rock mass's totals (Jv, block volume) when measured."""
+    record = {"n_sets": len(sets), "criterion": sets.criterion, "bic": {str(k): v for k, v in sets.bic.items()}}
+    if rock is not None:
+        record["rock_mass"] = rock.summary(sets.mean_normal)
+    return record
 
 
 def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> None:
@@ -137,9 +158,10 @@ def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) ->
     write_geojson(planes, outputs.path("planes.geojson"), crs=crs, enu_origin=enu_origin)
 
 
-def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=None) -> dict[str, Path]:
+def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=None, rock=None) -> dict[str, Path]:
     """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`;
-    with ``sets``, the plane tables carry a ``set`` column and ``sets.csv`` is written."""
+    with ``sets``, the plane tables carry a ``set`` column and ``sets.csv`` is written; with
+    ``rock``, the planes' traces and the sets' spacing and intensity too."""
     files = {
         "planes": "planes.csv",
         "dips": "planes_dips.csv",
@@ -148,14 +170,19 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
         "voxels": "voxel_planes.ply",
     }
     planes = result.planes if sets is None else result.planes.with_columns(set=sets.labels)
+    if rock is not None:
+        planes = planes.with_columns(**rock.plane_columns())
     write_plane_tables(planes, outputs, crs=result.cloud.crs, enu_origin=result.cloud.enu_origin)
     write_regions_ply(result, outputs.path(files["regions"]))
     write_voxel_planes_ply(result, outputs.path(files["voxels"]))
     outputs.record = run_record(result, extra)
     if sets is not None:
-        write_sets_csv(sets, outputs.path("sets.csv"))
-        outputs.record["sets"] = sets_record(sets)
+        write_sets_csv(sets, outputs.path("sets.csv"), rock)
+        outputs.record["sets"] = sets_record(sets, rock)
         files["sets"] = "sets.csv"
+        if rock is not None:
+            write_spacing_csv(rock, outputs.path("spacing.csv"))
+            files["spacing"] = "spacing.csv"
     outputs.write_record()
     return {key: outputs.final(name) for key, name in {**files, "run": "run.json"}.items()}
 

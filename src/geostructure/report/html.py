@@ -18,6 +18,7 @@ from ..io.atomic import atomic_path, plain
 from ..projection import great_circle_xy, pole_density, pole_xy, small_circle_xy
 from ..reconstruct.georef import describe_georeference
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
+from .spacing_plot import figure_spacing
 from .view3d import figure_3d, figure_json, hover_text, plane_colors, set_color
 
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
@@ -67,6 +68,7 @@ def render(scene: ReportScene, title: str) -> str:
         "scene": figure_3d(scene),
         "stereonet": figure_stereonet(scene),
         "rose": figure_rose(scene),
+        "spacing": figure_spacing(scene),
         "planes": table_rows(scene),
         "columns": [{"key": k, "label": label, "digits": d} for k, label, d in COLUMNS]
         + ([{"key": "set", "label": "Set", "digits": 0}] if "set" in scene.planes.extra else [])
@@ -251,20 +253,36 @@ SET_COLUMNS = [
     ("alpha95_deg", "α95 (°)", 1),
     ("spherical_variance", "Sph. variance", 3),
 ]
+#: ... and, when the spacing was measured, these.
+ROCK_COLUMNS = [
+    ("spacing_m", "Spacing (m)", 2),
+    ("p10_per_m", "P10 (1/m)", 2),
+    ("p32_per_m", "P32 (1/m)", 2),
+    ("trace_strike_median_m", "Trace, strike (m)", 2),
+    ("trace_dip_median_m", "Trace, dip (m)", 2),
+    ("n_censored", "Censored", 0),
+]
 
 
 def set_table(scene: ReportScene) -> str:
     """The joint sets as an HTML table (empty when the folder has none)."""
     if not scene.sets:
         return ""
-    head = "".join(f"<th>{label}</th>" for _, label, _ in SET_COLUMNS)
+    columns = SET_COLUMNS + (ROCK_COLUMNS if "spacing_m" in scene.sets[0] else [])
+    head = "".join(f"<th>{label}</th>" for _, label, _ in columns)
     rows = []
     for row in scene.sets:
         swatch = f'<span class="swatch" style="background:{set_color(int(row["set"]))}"></span>'
-        cells = [f"{row[key]:,.{digits}f}" for key, _, digits in SET_COLUMNS]
+        cells = ["" if not np.isfinite(row[key]) else f"{row[key]:,.{digits}f}" for key, _, digits in columns]
         rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
     unassigned = int((scene.planes.extra["set"] < 0).sum())
     caption = f"Joint sets ({unassigned} plane{'s' if unassigned != 1 else ''} in no set)"
+    rock = scene.rock_mass
+    if rock and np.isfinite(rock.get("jv_per_m3", np.nan)):
+        caption += (
+            f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³, "
+            f"block volume {rock['block_volume_m3']:.3g} m³ (Palmström, 36/Jv³)"
+        )
     return f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}</tbody></table>'
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
-from ..io.outdir import read_planes, read_run, read_sets
+from ..io.outdir import read_planes, read_run, read_sets, read_spacings
 from ..orientation import Frame
 from ..planes import Planes
 
@@ -43,6 +43,8 @@ class ReportScene:
     source: str
     truth: dict = field(default_factory=dict)  # region id -> evaluation row
     sets: list = field(default_factory=list)  # sets.csv rows (numbers), when the sets were found
+    spacings: dict = field(default_factory=dict)  # set -> normal spacings along the scanlines (m)
+    rock_mass: dict = field(default_factory=dict)  # run.json's totals: Jv, block volume
     georeference: dict | None = None  # how a reconstruction was tied to the world
 
 
@@ -80,6 +82,8 @@ def load_scene(
         source=str(run.get("input", "")),
         truth=_read_truth(outdir / "evaluation.csv"),
         sets=read_sets(outdir) if "set" in planes.extra else [],
+        spacings=read_spacings(outdir) if "set" in planes.extra else {},
+        rock_mass=(run.get("sets") or {}).get("rock_mass") or {},
         georeference=run.get("reconstruction", {}).get("georef"),
     )
 

@@ -74,9 +74,14 @@ class OutcropScene:
 
     Per facet (F): ``facet_set``, ``facet_plane`` (index of its plane within the set),
     ``facet_center``, ``facet_normal`` (upward unit), ``facet_area`` (m^2, exposed, from the
-    kept points). Per point (N): ``facet_index`` (-1 for floaters) and ``clean`` (the
-    noise-free position). Per set (S): ``sets``, ``set_spacing`` (realised mean normal
-    spacing, m) and ``set_p32`` (m^2/m^3).
+    kept points), ``facet_censored`` (cut short by the cloud's edge:
+    the face's border or a hole the cameras left). Per point (N): ``facet_index`` (-1 for floaters) and ``clean`` (the
+    noise-free position). Per set (S): ``sets``, ``set_spacing`` (mean normal spacing along
+    scanlines on the face, m), ``set_p32`` (m^2/m^3), the same of the
+    planes the face exposes (``exposed_set_spacing``, ``exposed_set_p32``), and every plane
+    the set has, exposed or not: ``set_plane_normals`` and ``set_plane_points`` (a point on
+    each; relative to ``offset``), all along :meth:`scanlines`. The mean face runs through ``offset`` along
+    ``face_axes`` (strike, up-dip) over ``face_size`` (m).
     """
 
     cloud: Cloud
@@ -87,11 +92,19 @@ class OutcropScene:
     facet_center: np.ndarray
     facet_normal: np.ndarray
     facet_area: np.ndarray
+    facet_censored: np.ndarray
     facet_index: np.ndarray
     clean: np.ndarray
     set_spacing: np.ndarray
     set_p32: np.ndarray
     point_spacing: float
+    exposed_set_spacing: np.ndarray | None = None
+    exposed_set_p32: np.ndarray | None = None
+    set_plane_normals: tuple = ()
+    set_plane_points: tuple = ()
+    face_axes: np.ndarray | None = None
+    face_size: tuple = (0.0, 0.0)
+    offset: np.ndarray | None = None
 
     @property
     def facet_diameter(self) -> np.ndarray:
@@ -109,6 +122,50 @@ class OutcropScene:
 
         big = self.facet_diameter >= min_diameter
         return [fisher_statistics(self.facet_normal[(self.facet_set == s) & big]) for s in range(len(self.sets))]
+
+    def scanlines(self, set_index: int, line_spacing: float = 0.25, exposed_only: bool = False) -> dict:
+        """One set's joints along scanlines laid on the mean face: the truth of its spacing.
+
+        The lines run across the face rectangle, every ``line_spacing``, in the direction of
+        the set's mean normal projected onto the face (ISRM 1978's best-placed scanline), and
+        meet the set's generated planes: all of them, exposed or not, or with ``exposed_only``
+        those that show as at least one facet, which is what a measurement of the face's
+        surface can reach (a joint that never breaks the face shows no face). Returns ``gaps``, the
+        normal spacings between consecutive planes along a line (gaps times the cosine
+        between line and mean normal, Terzaghi's correction), ``length`` (m of line),
+        ``crossings``, ``cosine`` and ``c13``, 1 / mean |n . line| over the planes met.
+        """
+        along, up_dip = self.face_axes
+        width, height = self.face_size
+        mean = self.sets[set_index].normal
+        direction = mean - (mean @ self.face_normal) * self.face_normal
+        direction /= np.linalg.norm(direction)
+        across = np.cross(self.face_normal, direction)
+        corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype=np.float64)
+        corners3 = corners[:, :1] * along + corners[:, 1:] * up_dip
+        normals, points = self.set_plane_normals[set_index], self.set_plane_points[set_index]
+        if exposed_only:
+            shown = np.unique(self.facet_plane[self.facet_set == set_index])
+            normals, points = normals[shown], points[shown]
+        gaps, length, met = [], 0.0, []
+        for c in np.arange((corners3 @ across).min() + line_spacing / 2, (corners3 @ across).max(), line_spacing):
+            origin = c * across
+            t_range = _segment_in_rectangle(origin, direction, along, up_dip, width, height)
+            if t_range is None:
+                continue
+            t = np.einsum("pk,pk->p", normals, points - origin) / (normals @ direction)
+            inside = (t >= t_range[0]) & (t <= t_range[1])
+            length += t_range[1] - t_range[0]
+            met.append(np.flatnonzero(inside))
+            gaps.append(np.diff(np.sort(t[inside])) * float(mean @ direction))
+        met = np.concatenate(met) if met else np.zeros(0, dtype=np.int64)
+        return {
+            "gaps": np.concatenate(gaps) if gaps else np.zeros(0),
+            "length": float(length),
+            "crossings": int(len(met)),
+            "cosine": float(mean @ direction),
+            "c13": float(1.0 / np.abs(normals[met] @ direction).mean()) if len(met) else float("nan"),
+        }
 
 
 def fisher_directions(mean, kappa: float, n: int, rng) -> np.ndarray:
@@ -202,13 +259,15 @@ def outcrop_scene(
     cell_normal = np.zeros((len(seeds), 3))
     cell_point = np.zeros((len(seeds), 3))
     cell_plane = np.zeros(len(seeds), dtype=np.int64)
-    spacing, p32 = np.zeros(len(sets)), np.zeros(len(sets))
+    set_normals, set_points = [], []
     reach = np.hypot(width, height) + 2.0
     for s, joint in enumerate(sets):
         mean = joint.normal
         positions = -reach + np.cumsum(rng.exponential(joint.spacing, int(4 * reach / joint.spacing) + 10))
         positions = positions[positions < reach]
         normals = fisher_directions(mean, joint.kappa, len(positions), rng)
+        set_normals.append(normals)
+        set_points.append(positions[:, None] * mean)
         mine = np.flatnonzero(cell_set == s)
         # Distance from each cell's centre to each plane, along the plane's own normal (the
         # planes are not parallel: one is nearest at one end of the face, another at the other).
@@ -217,9 +276,6 @@ def outcrop_scene(
         cell_plane[mine] = nearest
         cell_normal[mine] = normals[nearest]
         cell_point[mine] = positions[nearest][:, None] * mean
-        used = positions[(positions > (seeds3 @ mean).min()) & (positions < (seeds3 @ mean).max())]
-        spacing[s] = float(np.diff(used).mean()) if len(used) > 2 else joint.spacing
-        p32[s] = 1.0 / spacing[s]
     outward = cell_normal * np.sign(cell_normal @ face_normal)[:, None]
 
     base = ab[:, :1] * along + ab[:, 1:] * up_dip
@@ -237,10 +293,22 @@ def outcrop_scene(
     points = clean + wobble[:, None] * face_normal
 
     seen = _visible(clean, n_cell, face_normal, along, width, height, point_spacing, cameras, camera_distance)
+    # A cell is cut short by the cloud's edge (censored) where the face ends, or where part of
+    # it is hidden and nothing seen lies in front of that part: a hole in the cloud. (Where a
+    # step in front hides it, the cloud has no edge there and the cut is not the cloud's.)
+    lost = np.flatnonzero(~seen)
+    in_hole = np.isinf(cKDTree(ab[seen]).query(ab[lost], distance_upper_bound=2.0 * point_spacing, workers=-1)[0])
+    hidden = np.bincount(cell[lost[in_hole]], minlength=len(seeds)) >= 3
+    margin = 1.5 * point_spacing
+    at_edge = (ab[:, 0] < margin) | (ab[:, 1] < margin) | (ab[:, 0] > width - margin) | (ab[:, 1] > height - margin)
+    cut_cell = hidden | (np.bincount(cell[at_edge], minlength=len(seeds)) > 0)
     points, clean, cell, floaters = points[seen], clean[seen], cell[seen], floaters[seen]
 
     # Neighbouring cells exposed on the same joint plane are one face: join them.
+    original_cell = cell
     cell = _join_coplanar_cells(ab[seen], cell, cell_set * 100_000 + cell_plane, point_spacing)
+    cut_joined = np.zeros(len(seeds), dtype=bool)
+    np.logical_or.at(cut_joined, cell, cut_cell[original_cell])
 
     # Facets: the cells that kept at least 3 points, numbered in cell order.
     counts = np.bincount(cell, minlength=len(seeds))
@@ -257,7 +325,7 @@ def outcrop_scene(
 
     shift = np.asarray(offset, dtype=np.float64)
     order = rng.permutation(len(points))  # readers never see points grouped by facet
-    return OutcropScene(
+    scene = OutcropScene(
         cloud=Cloud.from_points(points[order] + shift, source="synthetic outcrop"),
         sets=sets,
         face_normal=face_normal,
@@ -266,12 +334,47 @@ def outcrop_scene(
         facet_center=centre + shift,
         facet_normal=upward,
         facet_area=area,
+        facet_censored=cut_joined[kept_cells],
         facet_index=facet_index[order],
         clean=clean[order] + shift,
-        set_spacing=spacing,
-        set_p32=p32,
+        set_spacing=np.zeros(len(sets)),
+        set_p32=np.zeros(len(sets)),
+        exposed_set_spacing=np.zeros(len(sets)),
+        exposed_set_p32=np.zeros(len(sets)),
         point_spacing=point_spacing,
+        set_plane_normals=tuple(set_normals),
+        set_plane_points=tuple(set_points),
+        face_axes=np.array([along, up_dip]),
+        face_size=(float(width), float(height)),
+        offset=shift,
     )
+    # Truth along scanlines on the face (ISRM 1978; Priest & Hudson 1976): mean normal spacing
+    # = cosine x line length / joints met, and P32 = C13 x P10 (Dershowitz & Herda 1992).
+    for s in range(len(sets)):
+        for exposed_only, spacing, p32 in (
+            (False, scene.set_spacing, scene.set_p32),
+            (True, scene.exposed_set_spacing, scene.exposed_set_p32),
+        ):
+            line = scene.scanlines(s, exposed_only=exposed_only)
+            p10 = line["crossings"] / line["length"]
+            spacing[s] = line["cosine"] / p10 if p10 > 0 else np.inf
+            p32[s] = line["c13"] * p10
+    return scene
+
+
+def _segment_in_rectangle(origin, direction, along, up_dip, width, height):
+    """The (t0, t1) range of the line origin + t direction inside the face rectangle."""
+    o = np.array([origin @ along, origin @ up_dip])
+    d = np.array([direction @ along, direction @ up_dip])
+    lo, hi = -np.inf, np.inf
+    for k, size in enumerate((width, height)):
+        if abs(d[k]) < 1e-12:
+            if not 0.0 <= o[k] <= size:
+                return None
+            continue
+        a, b = (0.0 - o[k]) / d[k], (size - o[k]) / d[k]
+        lo, hi = max(lo, min(a, b)), min(hi, max(a, b))
+    return (lo, hi) if hi > lo else None
 
 
 def _join_coplanar_cells(ab, cell, plane_key, step) -> np.ndarray:

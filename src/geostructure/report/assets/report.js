@@ -33,6 +33,7 @@
     Plotly.newPlot(scene, P.scene.data, P.scene.layout, config).then(() => { window.reportTimings.scene = performance.now(); }),
     Plotly.newPlot(net, P.stereonet.data, P.stereonet.layout, config).then(() => { window.reportTimings.net = performance.now(); }),
     Plotly.newPlot("rose", P.rose.data, P.rose.layout, config),
+    P.spacing ? Plotly.newPlot("spacing", P.spacing.data, P.spacing.layout, config) : Promise.resolve(),
   ];
 
   document.querySelectorAll("#layers input").forEach(box => {
