@@ -224,8 +224,8 @@ def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.
     set_normals = np.asarray(set_normals, dtype=np.float64).reshape(-1, 3)
     face = exposure(points, up)
     persistence = plane_persistence(points, labels, normals, face, up)
-    moments = PlaneMoments.of(points - face.origin, labels, len(normals))  # about the face: small numbers
-    centroids = moments.centroid + face.origin
+    moments = PlaneMoments.of(points, labels, len(normals))
+    centroids = moments.centroid
     n_sets = len(set_normals)
     result = RockMass(persistence, face.area, set_labels)
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)

@@ -46,38 +46,36 @@ MIN_SCANLINE_COSINE = 0.25
 
 @dataclass(frozen=True)
 class PlaneMoments:
-    """Additive moments of each plane's points: count, sum (P, 3) and sum of outer products
-    (P, 3, 3), about ``origin``; pooled, they give the plane through several facets at once."""
+    """Each plane's point count, centroid (P, 3) and scatter about it (P, 3, 3); pooled by the
+    parallel-axis rule, they give the plane through several facets' points at once."""
 
     count: np.ndarray
-    total: np.ndarray
-    outer: np.ndarray
+    centroid: np.ndarray
+    scatter: np.ndarray
 
     @classmethod
     def of(cls, points, labels, n: int) -> "PlaneMoments":
         mine = labels >= 0
         lab, x = labels[mine], points[mine]
         count = np.bincount(lab, minlength=n).astype(np.float64)
-        total = np.stack([np.bincount(lab, x[:, a], n) for a in range(3)], axis=1)
-        outer = np.stack(
-            [np.bincount(lab, x[:, a] * x[:, b], n) for a in range(3) for b in range(3)], axis=1
+        centroid = np.stack([np.bincount(lab, x[:, a], n) for a in range(3)], axis=1) / np.maximum(count, 1)[:, None]
+        d = x - centroid[lab]  # about each plane's own centroid: no cancellation
+        scatter = np.stack(
+            [np.bincount(lab, d[:, a] * d[:, b], n) for a in range(3) for b in range(3)], axis=1
         ).reshape(n, 3, 3)
-        return cls(count, total, outer)
+        return cls(count, centroid, scatter)
 
     def subset(self, index) -> "PlaneMoments":
-        return PlaneMoments(self.count[index], self.total[index], self.outer[index])
-
-    @property
-    def centroid(self) -> np.ndarray:
-        return self.total / np.maximum(self.count, 1.0)[:, None]
+        return PlaneMoments(self.count[index], self.centroid[index], self.scatter[index])
 
 
 def _pooled_plane(moments: PlaneMoments, members) -> tuple[np.ndarray, np.ndarray]:
     """Normal and centroid of the least-squares plane through all the members' points."""
-    n = moments.count[members].sum()
-    mean = moments.total[members].sum(axis=0) / n
-    cov = moments.outer[members].sum(axis=0) / n - np.outer(mean, mean)
-    return np.linalg.eigh(cov)[1][:, 0], mean
+    w = moments.count[members]
+    mean = (w[:, None] * moments.centroid[members]).sum(axis=0) / w.sum()
+    d = moments.centroid[members] - mean
+    scatter = moments.scatter[members].sum(axis=0) + np.einsum("k,ki,kj->ij", w, d, d)
+    return np.linalg.eigh(scatter)[1][:, 0], mean
 
 
 def joint_planes(moments: PlaneMoments, normals, *, angle: float = SAME_JOINT_ANGLE, offset: float = SAME_JOINT_TOLERANCE):
@@ -172,7 +170,7 @@ def scanline_spacing(points, normals, moments: PlaneMoments, members, mean, face
     normals : (P, 3) array
         All planes' normals.
     moments : PlaneMoments
-        All planes' moments, about ``face.origin``.
+        All planes' moments.
     members : (M,) int array
         The set's planes.
     mean : (3,) array
@@ -185,7 +183,6 @@ def scanline_spacing(points, normals, moments: PlaneMoments, members, mean, face
         return Scanlines(np.zeros(0), 0.0, 0, 0, cosine, None)
     direction /= cosine
     _, joint_normal, joint_centre = joint_planes(moments.subset(members), normals[members])
-    joint_centre = joint_centre + face.origin
     across = np.cross(face.normal, direction)
     along_pts = (points - face.origin) @ direction
     across_pts = (points - face.origin) @ across
