@@ -106,7 +106,7 @@ def plane_sets(planes: Planes, frame: Frame = Frame(), n_sets: int | None = None
     >>> len(sets), sets.n_planes.sum()
     (2, np.int64(80))
     """
-    return find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame)
+    return find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame, centroids=planes.local_centroid)
 
 
 def plane_rock_mass(points, labels, planes: Planes, sets: JointSets, frame: Frame = Frame()) -> RockMass:

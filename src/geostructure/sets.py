@@ -34,6 +34,9 @@ MAX_SETS = 6
 EM_STARTS = 8
 #: Fewest planes a set may hold.
 MIN_SET_PLANES = 3
+#: Fewest joints (planes not coplanar with each other) a set must hold for its number of
+#: sets to be chosen.
+MIN_SET_JOINTS = 3
 #: Smallest angle (degrees) between two sets' mean poles when the number of sets is chosen.
 MIN_SEPARATION = 20.0
 #: Concentration never exceeded in the EM. The facets of one joint plane share its pole, so a
@@ -138,6 +141,7 @@ def find_sets(
     max_sets: int = MAX_SETS,
     frame: Frame = Frame(),
     seed: int = 0,
+    centroids=None,
 ) -> JointSets:
     """Cluster plane normals (cloud axes) into joint sets; ``n_sets=None`` chooses by BIC.
 
@@ -153,6 +157,11 @@ def find_sets(
         For the sets' dip and dip direction.
     seed : int
         The EM's starts are drawn from this seed, so a run is repeatable.
+    centroids : (P, 3) array, optional
+        The planes' centroids. When given with ``weights`` (their areas), a number of sets is
+        chosen only if each of its sets holds :data:`MIN_SET_JOINTS` joints or more, facets on
+        one plane counting as one joint (:func:`~.spacing.joint_planes`): the facets of a
+        single joint drawn far from its set's mean are that joint, not a set.
 
     Examples
     --------
@@ -190,9 +199,30 @@ def find_sets(
     if not fits:
         return _empty(len(x))
     admissible = {k: v for k, v in bic.items() if _separated(fits[k]["means"], MIN_SEPARATION)}
+    if centroids is not None and weights is not None:
+        joints = _joint_counter(x, np.asarray(centroids, dtype=np.float64).reshape(len(x), 3), area)
+        admissible = {k: v for k, v in admissible.items() if min(joints(_assign(x, fits[k]), k)) >= MIN_SET_JOINTS}
     best = min(admissible or bic, key=(admissible or bic).get) if n_sets is None else candidates[0]
     labels = _assign(x, fits[best])
     return _summarise(x, area, labels, frame, "bic" if n_sets is None else "given", bic)
+
+
+def _joint_counter(x, centroids, area):
+    """A function of (labels, k): the number of distinct joints in each of the k sets."""
+    from .spacing import PlaneMoments, joint_planes  # lazy: the sets need the joints only here
+
+    # Each facet as a disc of its area: count, centroid and in-plane scatter (r^2 / 4 per axis).
+    count = np.maximum(area, 1e-9)
+    scatter = (count * area / (4.0 * np.pi))[:, None, None] * (np.eye(3) - np.einsum("pi,pj->pij", x, x))
+    moments = PlaneMoments(count, centroids, scatter)
+
+    def joints(labels, k):
+        return [
+            int(joint_planes(moments.subset(m), x[m])[0].max(initial=-1)) + 1
+            for m in (np.flatnonzero(labels == j) for j in range(k))
+        ]
+
+    return joints
 
 
 def _separated(means: np.ndarray, degrees: float) -> bool:

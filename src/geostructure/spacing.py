@@ -37,7 +37,7 @@ SAME_JOINT_TOLERANCE = 0.02
 EXTRAPOLATION_ANGLE = 1.0
 #: ... and when its normal is within this angle (degrees) of the joint's: the normal of a
 #: facet of 30 points can be a few degrees off.
-SAME_JOINT_ANGLE = 6.0
+SAME_JOINT_ANGLE = 8.0
 #: Crossings of one line nearer than this (m, normal distance) are one joint split in two.
 CROSSING_TOLERANCE = 0.005
 #: Scanlines meet a set too obliquely below this cosine between line and mean normal.
@@ -78,7 +78,7 @@ def _pooled_plane(moments: PlaneMoments, members) -> tuple[np.ndarray, np.ndarra
     return np.linalg.eigh(scatter)[1][:, 0], mean
 
 
-def joint_planes(moments: PlaneMoments, normals, *, angle: float = SAME_JOINT_ANGLE, offset: float = SAME_JOINT_TOLERANCE):
+def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, offset: float | None = None):
     """Group the facets of one set into joints, largest facet first.
 
     Each facet, in order of decreasing size, joins the largest joint whose plane passes
@@ -100,6 +100,8 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float = SAME_JOINT_AN
     >>> joint.tolist(), np.round(centre[:, 2], 3).tolist()  # two patches of one joint, one 0.6 m above
     ([0, 0, 1], [0.0, 0.6])
     """
+    angle = SAME_JOINT_ANGLE if angle is None else angle
+    offset = SAME_JOINT_TOLERANCE if offset is None else offset
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     centroids = moments.centroid
     joint = np.full(len(normals), -1, dtype=np.int64)

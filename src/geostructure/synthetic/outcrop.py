@@ -130,23 +130,37 @@ class OutcropScene:
         the set's mean normal projected onto the face (ISRM 1978's best-placed scanline), and
         meet the set's generated planes: all of them, exposed or not, or with ``exposed_only``
         those that show as at least one facet, which is what a measurement of the face's
-        surface can reach (a joint that never breaks the face shows no face). Returns ``gaps``, the
-        normal spacings between consecutive planes along a line (gaps times the cosine
-        between line and mean normal, Terzaghi's correction), ``length`` (m of line),
-        ``crossings``, ``cosine`` and ``c13``, 1 / mean |n . line| over the planes met.
+        surface can reach (a joint that never breaks the face shows no face). The mean normal
+        is the realised one, of the planes the lines meet (the principal axis of their
+        normals): a set with a few joints on the face has a mean a few degrees from the
+        generator's, and the cosine that corrects the gaps depends on it.
+
+        Returns ``gaps``, the normal spacings between consecutive planes along a line (gaps
+        times the cosine between line and mean normal, Terzaghi's correction), ``length`` (m
+        of line), ``crossings``, ``cosine``, ``mean`` and ``c13``, 1 / mean |n . line| over
+        the planes met.
         """
+        normals, points = self.set_plane_normals[set_index], self.set_plane_points[set_index]
+        if exposed_only:
+            shown = np.unique(self.facet_plane[self.facet_set == set_index])
+            normals, points = normals[shown], points[shown]
+        generated = self.sets[set_index].normal
+        first = self._lines(normals, points, generated, line_spacing)
+        met = np.unique(first["met"])
+        if len(met) >= 2:
+            mean = np.linalg.eigh(normals[met].T @ normals[met])[1][:, -1]
+            first = self._lines(normals, points, mean if mean @ generated >= 0 else -mean, line_spacing)
+        first.pop("met")
+        return first
+
+    def _lines(self, normals, points, mean, line_spacing) -> dict:
         along, up_dip = self.face_axes
         width, height = self.face_size
-        mean = self.sets[set_index].normal
         direction = mean - (mean @ self.face_normal) * self.face_normal
         direction /= np.linalg.norm(direction)
         across = np.cross(self.face_normal, direction)
         corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype=np.float64)
         corners3 = corners[:, :1] * along + corners[:, 1:] * up_dip
-        normals, points = self.set_plane_normals[set_index], self.set_plane_points[set_index]
-        if exposed_only:
-            shown = np.unique(self.facet_plane[self.facet_set == set_index])
-            normals, points = normals[shown], points[shown]
         gaps, length, met = [], 0.0, []
         for c in np.arange((corners3 @ across).min() + line_spacing / 2, (corners3 @ across).max(), line_spacing):
             origin = c * across
@@ -164,7 +178,9 @@ class OutcropScene:
             "length": float(length),
             "crossings": int(len(met)),
             "cosine": float(mean @ direction),
+            "mean": mean,
             "c13": float(1.0 / np.abs(normals[met] @ direction).mean()) if len(met) else float("nan"),
+            "met": met,
         }
 
 
