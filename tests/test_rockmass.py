@@ -45,7 +45,14 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
 def test_spacing_of_parallel_joints_on_a_clean_face():
     sets = tuple(JointSet(s.name, s.dip, s.dip_direction, 1e6, s.spacing) for s in DEFAULT_SETS)
     scene = outcrop_scene(
-        width=10.0, height=5.0, seed=3, sets=sets, roughness=0.0, correlated_noise=0.0, noise=0.001, outlier_fraction=0.0
+        width=10.0,
+        height=5.0,
+        seed=3,
+        sets=sets,
+        roughness=0.0,
+        correlated_noise=0.0,
+        noise=0.001,
+        outlier_fraction=0.0,
     )
     _, _, rock, truth = measured(scene)
     # what is left is two joints of a set nearer than the 2 cm that tells joints apart
@@ -128,7 +135,9 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
         assert float(row["spacing_m"]) > 0.1 and float(row["p32_per_m"]) > 0.3
         assert row["spacing_best_fit"] in ("exponential", "lognormal")
         gaps = [float(r["spacing_m"]) for r in spacing if r["set"] == row["set"] and r["method"] == "scanline"]
-        assert len(gaps) == int(row["spacing_n_gaps"]) and np.mean(gaps) == pytest.approx(float(row["spacing_mean_gap_m"]))
+        assert len(gaps) == int(row["spacing_n_gaps"]) and np.mean(gaps) == pytest.approx(
+            float(row["spacing_mean_gap_m"])
+        )
     assert {"trace_strike_m", "trace_dip_m", "censored"} <= set(planes[0])
     assert {int(p["censored"]) for p in planes} == {0, 1}
     record = json.load(open(out / "run.json"))["sets"]["rock_mass"]

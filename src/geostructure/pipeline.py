@@ -19,6 +19,7 @@ from .params import Params
 from .planes import Planes
 from .rectangle import region_plane
 from .regions import grow_regions
+from .uncertainty import normal_standard_errors
 from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
@@ -214,7 +215,15 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         outward = _outward(filtered, labels, len(regions))
         normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
         orientation = orientation_from_normals(normals, frame, outward)
-        n_voxels, scatter, uncertainty = normal_spread(voxels.normal, voxel_labels, normals)
+        n_voxels, scatter = normal_spread(voxels.normal, voxel_labels, normals)
+        uncertainty = normal_standard_errors(
+            filtered.local,
+            labels,
+            normals,
+            np.array([r.centroid for r in regions]).reshape(-1, 3),
+            np.array([r.u for r in regions]).reshape(-1, 3),
+            up=frame.matrix[2],
+        )
         planes = Planes.from_regions(
             regions,
             normals,
@@ -318,8 +327,7 @@ def _relabel(point_region: np.ndarray, voxel_region: np.ndarray, merged_voxels: 
 
 
 def normal_spread(voxel_normals, voxel_labels, plane_normals):
-    """Voxel count, RMS angle (deg) of voxel normals about each plane's normal, and its
-    standard error (RMS / sqrt(voxels)): the plane's scatter and the uncertainty of its normal."""
+    """Voxel count and RMS angle (deg) of voxel normals about each plane's normal: the plane's scatter."""
     n = len(plane_normals)
     mask = voxel_labels >= 0
     lab = voxel_labels[mask]
@@ -327,7 +335,7 @@ def normal_spread(voxel_normals, voxel_labels, plane_normals):
     angle2 = np.degrees(np.arccos(np.clip(cos, 0.0, 1.0))) ** 2
     count = np.bincount(lab, minlength=n)
     scatter = np.sqrt(np.bincount(lab, angle2, minlength=n) / np.maximum(count, 1))
-    return count, scatter, scatter / np.sqrt(np.maximum(count, 1))
+    return count, scatter
 
 
 def _region_planes(points, point_region, voxel_region, min_points, method, report, *, min_voxels=3):

@@ -40,11 +40,16 @@ LAYOUT = (
     ("normal_uncertainty_deg", ("normal_uncertainty_deg",)),
     ("local_rect_center", ("rect_center_x", "rect_center_y", "rect_center_z")),
     ("rect_u", ("rect_u_x", "rect_u_y", "rect_u_z")),
+    ("dip_uncertainty_deg", ("dip_uncertainty_deg",)),
+    ("dip_direction_uncertainty_deg", ("dip_direction_uncertainty_deg",)),
+    ("planarity", ("planarity",)),
 )
 COLUMNS = tuple(name for _, names in LAYOUT for name in names)
 #: The stable contract other tools and issues read; more columns may follow these.
 PLANE_COLUMNS = COLUMNS[:12]
 EXTRA_COLUMNS = COLUMNS[12:]
+#: Columns a ``planes.csv`` written before they existed lacks: read back as NaN.
+LATER_COLUMNS = ("dip_uncertainty_deg", "dip_direction_uncertainty_deg", "planarity")
 _INTEGER = {"region_id", "n_points", "n_voxels"}
 
 
@@ -75,9 +80,15 @@ class Planes:
     fit_residual : (P,) array, optional
         RMS distance of the points to the plane.
     normal_scatter_deg, normal_uncertainty_deg : (P,) array, optional
-        Scatter of the voxel normals and the normal's standard error.
+        Scatter of the voxel normals and the normal's standard error
+        (:func:`~.uncertainty.normal_standard_errors`).
     rect_u, rect_v : (P, 3) array, optional
         The rectangle's axes (``rect_v`` defaults to ``normal x rect_u``).
+    dip_uncertainty_deg, dip_direction_uncertainty_deg : (P,) array, optional
+        Standard errors of dip and dip direction.
+    planarity : (P,) array, optional
+        1 - sqrt(lambda_3 / lambda_2) of the points' covariance: 1 for a flat patch, 0 for
+        a blob, whatever its outline.
     offset : (3,) array, optional
         Added to the local positions to give the input's own coordinates.
     extra : dict of (P,) arrays, optional
@@ -109,6 +120,9 @@ class Planes:
     normal_uncertainty_deg: np.ndarray | None = None
     local_rect_center: np.ndarray | None = None
     rect_u: np.ndarray | None = None
+    dip_uncertainty_deg: np.ndarray | None = None
+    dip_direction_uncertainty_deg: np.ndarray | None = None
+    planarity: np.ndarray | None = None
     rect_v: np.ndarray | None = None
     offset: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
@@ -227,7 +241,7 @@ class Planes:
                 cells = [row for row in reader if row]
         except (UnicodeDecodeError, csv.Error):
             raise InputError(f"{path}: not a GeoStructure planes.csv (not a text table).") from None
-        if any(name not in header for name in COLUMNS) or len(set(header)) != len(header):
+        if any(name not in header for name in COLUMNS if name not in LATER_COLUMNS) or len(set(header)) != len(header):
             raise InputError(f"{path}: not a GeoStructure planes.csv (its header lacks the plane columns).")
         try:
             if any(len(row) != len(header) for row in cells):
@@ -238,6 +252,8 @@ class Planes:
                 f"{path}: not a GeoStructure planes.csv (a row is short, or a cell is not a number)."
             ) from None
         column = {name: table[:, i] for i, name in enumerate(header)}
+        for name in LATER_COLUMNS:
+            column.setdefault(name, np.full(len(table), np.nan))
         values = {name: np.stack([column[c] for c in columns], axis=1) for name, columns in LAYOUT}
         values = {name: v[:, 0] if v.shape[1] == 1 else v for name, v in values.items()}
         offset = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64)
@@ -248,10 +264,11 @@ class Planes:
         return cls(**values, offset=offset, extra=extra)
 
     @classmethod
-    def from_regions(cls, regions, normals, orientation, *, offset, n_voxels, scatter, uncertainty) -> Planes:
+    def from_regions(cls, regions, normals, orientation, *, offset, n_voxels, scatter, uncertainty: dict) -> Planes:
         """The table of ``measure``'s region planes (:class:`~.rectangle.RegionPlane`, in the
         cloud's local coordinates, which ``offset`` moves back) with their oriented normals
-        and spread."""
+        and spread; ``uncertainty`` holds the standard errors and planarity
+        (:func:`~.uncertainty.normal_standard_errors`)."""
 
         def stacked(attribute, width=None):
             values = np.array([getattr(r, attribute) for r in regions], dtype=np.float64)
@@ -271,7 +288,10 @@ class Planes:
             fit_residual=stacked("residual"),
             n_voxels=n_voxels,
             normal_scatter_deg=scatter,
-            normal_uncertainty_deg=uncertainty,
+            normal_uncertainty_deg=uncertainty["normal"],
+            dip_uncertainty_deg=uncertainty["dip"],
+            dip_direction_uncertainty_deg=uncertainty["dip_direction"],
+            planarity=uncertainty["planarity"],
             local_rect_center=stacked("center", 3),
             rect_u=stacked("u", 3),
             rect_v=stacked("v", 3),

@@ -22,12 +22,13 @@ censoring biases short.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .exposure import Persistence, exposure, plane_persistence
-from .spacing import PlaneMoments, nearest_plane_gaps, scanline_spacing, spacing_statistics
+from .spacing import PlaneMoments, joint_planes, nearest_plane_gaps, scanline_spacing, spacing_statistics
+from .uncertainty import correlated_tilt
 
 #: Palmstrom (2005)'s block shape factor for Vb = beta Jv^-3 (equidimensional blocks).
 BLOCK_SHAPE_FACTOR = 36.0
@@ -81,6 +82,9 @@ class RockMass:
     p21: np.ndarray = field(default_factory=lambda: np.zeros(0))
     c13: np.ndarray = field(default_factory=lambda: np.zeros(0))
     c23: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    correlated_tilt: float = 0.0  # degrees RMS, read from the joints' facets
+    correlated_tilt_n: int = 0  # facets it was read from
+    plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
 
     @property
     def spacing(self) -> np.ndarray:
@@ -183,10 +187,12 @@ class RockMass:
             "block_volume_m3": self.block_volume,
             "block_volume_three_sets_m3": self.block_volume_three_sets(set_normals),
             "spacing_method": "scanlines on the mean face, joints extended as persistent planes",
+            "correlated_tilt_deg": self.correlated_tilt,
+            "correlated_tilt_facets": self.correlated_tilt_n,
         }
 
 
-def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.0)) -> RockMass:
+def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.0), standard_errors=None) -> RockMass:
     """Spacing, persistence and intensity from labelled points, planes and their sets.
 
     Parameters
@@ -203,6 +209,9 @@ def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.
         The sets' mean normals.
     up : (3,) array
         The cloud's up direction (the frame's), for strike and dip.
+    standard_errors : (P,) array, optional
+        The planes' normal standard errors (degrees), from which the correlated tilt is read
+        (:func:`~.uncertainty.correlated_tilt`).
 
     Examples
     --------
@@ -229,9 +238,12 @@ def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.
     n_sets = len(set_normals)
     result = RockMass(persistence, face.area, set_labels)
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)
+    joints = []
     for s, mean in enumerate(set_normals):
         members = np.flatnonzero(set_labels == s)
-        line = scanline_spacing(points, normals, moments, members, mean, face)
+        joint, joint_normal, joint_centre = joint_planes(moments.subset(members), normals[members])
+        joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
+        line = scanline_spacing(points, joint_normal, joint_centre, mean, face)
         result.scanlines.append(line)
         result.nearest_gaps.append(nearest_plane_gaps(normals, centroids, members, mean, persistence))
         result.p21[s] = persistence.trace_face[members].sum() / face.area if face.area > 0 else np.nan
@@ -240,4 +252,23 @@ def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.
                 result.c13[s] = 1.0 / np.abs(normals[members] @ line.direction).mean()
             sines = np.sqrt(np.clip(1.0 - (normals[members] @ face.normal) ** 2, 0.0, 1.0))
             result.c23[s] = 1.0 / max(sines.mean(), 1e-6)
+    if standard_errors is not None:
+        result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, joints)
     return result
+
+
+def with_rock_mass(planes, sets, rock: RockMass | None):
+    """The plane table (:class:`~.planes.Planes`) with its ``set`` column (from ``sets``, a
+    :class:`~.sets.JointSets`) and, with ``rock``, the traces, the censoring flag and the
+    standard errors with the correlated tilt the joints show (``rock.plane_errors``)."""
+    planes = planes.with_columns(set=sets.labels)
+    if rock is None:
+        return planes
+    e = rock.plane_errors
+    planes = replace(
+        planes,
+        normal_uncertainty_deg=e["normal"],
+        dip_uncertainty_deg=e["dip"],
+        dip_direction_uncertainty_deg=e["dip_direction"],
+    )
+    return planes.with_columns(**rock.plane_columns())

@@ -31,8 +31,9 @@ from .io.truth import GroundTruth, read_truth
 from .io.writers import sets_record, write_evaluation_files, write_result, write_sets_csv, write_spacing_csv
 from .orientation import Frame
 from .planes import Planes, reoriented
-from .rockmass import RockMass, rock_mass
+from .rockmass import RockMass, rock_mass, with_rock_mass
 from .sets import JointSets, find_sets
+from .uncertainty import normal_standard_errors, with_correlated_tilt
 
 
 def save_measurement(
@@ -125,7 +126,12 @@ def plane_rock_mass(points, labels, planes: Planes, sets: JointSets, frame: Fram
         The run's frame, whose up gives strike and dip.
     """
     up = frame.matrix[2]
-    return rock_mass(points, labels, planes.normal, sets.labels, sets.mean_normal, up)
+    # The block standard errors, computed again here so that a folder's sets can be found
+    # again without adding the correlated tilt twice.
+    errors = normal_standard_errors(points, labels, planes.normal, planes.local_centroid, planes.rect_u, up)
+    rock = rock_mass(points, labels, planes.normal, sets.labels, sets.mean_normal, up, errors["normal"])
+    rock.plane_errors = with_correlated_tilt(errors, rock.correlated_tilt, planes.normal, up)
+    return rock
 
 
 def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str, Path]]:
@@ -159,7 +165,7 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str,
         points, region = read_regions(outputs.outdir, planes.offset)
         labels = _plane_rows(region, planes.region_id)
         rock = plane_rock_mass(points, labels, planes, sets, frame)
-        planes = planes.with_columns(set=sets.labels, **rock.plane_columns())
+        planes = with_rock_mass(planes, sets, rock)
         planes.to_csv(outputs.path("planes.csv"))
         write_dips_csv(planes, outputs.path("planes_dips.csv"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)

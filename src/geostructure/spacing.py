@@ -162,29 +162,24 @@ class Scanlines:
         return self.spacing / np.sqrt(self.joints) if self.joints > 0 else float("nan")
 
 
-def scanline_spacing(points, normals, moments: PlaneMoments, members, mean, face: Exposure) -> Scanlines:
+def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure) -> Scanlines:
     """One set's joints along virtual scanlines on the face (see the module's description).
 
     Parameters
     ----------
     points : (N, 3) array
         The cloud (local coordinates): the lines run as far as it does.
-    normals : (P, 3) array
-        All planes' normals.
-    moments : PlaneMoments
-        All planes' moments.
-    members : (M,) int array
-        The set's planes.
+    joint_normal, joint_centre : (J, 3) array
+        The set's joints (:func:`joint_planes`).
     mean : (3,) array
         The set's mean normal.
     face : Exposure
     """
     direction = mean - (mean @ face.normal) * face.normal
     cosine = float(np.linalg.norm(direction))
-    if cosine < MIN_SCANLINE_COSINE or len(members) < 2:
+    if cosine < MIN_SCANLINE_COSINE or len(joint_normal) == 0:
         return Scanlines(np.zeros(0), 0.0, 0, 0, cosine, None)
     direction /= cosine
-    _, joint_normal, joint_centre = joint_planes(moments.subset(members), normals[members])
     across = np.cross(face.normal, direction)
     along_pts = (points - face.origin) @ direction
     across_pts = (points - face.origin) @ across
@@ -249,8 +244,20 @@ def spacing_statistics(gaps) -> dict:
     """
     g = np.asarray(gaps, dtype=np.float64)
     g = g[g > 0]
-    keys = ("n", "mean", "median", "mode", "exp_mean", "exp_aic", "exp_ks",
-            "lognorm_mu", "lognorm_sigma", "lognorm_aic", "lognorm_ks", "best_fit")
+    keys = (
+        "n",
+        "mean",
+        "median",
+        "mode",
+        "exp_mean",
+        "exp_aic",
+        "exp_ks",
+        "lognorm_mu",
+        "lognorm_sigma",
+        "lognorm_aic",
+        "lognorm_ks",
+        "best_fit",
+    )
     if len(g) < 3:
         out = dict.fromkeys(keys, float("nan"))
         out.update(n=len(g), best_fit="", mean=float(g.mean()) if len(g) else float("nan"))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..rockmass import ROCK_SET_COLUMNS
+from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
 from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv, write_geojson
 from .outdir import EVALUATION_FILES, OutputSet, output_set
@@ -169,9 +169,10 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
         "regions": "regions.ply",
         "voxels": "voxel_planes.ply",
     }
-    planes = result.planes if sets is None else result.planes.with_columns(set=sets.labels)
-    if rock is not None:
-        planes = planes.with_columns(**rock.plane_columns())
+    if sets is None:
+        planes = result.planes
+    else:
+        planes = with_rock_mass(result.planes, sets, rock)
     write_plane_tables(planes, outputs, crs=result.cloud.crs, enu_origin=result.cloud.enu_origin)
     write_regions_ply(result, outputs.path(files["regions"]))
     write_voxel_planes_ply(result, outputs.path(files["voxels"]))

@@ -32,7 +32,8 @@ COLUMNS = [
     ("normal_uncertainty_deg", "± (°)", 2),
     ("area_m2", "Area (m²)", 2),
     ("n_points", "Points", 0),
-    ("fit_residual", "Residual (m)", 4),
+    ("fit_residual", "Roughness (m)", 4),
+    ("planarity", "Planarity", 3),
 ]
 
 

@@ -18,9 +18,11 @@ def figure_spacing(scene: ReportScene) -> dict | None:
     if not scene.spacings:
         return None
     fig = go.Figure()
-    top = max(float(np.percentile(g, 98)) for g in scene.spacings.values() if len(g)) if any(
-        len(g) for g in scene.spacings.values()
-    ) else 1.0
+    top = (
+        max(float(np.percentile(g, 98)) for g in scene.spacings.values() if len(g))
+        if any(len(g) for g in scene.spacings.values())
+        else 1.0
+    )
     x = np.linspace(top / 200.0, top, 200)
     for s, gaps in sorted(scene.spacings.items()):
         if len(gaps) == 0:

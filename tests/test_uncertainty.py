@@ -1,0 +1,91 @@
+"""Normal standard errors: calibrated on planes of known noise, and on the rough outcrop."""
+
+import numpy as np
+import pytest
+
+from geostructure import measure
+from geostructure.evaluate import match_facets
+from geostructure.orientation import angle_between_normals, normal_from_orientation, orientation_from_normals
+from geostructure.runs import plane_rock_mass, plane_sets, with_rock_mass
+from geostructure.synthetic import outcrop_scene
+from geostructure.synthetic.outcrop import _smooth_field
+from geostructure.uncertainty import normal_standard_errors
+
+
+def noisy_planes(rng, *, size, spacing, white, correlated=0.0, wavelength=0.0, normal=(0.0, 0.0, 1.0), n=150):
+    """``n`` square patches of side ``size`` about a known normal, each fitted by least squares."""
+    normal = np.asarray(normal, dtype=np.float64)
+    u = np.cross(normal, [0.0, 1.0, 0.0] if abs(normal[1]) < 0.9 else [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    m = int((size / spacing) ** 2)
+    points, labels, fits = [], [], []
+    for p in range(n):
+        ab = rng.uniform(-size / 2, size / 2, (m, 2))
+        h = white * rng.standard_normal(m)
+        if correlated:
+            h += _smooth_field(ab, correlated, (0.7 * wavelength, 1.4 * wavelength), rng)
+        q = ab[:, :1] * u + ab[:, 1:] * v + h[:, None] * normal + [10.0 * p, 0.0, 0.0]
+        centre = q.mean(axis=0)
+        vectors = np.linalg.eigh(np.cov((q - centre).T))[1]
+        fits.append((vectors[:, 0] * np.sign(vectors[:, 0] @ normal), centre, vectors[:, 2]))
+        points.append(q)
+        labels.append(np.full(m, p))
+    normals, centres, axes = (np.array(a) for a in zip(*fits))
+    return np.vstack(points), np.concatenate(labels), normals, centres, axes
+
+
+def ratio_rms(errors, standard_errors):
+    return float(np.sqrt(np.mean((errors / standard_errors) ** 2)))
+
+
+@pytest.mark.parametrize(
+    "size, spacing, white, correlated, wavelength",
+    [
+        (0.3, 0.01, 0.002, 0.0, 0.0),  # a small facet, LiDAR noise
+        (1.0, 0.03, 0.01, 0.0, 0.0),  # noisier, SfM spacing
+        (3.0, 0.03, 0.002, 0.0, 0.0),  # a wall
+        (1.0, 0.03, 0.002, 0.005, 0.1),  # rough: asperities a tenth of the plane across
+        (0.3, 0.03, 0.002, 0.005, 0.09),  # rough: a third of it
+    ],
+)
+def test_the_normal_standard_error_is_calibrated(size, spacing, white, correlated, wavelength):
+    rng = np.random.default_rng(int(1000 * size + 100 * white))
+    points, labels, normals, centres, axes = noisy_planes(
+        rng, size=size, spacing=spacing, white=white, correlated=correlated, wavelength=wavelength
+    )
+    se = normal_standard_errors(points, labels, normals, centres, axes)
+    errors = angle_between_normals(normals, np.tile([0.0, 0.0, 1.0], (len(normals), 1)))
+    assert 0.7 < ratio_rms(errors, se["normal"]) < 1.5
+
+
+def test_dip_and_dip_direction_errors_are_carried_from_the_normal():
+    rng = np.random.default_rng(8)
+    true = normal_from_orientation(120.0, 30.0)
+    points, labels, normals, centres, axes = noisy_planes(rng, size=0.5, spacing=0.02, white=0.004, normal=true, n=300)
+    se = normal_standard_errors(points, labels, normals, centres, axes)
+    measured, truth = orientation_from_normals(normals), orientation_from_normals(true[None, :])
+    dip_error = measured.dip - truth.dip[0]
+    direction_error = (measured.dip_direction - truth.dip_direction[0] + 180.0) % 360.0 - 180.0
+    assert 0.7 < ratio_rms(dip_error, se["dip"]) < 1.5
+    assert 0.7 < ratio_rms(direction_error, se["dip_direction"]) < 1.5
+    assert np.median(se["dip_direction"]) > 1.5 * np.median(se["dip"])  # 1 / sin(30) = 2
+
+
+@pytest.mark.parametrize("seed, correlated_noise", [(4, 0.005), (7, 0.01)])
+def test_on_an_sfm_like_outcrop_with_the_correlated_tilt_the_joints_show(seed, correlated_noise):
+    scene = outcrop_scene(width=12.0, height=6.0, seed=seed, correlated_noise=correlated_noise)
+    result = measure(scene.cloud)
+    match = match_facets(result.planes, scene)
+    on = np.flatnonzero(match.plane_facet >= 0)
+    errors = angle_between_normals(result.planes.normal[on], scene.facet_normal[match.plane_facet[on]])
+    block = result.planes.normal_uncertainty_deg[on]
+    # The SfM error's wavelengths (0.5 to 3 m) exceed most facets: it tilts them whole, and
+    # the blocks alone cannot see it ...
+    assert ratio_rms(errors, block) > 1.6
+    sets = plane_sets(result.planes, result.frame)
+    rock = plane_rock_mass(result.filtered.local, result.labels, result.planes, sets, result.frame)
+    planes = with_rock_mass(result.planes, sets, rock)
+    # ... but the facets of each joint, which should share its normal, show it.
+    assert rock.correlated_tilt > 0.3 and rock.correlated_tilt_n > 100
+    assert 0.7 < ratio_rms(errors, planes.normal_uncertainty_deg[on]) < 1.5
