@@ -134,7 +134,7 @@ def plane_rock_mass(points, labels, planes: Planes, sets: JointSets, frame: Fram
     return rock
 
 
-def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str, Path]]:
+def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass, dict[str, Path]]:
     """Find the joint sets of a measured folder and add them with their spacing, persistence
     and intensity: ``sets.csv``, and ``set``, trace and ``censored`` columns in ``planes.csv``
     (``set`` in ``planes_dips.csv``); a report there is drawn again.
@@ -146,6 +146,11 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str,
     n_sets : int, optional
         The number of sets; chosen by BIC when not given.
 
+    Returns
+    -------
+    tuple
+        The sets, their :class:`~.rockmass.RockMass`, and output kind -> final path.
+
     Examples
     --------
     >>> import tempfile
@@ -153,7 +158,7 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str,
     >>> from geostructure.synthetic import outcrop_scene
     >>> out = tempfile.mkdtemp()
     >>> _ = save_measurement(measure(outcrop_scene(width=6.0, height=4.0, seed=1).cloud), out)
-    >>> sets, paths = add_sets(out)
+    >>> sets, rock, paths = add_sets(out)
     >>> len(sets), paths["sets"].name  # the outcrop's three joint sets
     (3, 'sets.csv')
     """
@@ -178,7 +183,7 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, dict[str,
             _link_kept(outputs)
             outputs.write_record()
             paths.update(_stage_report(outputs, outputs.staging, None))
-    return sets, paths
+    return sets, rock, paths
 
 
 def _plane_rows(region, region_ids) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 from rich.table import Table
 
@@ -65,16 +66,23 @@ def print_planes(result, console: Console | None = None) -> None:
     console.print(table)
 
 
-def print_sets(sets, console: Console | None = None) -> None:
-    """The joint sets (:class:`~geostructure.sets.JointSets`), one row each."""
+def print_sets(sets, console: Console | None = None, rock=None) -> None:
+    """The joint sets (:class:`~geostructure.sets.JointSets`), one row each; with ``rock``
+    (:class:`~geostructure.rockmass.RockMass`), their spacing and intensity too."""
     console = console or stdout_console()
     if not len(sets):
         console.print(f"No joint set: no {MIN_SET_PLANES} of the {len(sets.labels)} planes share an orientation.")
         return
-    table = Table(title=f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)")
-    for column in ("set", "planes", "area m²", "dip", "dip dir", "Fisher K", "α95 deg", "sph. var."):
+    title = f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)"
+    if rock is not None and np.isfinite(rock.jv):
+        title += f"; Jv {rock.jv:.1f}/m³, block {rock.block_volume:.2g} m³"
+    table = Table(title=title)
+    columns = ["set", "planes", "area m²", "dip", "dip dir", "Fisher K", "α95 deg", "sph. var."]
+    for column in columns + (["spacing m", "P32 1/m", "censored"] if rock is not None else []):
         table.add_column(column, justify="right")
-    for row in sets.rows():
+    rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
+    for row, more in zip(sets.rows(), rock_rows):
+        extra = [f"{more['spacing_m']:.2f}", f"{more['p32_per_m']:.2f}", str(more["n_censored"])] if more else []
         table.add_row(
             str(row["set"]),
             str(row["n_planes"]),
@@ -84,6 +92,7 @@ def print_sets(sets, console: Console | None = None) -> None:
             f"{row['fisher_k']:.0f}",
             f"{row['alpha95_deg']:.1f}",
             f"{row['spherical_variance']:.3f}",
+            *extra,
         )
     console.print(table)
 

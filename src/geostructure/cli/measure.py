@@ -152,7 +152,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
     if not args.quiet:
         print_planes(result)
         if sets is not None:
-            print_sets(sets)
+            print_sets(sets, rock=rock)
         if evaluation is not None:
             print_evaluation(evaluation)
         print(

@@ -1,4 +1,5 @@
-"""The commands on a rock mass's measured planes: sets (and, as they come, spacing and kinematics)."""
+"""The commands on a rock mass's measured planes: sets with their spacing, persistence and
+intensity (and, as it comes, kinematics)."""
 
 from __future__ import annotations
 
@@ -18,8 +19,8 @@ def add_rockmass_commands(sub) -> None:
 
 
 def run_sets(args) -> int:
-    sets, paths = add_sets(args.outdir, n_sets=args.n_sets)
+    sets, rock, paths = add_sets(args.outdir, n_sets=args.n_sets)
     if not args.quiet:
-        print_sets(sets)
+        print_sets(sets, rock=rock)
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0
