@@ -197,11 +197,37 @@ def _quads(n: int):
     return i, j, k
 
 
+#: A plane whose roughness (RMS fit residual) exceeds this many times the median plane's is a
+#: rough surface, not a joint: its rectangle would cover the joints it spans, so it is not drawn.
+ROUGH_FACTOR = 3.0
+
+
+def rough_planes(planes) -> np.ndarray:
+    """Which planes are rough surfaces (see :data:`ROUGH_FACTOR`); none among fewer than five.
+
+    Examples
+    --------
+    >>> from geostructure.planes import Planes
+    >>> residual = [0.12, 0.01, 0.012, 0.009, 0.011, 0.01]
+    >>> rough_planes(Planes(normal=[[0, 0, 1.0]] * 6, fit_residual=residual)).tolist()
+    [True, False, False, False, False, False]
+    """
+    residual = np.asarray(planes.fit_residual, dtype=np.float64)
+    if len(residual) < 5 or not np.isfinite(residual).any():
+        return np.zeros(len(residual), dtype=bool)
+    return residual > ROUGH_FACTOR * np.nanmedian(residual)
+
+
 def _plane_mesh(scene: ReportScene, colors):
     import plotly.graph_objects as go
 
-    corners = scene.planes.local_corners.reshape(-1, 3)
     n = len(scene.planes)
+    # A rough surface's rectangle shrinks to its centre (drawn as nothing); its points stay.
+    corners = np.where(
+        rough_planes(scene.planes)[:, None, None],
+        scene.planes.local_rect_center[:, None, :],
+        scene.planes.local_corners,
+    ).reshape(-1, 3)
     i, j, k = _quads(n)
     text = np.repeat([hover_text(row, scene.truth.get(row["region_id"])) for row in scene.planes.rows()], 4)
     face_colors = [colors[f % n] for f in range(n)] * 2 if n else []
@@ -226,7 +252,7 @@ def hover_text(row: dict, truth: dict | None) -> str:
     text = (
         f"<b>Plane {row['region_id']}</b><br>strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, "
         f"dip direction {row['dip_direction']:.1f}° (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
-        f"<br>area {row['area_m2']:.2f} m², {row['n_points']:,} points, residual {row['fit_residual']:.4f} m"
+        f"<br>area {row['area_m2']:.2f} m², {row['n_points']:,} points, roughness {row['fit_residual']:.4f} m"
     )
     if truth:
         text += f"<br>truth '{truth['surface']}': error {float(truth['normal_error_deg']):.2f}°"
