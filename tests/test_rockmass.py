@@ -42,6 +42,24 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
     assert all(line.joints >= 4 and line.crossings > 2 * line.joints for line in rock.scanlines)
 
 
+@pytest.mark.slow
+def test_spacing_on_a_lidar_like_face_at_utm_offset():
+    scene = outcrop_scene(
+        width=8.0,
+        height=5.0,
+        point_spacing=0.01,
+        noise=0.002,
+        correlated_noise=0.001,
+        facet_size=0.4,
+        seed=6,
+        offset=(662_000.0, 5_103_000.0, 800.0),
+    )
+    _, sets, rock, truth = measured(scene)
+    assert len(sets) == 3 and sorted(truth) == [0, 1, 2]
+    np.testing.assert_allclose(rock.spacing, scene.set_spacing[truth], rtol=0.15)
+    np.testing.assert_allclose(rock.p32_from_p10, scene.set_p32[truth], rtol=0.20)
+
+
 def test_spacing_of_parallel_joints_on_a_clean_face():
     sets = tuple(JointSet(s.name, s.dip, s.dip_direction, 1e6, s.spacing) for s in DEFAULT_SETS)
     scene = outcrop_scene(
