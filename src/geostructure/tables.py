@@ -97,6 +97,26 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     console.print(table)
 
 
+def print_kinematics(summary: dict, console: Console | None = None) -> None:
+    """The kinematic tests' summary (``kinematics.json``), one row per failure mode."""
+    console = console or stdout_console()
+    slope = summary["slope"]
+    title = (
+        f"Kinematics: slope {slope['dip']:.1f}/{slope['dip_direction']:05.1f} ({slope['source']}), "
+        f"friction {summary['friction_deg']:g}°, lateral limits {summary['lateral_limit_deg']:g}°"
+    )
+    table = Table(title=title)
+    for column in ("failure mode", "planes", "% by count", "% by area"):
+        table.add_column(column, justify="right")
+    for key, name in (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge sliding"),
+                      ("flexural_toppling", "flexural toppling")):  # fmt: skip
+        mode = summary[key]
+        table.add_row(name, str(mode["planes"]), f"{mode['percent_by_count']:.1f}", f"{mode['percent_by_area']:.1f}")
+    console.print(table)
+    wedge = summary["wedge_sliding"]
+    console.print(f"{wedge['critical_pairs']} critical pairs of {wedge['pairs_tested']:,} tested.")
+
+
 def print_evaluation(evaluation, console: Console | None = None) -> None:
     console = console or stdout_console()
     table = Table(title="Against the ground truth")

@@ -45,11 +45,12 @@ EVALUATION_FILES = ("evaluation.csv", "evaluation.json")
 #: What ``sets`` writes (and ``measure --sets``): the set table, and the plane tables with a set column.
 SETS_FILES = ("sets.csv", "spacing.csv", "planes.csv", "planes_dips.csv")
 REPORT_FILES = ("report.html", "stereonet.png", "stereonet.svg", "rose.png")
+KINEMATICS_FILES = ("kinematics.csv", "wedges.csv", "kinematics.json", "kinematics.png")
 SWEEP_FILES = ("sweep.csv", "sweep.json") + tuple(
     f"sweep_{factor}.{fmt}" for factor in ("zeta", "theta", "psi", "k", "all") for fmt in ("png", "svg")
 )
 #: Every name GeoStructure writes into an output folder; no other file there is ever touched.
-OWNED = frozenset(MEASURE_FILES + EVALUATION_FILES + SETS_FILES + REPORT_FILES + SWEEP_FILES)
+OWNED = frozenset(MEASURE_FILES + EVALUATION_FILES + SETS_FILES + REPORT_FILES + SWEEP_FILES + KINEMATICS_FILES)
 
 
 def check_outdir(outdir) -> Path:

@@ -1,0 +1,194 @@
+"""Kinematic tests of a rock slope: which planes, and pairs of planes, can slide or topple out.
+
+All angles are degrees; orientations are dip and dip direction (of planes), trend and plunge
+(of lines), in the run's frame. The tests are those a geologist draws on a stereonet
+(Markland 1972; Hoek & Bray 1981; Goodman 1980; Wyllie & Mah 2004), as Dips applies them:
+
+- **Planar sliding** (:func:`planar_sliding`): the plane dips out of the slope within
+  ``lateral_limit`` of its dip direction, steeper than the friction angle, and daylights: its
+  dip is less than the slope's apparent dip in the plane's dip direction,
+  tan(apparent) = tan(slope dip) cos(plane dip direction - slope dip direction).
+- **Wedge sliding** (:func:`wedges`): the intersection line of two planes plunges steeper than
+  the friction angle and daylights (its plunge is less than the slope's apparent dip along its
+  trend). The wedge rides on both planes when the normal forces that hold it up are both
+  pushing; otherwise it lifts off one and slides on the other alone (Hocking 1976), which is
+  the planar test's case and is flagged ``single_plane``.
+- **Flexural toppling** (:func:`flexural_toppling`; Goodman 1980): the plane dips into the slope,
+  its dip direction within ``lateral_limit`` of the slope's opposite, and its pole plunges less
+  than the slope dip minus the friction angle (its dip exceeds 90 - slope dip + friction).
+- **Factor of safety**, dry and without cohesion: planar FS = tan(friction) / tan(dip); a wedge's
+  from limit equilibrium along its line, FS = (N_a + N_b) tan(friction) / sin(plunge) for a
+  block of unit weight, which is Hoek & Bray's (1981) FS = A tan(phi_a) + B tan(phi_b).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import ParameterError
+from .orientation import normal_from_orientation
+
+#: Dips' default lateral limits (degrees) for planar sliding and flexural toppling.
+LATERAL_LIMIT = 20.0
+
+
+@dataclass(frozen=True)
+class Slope:
+    """The slope face: dip, dip direction, their standard errors (degrees), and how it was
+    set (``given``, or ``fitted`` to the cloud)."""
+
+    dip: float
+    dip_direction: float
+    dip_uncertainty: float = 0.0
+    dip_direction_uncertainty: float = 0.0
+    source: str = "given"
+
+    def __post_init__(self):
+        if not (np.isfinite(self.dip) and 0.0 < self.dip <= 90.0):
+            raise ParameterError(f"the slope's dip must be more than 0 and at most 90 degrees, not {self.dip}.")
+        if not np.isfinite(self.dip_direction):
+            raise ParameterError(f"the slope's dip direction must be a number of degrees, not {self.dip_direction}.")
+        object.__setattr__(self, "dip_direction", float(self.dip_direction) % 360.0)
+
+
+def _check_friction(friction: float) -> float:
+    if not (np.isfinite(friction) and 0.0 < friction < 90.0):
+        raise ParameterError(f"the friction angle must be more than 0 and less than 90 degrees, not {friction}.")
+    return float(friction)
+
+
+def angular_difference(a, b) -> np.ndarray:
+    """|a - b| folded into [0, 180] (degrees)."""
+    return np.abs((np.asarray(a, dtype=np.float64) - b + 180.0) % 360.0 - 180.0)
+
+
+def _daylights(trend, plunge, slope: Slope) -> np.ndarray:
+    """Lines (trend, plunge) that come out of the slope face: plunge below its apparent dip."""
+    cosine = np.cos(np.radians(np.asarray(trend, dtype=np.float64) - slope.dip_direction))
+    apparent = np.degrees(np.arctan(np.tan(np.radians(slope.dip)) * np.clip(cosine, 0.0, None)))
+    return (cosine > 0) & (np.asarray(plunge) < apparent)
+
+
+def planar_sliding(dip, dip_direction, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT):
+    """Which planes can slide out of the slope on themselves (see the module's description).
+
+    Examples
+    --------
+    >>> slope = Slope(dip=60.0, dip_direction=180.0)
+    >>> planar_sliding([45, 45, 25, 45, 65], [180, 210, 180, 0, 180], slope, friction=30.0).tolist()
+    [True, False, False, False, False]
+    """
+    friction = _check_friction(friction)
+    dip = np.asarray(dip, dtype=np.float64)
+    lateral = angular_difference(dip_direction, slope.dip_direction) <= lateral_limit
+    return lateral & (dip > friction) & _daylights(dip_direction, dip, slope)
+
+
+def flexural_toppling(dip, dip_direction, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT):
+    """Which planes dip into the slope steeply enough for the slabs between them to topple.
+
+    Examples
+    --------
+    >>> slope = Slope(dip=75.0, dip_direction=180.0)
+    >>> flexural_toppling([70, 70, 40, 70], [0, 180, 0, 40], slope, friction=30.0).tolist()
+    [True, False, False, False]
+    """
+    friction = _check_friction(friction)
+    dip = np.asarray(dip, dtype=np.float64)
+    opposite = angular_difference(dip_direction, slope.dip_direction + 180.0) <= lateral_limit
+    return opposite & (dip > 90.0 - slope.dip + friction)
+
+
+def planar_factor_of_safety(dip, friction: float) -> np.ndarray:
+    """tan(friction) / tan(dip), dry and without cohesion; inf for a flat plane."""
+    friction = _check_friction(friction)
+    with np.errstate(divide="ignore"):
+        return np.tan(np.radians(friction)) / np.tan(np.radians(np.asarray(dip, dtype=np.float64)))
+
+
+def intersection_lines(normals_a, normals_b) -> tuple[np.ndarray, np.ndarray]:
+    """Trend and plunge (degrees) of the downward line where planes a and b meet (ENU normals);
+    NaN for parallel planes."""
+    line = np.cross(np.asarray(normals_a, dtype=np.float64), np.asarray(normals_b, dtype=np.float64))
+    length = np.linalg.norm(line, axis=-1, keepdims=True)
+    line = np.where(length > 1e-9, line / np.maximum(length, 1e-300), np.nan)
+    line = np.where(line[..., 2:3] > 0, -line, line)  # downward
+    trend = np.degrees(np.arctan2(line[..., 0], line[..., 1])) % 360.0
+    plunge = np.degrees(np.arcsin(np.clip(-line[..., 2], -1.0, 1.0)))
+    return trend, plunge
+
+
+@dataclass
+class Wedges:
+    """Every pair of planes ``a`` < ``b`` whose intersection is critical, with its line's
+    ``trend`` and ``plunge``, ``factor_of_safety`` and ``single_plane`` (-1 when the wedge rides
+    on both planes, else the index of the one it slides on alone)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    trend: np.ndarray
+    plunge: np.ndarray
+    factor_of_safety: np.ndarray
+    single_plane: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+
+def wedges(dip, dip_direction, slope: Slope, friction: float, *, max_planes: int = 3000) -> Wedges:
+    """The critical wedges among all pairs of planes (see the module's description).
+
+    Examples
+    --------
+    >>> slope = Slope(dip=70.0, dip_direction=180.0)
+    >>> w = wedges([55, 55, 20], [140, 220, 180], slope, friction=30.0)  # a symmetric wedge, and a flat plane
+    >>> w.a.tolist(), w.b.tolist(), round(float(w.plunge[0]), 1), round(float(w.trend[0]), 1)
+    ([0], [1], 47.6, 180.0)
+    """
+    friction = _check_friction(friction)
+    dip = np.asarray(dip, dtype=np.float64)
+    n = len(dip)
+    if n > max_planes:
+        raise ParameterError(
+            f"{n} planes make {n * (n - 1) // 2:,} pairs; test the largest {max_planes} or the sets' means."
+        )
+    normals = normal_from_orientation(np.asarray(dip_direction, dtype=np.float64), dip).reshape(-1, 3)
+    a, b = np.triu_indices(n, k=1)
+    trend, plunge = intersection_lines(normals[a], normals[b])
+    critical = np.isfinite(plunge) & (plunge > friction) & _daylights(trend, plunge, slope)
+    a, b, trend, plunge = a[critical], b[critical], trend[critical], plunge[critical]
+    fs, single = _wedge_equilibrium(normals[a], normals[b], plunge, dip[a], dip[b], friction)
+    single = np.where(single == 0, a, np.where(single == 1, b, -1))
+    return Wedges(a, b, trend, plunge, fs, single)
+
+
+def _wedge_equilibrium(na, nb, plunge, dip_a, dip_b, friction):
+    """Factor of safety of wedges of unit weight, and which plane (0: a, 1: b, -1: both) each
+    rides on. The upward normals push on the block from below; solving
+    N_a n_a + N_b n_b = the weight's part across the line (n_a and n_b both lie across it)
+    gives N_a + N_b cos t = cos(dip_a) and N_a cos t + N_b = cos(dip_b), t the angle between
+    the normals (Hoek & Bray 1981's A and B, times sin(plunge))."""
+    cos_t = np.einsum("ij,ij->i", na, nb)
+    sin2 = np.maximum(1.0 - cos_t**2, 1e-12)
+    ca, cb = np.cos(np.radians(dip_a)), np.cos(np.radians(dip_b))
+    force_a = (ca - cb * cos_t) / sin2
+    force_b = (cb - ca * cos_t) / sin2
+    tan_phi = np.tan(np.radians(friction))
+    both = (force_a >= 0) & (force_b >= 0)
+    fs = (force_a + force_b) * tan_phi / np.sin(np.radians(plunge))
+    # Lifted off one plane: it slides on the other alone, as a planar block does.
+    single = np.where(both, -1, np.where(force_a < 0, 1, 0))
+    alone = np.where(single == 1, dip_b, dip_a)
+    fs = np.where(both, fs, tan_phi / np.tan(np.radians(alone)))
+    return fs, single
+
+
+def percent_critical(critical, weights=None) -> float:
+    """Share (%) of the planes that are critical, by count or weighted (by area)."""
+    critical = np.asarray(critical, dtype=bool)
+    if len(critical) == 0:
+        return float("nan")
+    w = np.ones(len(critical)) if weights is None else np.asarray(weights, dtype=np.float64)
+    return float(100.0 * w[critical].sum() / w.sum()) if w.sum() > 0 else float("nan")

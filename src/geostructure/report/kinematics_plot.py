@@ -1,0 +1,63 @@
+"""``kinematics.png``: the kinematic tests drawn on the net as a geologist draws them by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..projection import quiet_mplstereonet
+
+
+def kinematics_figure(dip, dip_direction, *, slope, friction, lateral_limit, planar, toppling, wedge_lines=((), ())):
+    """Poles (critical for planar sliding red, for flexural toppling orange), the slope's great
+    circle (the wedges' daylight envelope), the planar daylight envelope and lateral limits,
+    the friction cones of poles and of lines, the toppling envelope, and the critical wedges'
+    intersection lines (crosses)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.0, 8.0))
+    fig.subplots_adjust(left=0.08, right=0.92, top=0.9, bottom=0.22)
+    with quiet_mplstereonet():  # importing it registers the projection, with a warning to hush
+        import mplstereonet
+
+        ax = fig.add_subplot(111, projection="stereonet")
+    dip, dip_direction = np.asarray(dip, float), np.asarray(dip_direction, float)
+    strike = (dip_direction - 90.0) % 360.0
+    alpha_f, psi_f = slope.dip_direction, slope.dip
+
+    def curve(plunge, bearing, *style, **kw):
+        lon, lat = mplstereonet.line(np.asarray(plunge, float), np.asarray(bearing, float))
+        ax.plot(lon, lat, *style, **kw)
+
+    ax.plane((alpha_f - 90.0) % 360.0, psi_f, "k-", linewidth=2.0, label="slope (wedge daylight envelope)")
+    # Planar daylight envelope: the poles of planes dipping at the slope's apparent dip.
+    azimuth = np.linspace(alpha_f - 90.0, alpha_f + 90.0, 181)
+    apparent = np.degrees(np.arctan(np.tan(np.radians(psi_f)) * np.cos(np.radians(azimuth - alpha_f))))
+    curve(90.0 - apparent, (azimuth + 180.0) % 360.0, "b-", linewidth=1.5, label="planar daylight envelope")
+    for side in (-1.0, 1.0):  # lateral limits, on the pole side (planar) and the slope side (toppling)
+        plunge = np.linspace(0.0, 90.0, 46)
+        curve(plunge, np.full_like(plunge, (alpha_f + 180.0 + side * lateral_limit) % 360.0), "b:", linewidth=1.0)
+        curve(
+            plunge,
+            np.full_like(plunge, (alpha_f + side * lateral_limit) % 360.0),
+            ":",
+            color="darkorange",
+            linewidth=1.0,
+        )
+    ring = np.linspace(0.0, 360.0, 181)
+    curve(np.full_like(ring, 90.0 - friction), ring, "r--", linewidth=1.2, label=f"pole friction cone ({friction:g}°)")
+    curve(np.full_like(ring, friction), ring, "m--", linewidth=1.2, label="line friction cone")
+    if psi_f - friction > 0:  # toppling envelope: poles plunging less than slope dip - friction
+        arc = np.linspace(alpha_f - lateral_limit, alpha_f + lateral_limit, 41) % 360.0
+        curve(np.full_like(arc, psi_f - friction), arc, "-", color="darkorange", linewidth=1.5,
+              label="toppling envelope")  # fmt: skip
+    other = ~(np.asarray(planar, bool) | np.asarray(toppling, bool))
+    ax.pole(strike[other], dip[other], "o", color="0.55", markersize=4, label="poles")
+    ax.pole(strike[toppling], dip[toppling], "o", color="darkorange", markersize=5, label="flexural toppling")
+    ax.pole(strike[planar], dip[planar], "o", color="red", markersize=5, label="planar sliding")
+    trend, plunge = (np.asarray(v, float) for v in wedge_lines)
+    if len(trend):  # one artist for all of them (ax.line makes one per line)
+        curve(plunge, trend, "x", color="purple", markersize=3, alpha=0.5, label="critical wedges (intersections)")
+    ax.grid(True)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.04), fontsize=8, frameon=False, ncol=2)
+    ax.set_title(f"Kinematics: slope {psi_f:.0f}/{alpha_f:03.0f}, friction {friction:g}°", y=1.08)
+    return fig

@@ -1,0 +1,218 @@
+"""A measured folder's kinematic analysis: the slope face, the tests, and their files.
+
+:func:`add_kinematics` reads a folder ``measure`` wrote (with its sets when it has them),
+fits the slope face to the cloud unless it is given, runs the tests of :mod:`.kinematics`
+per plane, per pair of planes and per set, and adds ``kinematics.csv``, ``wedges.csv``,
+``kinematics.json`` and ``kinematics.png`` to the folder as one set.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .exposure import exposure
+from .io.atomic import write_figure, write_json, write_table_csv
+from .io.outdir import KINEMATICS_FILES, output_set, read_planes, read_regions, read_sets
+from .kinematics import (
+    LATERAL_LIMIT,
+    Slope,
+    flexural_toppling,
+    percent_critical,
+    planar_factor_of_safety,
+    planar_sliding,
+    wedges,
+)
+from .orientation import Frame, orientation_from_normals
+from .uncertainty import normal_standard_errors
+
+#: Pairs are tested among this many of the largest planes at most.
+MAX_WEDGE_PLANES = 2000
+
+
+def fit_slope(points, frame: Frame = Frame()) -> Slope:
+    """The overall face of an outcrop cloud: the least-squares plane of all its points (not
+    its largest joint), with the standard errors of its dip and dip direction from a block
+    regression over the whole face (:func:`~.uncertainty.normal_standard_errors`).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> ab = rng.random((20_000, 2)) * [10.0, 5.0]
+    >>> face = np.column_stack([ab[:, 0], ab[:, 1] * np.cos(np.radians(70)), ab[:, 1] * np.sin(np.radians(70))])  # rising north
+    >>> slope = fit_slope(face + 0.01 * rng.standard_normal(face.shape))
+    >>> round(slope.dip), round(slope.dip_direction), slope.source
+    (70, 180, 'fitted')
+    """
+    points = np.asarray(points, dtype=np.float64)
+    up = frame.matrix[2]
+    face = exposure(points, up)
+    labels = np.zeros(len(points), dtype=np.int64)
+    errors = normal_standard_errors(points, labels, face.normal[None, :], face.origin[None, :], face.axes[:1], up)
+    o = orientation_from_normals(face.normal, frame)
+    return Slope(
+        float(o.dip[0]),
+        float(o.dip_direction[0]),
+        float(errors["dip"][0]),
+        float(errors["dip_direction"][0]),
+        "fitted",
+    )
+
+
+def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, lateral_limit: float = LATERAL_LIMIT):
+    """Run the kinematic tests on a measured folder and add their files (see the module).
+
+    Parameters
+    ----------
+    outdir : str or Path
+        A folder ``geostructure measure`` wrote.
+    friction : float
+        The joints' friction angle (degrees).
+    slope : Slope, optional
+        The slope face; fitted to the cloud (:func:`fit_slope`) when not given.
+    lateral_limit : float
+        Degrees either side of the slope's dip direction (of its opposite for toppling).
+
+    Returns
+    -------
+    tuple
+        The summary (what ``kinematics.json`` holds) and output kind -> final path.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from geostructure import measure
+    >>> from geostructure.runs import save_measurement
+    >>> from geostructure.synthetic import outcrop_scene
+    >>> out = tempfile.mkdtemp()
+    >>> _ = save_measurement(measure(outcrop_scene(width=6.0, height=4.0, seed=1).cloud), out)
+    >>> summary, paths = add_kinematics(out, 30.0)
+    >>> summary["slope"]["source"], sorted(paths)
+    ('fitted', ['json', 'planes', 'png', 'wedges'])
+    """
+    with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES) as outputs:
+        frame = Frame.from_dict(outputs.record.get("frame") or {})
+        planes = read_planes(outputs.outdir)
+        if slope is None:
+            points, _ = read_regions(outputs.outdir, planes.offset)
+            slope = fit_slope(points, frame)
+        summary, rows, wedge_rows, figure = kinematics_of(
+            planes, read_sets(outputs.outdir), slope, friction, lateral_limit
+        )
+        write_table_csv(rows, outputs.path("kinematics.csv"), columns=PLANE_COLUMNS)
+        write_table_csv(wedge_rows, outputs.path("wedges.csv"), columns=WEDGE_COLUMNS)
+        write_json(summary, outputs.path("kinematics.json"))
+        write_figure(figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120)
+        outputs.record["kinematics"] = {k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg")}
+        names = {"planes": "kinematics.csv", "wedges": "wedges.csv", "json": "kinematics.json", "png": "kinematics.png"}
+        paths = {key: outputs.final(name) for key, name in names.items()}
+    return summary, paths
+
+
+PLANE_COLUMNS = ("region_id", "set", "dip", "dip_direction", "planar_sliding", "flexural_toppling", "planar_fs")
+WEDGE_COLUMNS = ("region_id_a", "region_id_b", "trend", "plunge", "wedge_fs", "slides_on")
+
+
+def kinematics_of(planes, sets: list, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT):
+    """The tests on a plane table and its sets' rows: (summary, plane rows, wedge rows, figure)."""
+    from .report.kinematics_plot import kinematics_figure  # lazy: matplotlib
+
+    dip, dd, area = planes.dip, planes.dip_direction, planes.area
+    set_labels = planes.extra.get("set", np.full(len(planes), -1))
+    planar = planar_sliding(dip, dd, slope, friction, lateral_limit)
+    toppling = flexural_toppling(dip, dd, slope, friction, lateral_limit)
+    fs = planar_factor_of_safety(dip, friction)
+    tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
+    w = wedges(dip[tested], dd[tested], slope, friction, max_planes=MAX_WEDGE_PLANES)
+    ids = planes.region_id
+    rows = [
+        {
+            "region_id": int(ids[i]),
+            "set": int(set_labels[i]),
+            "dip": float(dip[i]),
+            "dip_direction": float(dd[i]),
+            "planar_sliding": bool(planar[i]),
+            "flexural_toppling": bool(toppling[i]),
+            "planar_fs": float(fs[i]) if planar[i] else float("nan"),
+        }
+        for i in range(len(planes))
+    ]
+    wedge_rows = [
+        {
+            "region_id_a": int(ids[w.a[k]]),
+            "region_id_b": int(ids[w.b[k]]),
+            "trend": float(w.trend[k]),
+            "plunge": float(w.plunge[k]),
+            "wedge_fs": float(w.factor_of_safety[k]),
+            "slides_on": "both" if w.single_plane[k] < 0 else str(int(ids[w.single_plane[k]])),
+        }
+        for k in range(len(w))
+    ]
+    wedge_area = np.zeros(len(planes))
+    in_wedge = np.zeros(len(planes), dtype=bool)
+    in_wedge[w.a], in_wedge[w.b] = True, True
+    wedge_area[in_wedge] = area[in_wedge]
+
+    def mode(critical):
+        return {
+            "planes": int(np.sum(critical)),
+            "percent_by_count": percent_critical(critical),
+            "percent_by_area": percent_critical(critical, np.nan_to_num(area)),
+        }
+
+    summary = {
+        "slope": {
+            "dip": slope.dip,
+            "dip_direction": slope.dip_direction,
+            "dip_uncertainty_deg": slope.dip_uncertainty,
+            "dip_direction_uncertainty_deg": slope.dip_direction_uncertainty,
+            "source": slope.source,
+        },
+        "friction_deg": friction,
+        "lateral_limit_deg": lateral_limit,
+        "planar_sliding": mode(planar),
+        "flexural_toppling": mode(toppling),
+        "wedge_sliding": {
+            **mode(in_wedge),
+            "pairs_tested": int(len(tested) * (len(tested) - 1) // 2),
+            "critical_pairs": int(len(w)),
+            "planes_in_pairs": int(len(tested)),
+        },
+        "sets": _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit),
+    }
+    figure = kinematics_figure(
+        dip, dd, slope=slope, friction=friction, lateral_limit=lateral_limit, planar=planar, toppling=toppling,
+        wedge_lines=(w.trend, w.plunge),
+    )  # fmt: skip
+    return summary, rows, wedge_rows, figure
+
+
+def _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit) -> list[dict]:
+    """Per set: its mean's tests, the share of its planes critical per mode, and the wedges
+    its mean forms with the other sets' means."""
+    if not sets:
+        return []
+    mean_dip = np.array([r["dip"] for r in sets])
+    mean_dd = np.array([r["dip_direction"] for r in sets])
+    mean_planar = planar_sliding(mean_dip, mean_dd, slope, friction, lateral_limit)
+    mean_toppling = flexural_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
+    w = wedges(mean_dip, mean_dd, slope, friction)
+    out = []
+    for i, row in enumerate(sets):
+        s = int(row["set"])
+        members = set_labels == s
+        weights = np.nan_to_num(area[members])
+        partners = [int(sets[b if a == i else a]["set"]) for a, b in zip(w.a, w.b) if i in (a, b)]
+        out.append(
+            {
+                "set": s,
+                "mean_planar_sliding": bool(mean_planar[i]),
+                "mean_flexural_toppling": bool(mean_toppling[i]),
+                "mean_wedges_with_sets": partners,
+                "planar_percent_by_count": percent_critical(planar[members]),
+                "planar_percent_by_area": percent_critical(planar[members], weights),
+                "toppling_percent_by_count": percent_critical(toppling[members]),
+                "toppling_percent_by_area": percent_critical(toppling[members], weights),
+                "wedge_percent_by_count": percent_critical(in_wedge[members]),
+            }
+        )
+    return out
