@@ -1,0 +1,181 @@
+"""Kinematic tests: boundaries, published formulas, invariance, an outcrop, the command."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from geostructure import measure
+from geostructure.cli import main
+from geostructure.kinematics import (
+    Slope,
+    flexural_toppling,
+    intersection_lines,
+    planar_factor_of_safety,
+    planar_sliding,
+    wedges,
+)
+from geostructure.orientation import normal_from_orientation
+from geostructure.runs import plane_sets, save_measurement
+from geostructure.slope_stability import add_kinematics
+from geostructure.synthetic import outcrop_scene
+
+SLOPE = Slope(dip=60.0, dip_direction=135.0)
+
+
+def apparent_dip(slope, azimuth):
+    return np.degrees(np.arctan(np.tan(np.radians(slope.dip)) * np.cos(np.radians(azimuth - slope.dip_direction))))
+
+
+def test_planar_sliding_on_each_side_of_each_boundary():
+    eps = 0.5
+    inside = apparent_dip(SLOPE, 150.0)  # the slope's apparent dip 15 degrees off its dip direction
+    cases = [  # dip, dip direction, expected
+        (45.0, 135.0, True),
+        (inside - eps, 150.0, True),  # daylights, just
+        (inside + eps, 150.0, False),  # steeper than the face in its direction: does not daylight
+        (40.0, 135.0 + 20.0 - eps, True),  # lateral limit 20
+        (40.0, 135.0 + 20.0 + eps, False),
+        (40.0, 135.0 - 20.0 - eps, False),
+        (30.0 + eps, 135.0, True),  # friction 30
+        (30.0 - eps, 135.0, False),
+        (45.0, 315.0, False),  # dips into the slope
+    ]
+    dip, dd, expected = (np.array(c) for c in zip(*cases))
+    assert planar_sliding(dip, dd, SLOPE, friction=30.0).tolist() == expected.astype(bool).tolist()
+
+
+def test_flexural_toppling_on_each_side_of_each_boundary():
+    eps = 0.5
+    limit = 90.0 - SLOPE.dip + 30.0  # Goodman: the dip must exceed 90 - slope dip + friction = 60
+    cases = [
+        (limit + eps, 315.0, True),
+        (limit - eps, 315.0, False),
+        (80.0, 315.0 + 20.0 - eps, True),
+        (80.0, 315.0 + 20.0 + eps, False),
+        (80.0, 135.0, False),  # dips out of the slope
+    ]
+    dip, dd, expected = (np.array(c) for c in zip(*cases))
+    assert flexural_toppling(dip, dd, SLOPE, friction=30.0).tolist() == expected.astype(bool).tolist()
+
+
+def test_wedge_lines_and_the_daylight_and_friction_limits():
+    # Two planes symmetric about the slope's dip direction meet on a line trending along it,
+    # plunging atan(tan(dip) cos(half the angle between their dip directions)).
+    trend, plunge = intersection_lines(normal_from_orientation(115.0, 50.0), normal_from_orientation(155.0, 50.0))
+    assert float(trend) == pytest.approx(135.0)
+    assert float(plunge) == pytest.approx(np.degrees(np.arctan(np.tan(np.radians(50.0)) * np.cos(np.radians(20.0)))))
+    assert len(wedges([50.0, 50.0], [115.0, 155.0], SLOPE, 30.0)) == 1
+    assert len(wedges([50.0, 50.0], [115.0, 155.0], SLOPE, 50.0)) == 0  # plunge 48 under friction 50
+    assert len(wedges([50.0, 50.0], [115.0, 155.0], Slope(45.0, 135.0), 30.0)) == 0  # steeper than the face
+
+
+def test_wedge_factor_of_safety_is_hoek_and_brays():
+    rng = np.random.default_rng(3)
+    a_dd, b_dd = rng.uniform(80, 130, 300), rng.uniform(140, 190, 300)
+    a_dip, b_dip = rng.uniform(40, 75, 300), rng.uniform(40, 75, 300)
+    slope, phi = Slope(80.0, 135.0), 25.0
+    for i in range(300):
+        w = wedges([a_dip[i], b_dip[i]], [a_dd[i], b_dd[i]], slope, phi)
+        if not len(w) or w.single_plane[0] >= 0:
+            continue
+        na, nb = normal_from_orientation(a_dd[i], a_dip[i]), normal_from_orientation(b_dd[i], b_dip[i])
+        cos_t = float(na @ nb)  # Hoek & Bray (1981): FS = A tan(phi_a) + B tan(phi_b)
+        sin_5 = np.sin(np.radians(w.plunge[0]))
+        big_a = (np.cos(np.radians(a_dip[i])) - np.cos(np.radians(b_dip[i])) * cos_t) / (sin_5 * (1 - cos_t**2))
+        big_b = (np.cos(np.radians(b_dip[i])) - np.cos(np.radians(a_dip[i])) * cos_t) / (sin_5 * (1 - cos_t**2))
+        assert w.factor_of_safety[0] == pytest.approx((big_a + big_b) * np.tan(np.radians(phi)), rel=1e-9)
+
+
+def test_a_symmetric_wedge_has_hoek_and_brays_wedge_factor():
+    # FS_wedge = K FS_plane with K = sin(beta) / sin(xi / 2): beta = 90 for a wedge symmetric
+    # about a vertical plane, xi the angle between the planes across their line.
+    for half_spread, dip in ((20.0, 50.0), (35.0, 60.0), (10.0, 70.0)):
+        dds = [135.0 - half_spread, 135.0 + half_spread]
+        w = wedges([dip, dip], dds, Slope(85.0, 135.0), 20.0)
+        na, nb = normal_from_orientation(dds[0], dip), normal_from_orientation(dds[1], dip)
+        xi = 180.0 - np.degrees(np.arccos(np.clip(na @ nb, -1, 1)))  # the wedge's included angle
+        expected = np.tan(np.radians(20.0)) / np.tan(np.radians(w.plunge[0])) / np.sin(np.radians(xi / 2))
+        assert w.factor_of_safety[0] == pytest.approx(expected, rel=1e-9)
+
+
+def test_a_wedge_that_lifts_off_one_plane_slides_on_the_other():
+    # Plane a dips nearly along the line (Hocking 1976): the wedge rides on a alone.
+    w = wedges([40.0, 80.0], [130.0, 200.0], Slope(70.0, 135.0), 30.0)
+    assert len(w) == 1 and w.single_plane[0] == 0
+    assert w.factor_of_safety[0] == pytest.approx(planar_factor_of_safety(40.0, 30.0))
+
+
+def test_planar_factor_of_safety():
+    assert planar_factor_of_safety([30.0, 45.0], 30.0) == pytest.approx([1.0, np.tan(np.radians(30.0))])
+
+
+def test_turning_the_slope_and_every_plane_alike_changes_nothing():
+    rng = np.random.default_rng(9)
+    dip, dd = rng.uniform(0, 90, 400), rng.uniform(0, 360, 400)
+    base = Slope(65.0, 40.0)
+    reference = (
+        planar_sliding(dip, dd, base, 30.0),
+        flexural_toppling(dip, dd, base, 30.0),
+        wedges(dip[:80], dd[:80], base, 30.0),
+    )
+    for turn in (37.0, 180.0, 313.0):
+        turned = Slope(65.0, 40.0 + turn)
+        assert (planar_sliding(dip, dd + turn, turned, 30.0) == reference[0]).all()
+        assert (flexural_toppling(dip, dd + turn, turned, 30.0) == reference[1]).all()
+        w = wedges(dip[:80], (dd[:80] + turn) % 360, turned, 30.0)
+        assert w.a.tolist() == reference[2].a.tolist() and w.b.tolist() == reference[2].b.tolist()
+        np.testing.assert_allclose((w.trend - turn) % 360.0, reference[2].trend % 360.0, atol=1e-9)
+        np.testing.assert_allclose(w.factor_of_safety, reference[2].factor_of_safety, rtol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def outcrop_folder(tmp_path_factory):
+    # A 65 degree face: with the generator's 75, Goodman's test keeps a set dipping 70 into
+    # the face critical at friction 50 (70 > 90 - 75 + 50); at 65 it needs 75.
+    scene = outcrop_scene(width=12.0, height=6.0, seed=4, face_dip=65.0)
+    out = tmp_path_factory.mktemp("kinematics")
+    result = measure(scene.cloud)
+    save_measurement(result, out, sets=plane_sets(result.planes, result.frame))
+    return scene, out
+
+
+@pytest.mark.parametrize("friction, critical", [(30.0, True), (50.0, False)])
+def test_an_outcrops_sets_out_of_and_into_the_face(outcrop_folder, friction, critical):
+    scene, out = outcrop_folder
+    summary, _ = add_kinematics(out, friction)  # the slope fitted to the cloud
+    assert summary["slope"]["source"] == "fitted" and abs(summary["slope"]["dip"] - 65.0) < 4.0
+    by_truth = {}  # each measured set by the generated set it is
+    sets = list(csv.DictReader(open(out / "sets.csv")))
+    for row, result in zip(sets, summary["sets"]):
+        normal = normal_from_orientation(float(row["dip_direction"]), float(row["dip"]))
+        by_truth[int(np.abs(scene.set_normals @ normal).argmax())] = result
+    assert by_truth[0]["mean_planar_sliding"] is critical  # J1 45/180, out of the face
+    assert by_truth[1]["mean_flexural_toppling"] is critical  # J2 70/000, into it
+    assert not by_truth[2]["mean_planar_sliding"] and not by_truth[2]["mean_flexural_toppling"]
+
+
+def test_the_kinematics_command(outcrop_folder, capsys):
+    _, out = outcrop_folder
+    assert main(["kinematics", str(out), "--friction", "35", "--slope", "65/180", "-q"]) == 0
+    rows = list(csv.DictReader(open(out / "kinematics.csv")))
+    assert {"region_id", "planar_sliding", "flexural_toppling", "planar_fs"} <= set(rows[0])
+    sliding = [r for r in rows if r["planar_sliding"] == "true"]
+    assert sliding and all(float(r["planar_fs"]) < 1.0 for r in sliding)  # steeper than friction, dry
+    wedge_rows = list(csv.DictReader(open(out / "wedges.csv")))
+    assert wedge_rows and {"region_id_a", "region_id_b", "trend", "plunge", "wedge_fs"} <= set(wedge_rows[0])
+    summary = json.load(open(out / "kinematics.json"))
+    assert summary["slope"] == {
+        "dip": 65.0,
+        "dip_direction": 180.0,
+        "dip_uncertainty_deg": 0.0,
+        "dip_direction_uncertainty_deg": 0.0,
+        "source": "given",
+    }
+    assert (out / "kinematics.png").stat().st_size > 20_000
+    assert main(["report", str(out), "-q"]) == 0  # the folder verifies as one set
+    assert main(["kinematics", str(out), "--friction", "35", "--slope", "steep", "-q"]) == 2
+    assert "--slope takes DIP/DIPDIR" in capsys.readouterr().err
+    assert main(["kinematics", str(out), "--friction", "95", "-q"]) == 2
+    assert "friction angle" in capsys.readouterr().err
