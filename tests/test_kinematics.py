@@ -179,3 +179,17 @@ def test_the_kinematics_command(outcrop_folder, capsys):
     assert "--slope takes DIP/DIPDIR" in capsys.readouterr().err
     assert main(["kinematics", str(out), "--friction", "95", "-q"]) == 2
     assert "friction angle" in capsys.readouterr().err
+
+
+def test_measure_with_kinematics_and_its_bad_options(tmp_path, capsys):
+    scene = outcrop_scene(width=5.0, height=3.0, seed=2, face_dip=65.0)
+    cloud = tmp_path / "face.xyz"
+    np.savetxt(cloud, scene.cloud.points, fmt="%.4f")
+    out = tmp_path / "out"
+    assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "-q"]) == 2  # no friction
+    assert "--friction" in capsys.readouterr().err and not out.exists()  # refused before any work
+    assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "--friction", "30", "--slope", "95/180"]) == 2
+    assert "at most 90" in capsys.readouterr().err and not out.exists()
+    assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "--friction", "30", "-q"]) == 0
+    assert json.load(open(out / "run.json"))["kinematics"]["slope"]["source"] == "fitted"
+    assert (out / "wedges.csv").is_file() and (out / "planes.csv").is_file()

@@ -53,7 +53,7 @@ class Slope:
         object.__setattr__(self, "dip_direction", float(self.dip_direction) % 360.0)
 
 
-def _check_friction(friction: float) -> float:
+def check_friction(friction: float) -> float:
     if not (np.isfinite(friction) and 0.0 < friction < 90.0):
         raise ParameterError(f"the friction angle must be more than 0 and less than 90 degrees, not {friction}.")
     return float(friction)
@@ -80,7 +80,7 @@ def planar_sliding(dip, dip_direction, slope: Slope, friction: float, lateral_li
     >>> planar_sliding([45, 45, 25, 45, 65], [180, 210, 180, 0, 180], slope, friction=30.0).tolist()
     [True, False, False, False, False]
     """
-    friction = _check_friction(friction)
+    friction = check_friction(friction)
     dip = np.asarray(dip, dtype=np.float64)
     lateral = angular_difference(dip_direction, slope.dip_direction) <= lateral_limit
     return lateral & (dip > friction) & _daylights(dip_direction, dip, slope)
@@ -95,7 +95,7 @@ def flexural_toppling(dip, dip_direction, slope: Slope, friction: float, lateral
     >>> flexural_toppling([70, 70, 40, 70], [0, 180, 0, 40], slope, friction=30.0).tolist()
     [True, False, False, False]
     """
-    friction = _check_friction(friction)
+    friction = check_friction(friction)
     dip = np.asarray(dip, dtype=np.float64)
     opposite = angular_difference(dip_direction, slope.dip_direction + 180.0) <= lateral_limit
     return opposite & (dip > 90.0 - slope.dip + friction)
@@ -103,7 +103,7 @@ def flexural_toppling(dip, dip_direction, slope: Slope, friction: float, lateral
 
 def planar_factor_of_safety(dip, friction: float) -> np.ndarray:
     """tan(friction) / tan(dip), dry and without cohesion; inf for a flat plane."""
-    friction = _check_friction(friction)
+    friction = check_friction(friction)
     with np.errstate(divide="ignore"):
         return np.tan(np.radians(friction)) / np.tan(np.radians(np.asarray(dip, dtype=np.float64)))
 
@@ -147,7 +147,7 @@ def wedges(dip, dip_direction, slope: Slope, friction: float, *, max_planes: int
     >>> w.a.tolist(), w.b.tolist(), round(float(w.plunge[0]), 1), round(float(w.trend[0]), 1)
     ([0], [1], 47.6, 180.0)
     """
-    friction = _check_friction(friction)
+    friction = check_friction(friction)
     dip = np.asarray(dip, dtype=np.float64)
     n = len(dip)
     if n > max_planes:

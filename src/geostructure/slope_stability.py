@@ -87,7 +87,7 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
     >>> _ = save_measurement(measure(outcrop_scene(width=6.0, height=4.0, seed=1).cloud), out)
     >>> summary, paths = add_kinematics(out, 30.0)
     >>> summary["slope"]["source"], sorted(paths)
-    ('fitted', ['json', 'planes', 'png', 'wedges'])
+    ('fitted', ['kinematics', 'kinematics_json', 'kinematics_png', 'wedges'])
     """
     with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES) as outputs:
         frame = Frame.from_dict(outputs.record.get("frame") or {})
@@ -103,7 +103,12 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
         write_json(summary, outputs.path("kinematics.json"))
         write_figure(figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120)
         outputs.record["kinematics"] = {k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg")}
-        names = {"planes": "kinematics.csv", "wedges": "wedges.csv", "json": "kinematics.json", "png": "kinematics.png"}
+        names = {
+            "kinematics": "kinematics.csv",
+            "wedges": "wedges.csv",
+            "kinematics_json": "kinematics.json",
+            "kinematics_png": "kinematics.png",
+        }
         paths = {key: outputs.final(name) for key, name in names.items()}
     return summary, paths
 

@@ -16,11 +16,13 @@ from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
 from ..runs import add_evaluation, add_report, plane_rock_mass, plane_sets, save_measurement
+from ..slope_stability import add_kinematics
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
-from ..tables import print_evaluation, print_match, print_planes, print_sets, print_sweep
+from ..tables import print_evaluation, print_kinematics, print_match, print_planes, print_sets, print_sweep
 from .options import (
+    add_kinematic_options,
     add_measure_options,
     add_set_options,
     base_params,
@@ -29,6 +31,7 @@ from .options import (
     finite_float,
     folder,
     frame_from,
+    kinematic_settings,
     params_from,
     positive_float,
     wants_sets,
@@ -50,6 +53,7 @@ def add_measure_commands(sub) -> None:
     m.add_argument("--truth", type=Path, help="ground-truth CSV: also evaluate the planes against it")
     m.add_argument("--report", action="store_true", help="also write report.html, stereonet and rose figures")
     add_set_options(m, "--sets")
+    add_kinematic_options(m, flag=True)
     add_measure_options(m)
     m.set_defaults(run=run_measure)
 
@@ -107,6 +111,7 @@ def add_measure_commands(sub) -> None:
 def run_measure(args) -> int:
     frame = frame_from(args)
     base_params(args)
+    kinematic_settings(args)  # refused before any work
     check_before_work(args, [args.input, args.truth])
     truth = read_truth(args.truth, frame) if args.truth else None
     t = time.perf_counter()
@@ -143,6 +148,10 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             sets=sets,
             rock=rock,
         )
+    kinematics = kinematic_settings(args)
+    if kinematics is not None:  # a set of its own, added to the measured folder
+        kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics)
+        paths.update(kinematic_paths)
     if not len(result):
         print(
             "geostructure: warning: no plane found; if the cloud is sparse, try a larger --zeta "
@@ -153,6 +162,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         print_planes(result)
         if sets is not None:
             print_sets(sets, rock=rock)
+        if kinematics is not None:
+            print_kinematics(kinematic_summary)
         if evaluation is not None:
             print_evaluation(evaluation)
         print(

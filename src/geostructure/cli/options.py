@@ -10,9 +10,10 @@ import sys
 from pathlib import Path
 
 from ..auto import choose_params
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
 from ..io.outdir import check_inputs_not_outputs, check_outdir
+from ..kinematics import LATERAL_LIMIT, Slope, check_friction
 from ..orientation import Frame
 from ..params import Params
 from ..pipeline import check_measurable
@@ -151,6 +152,56 @@ def add_set_options(parser, choose_flag: str) -> None:
         action="store_true",
         help="joint sets, their number chosen by BIC with the sets at least 20 degrees apart",
     )
+
+
+def add_kinematic_options(parser, *, flag: bool) -> None:
+    """``--friction``, ``--slope`` and ``--lateral-limits``; with ``flag`` (for ``measure``),
+    ``--kinematics`` turns the tests on and ``--friction`` is then needed."""
+    if flag:
+        parser.add_argument("--kinematics", action="store_true", help="also run the kinematic tests (needs --friction)")
+    parser.add_argument(
+        "--friction",
+        type=float,
+        required=not flag,
+        default=None,
+        metavar="PHI",
+        help="friction angle of the joints, degrees",
+    )
+    parser.add_argument(
+        "--slope",
+        default="auto",
+        metavar="DIP/DIPDIR",
+        help="the slope face as dip/dip direction (e.g. 75/180), or 'auto': fitted to the cloud (default)",
+    )
+    parser.add_argument(
+        "--lateral-limits",
+        type=float,
+        default=LATERAL_LIMIT,
+        metavar="DEG",
+        help=f"degrees either side of the slope's dip direction (default {LATERAL_LIMIT:g})",
+    )
+
+
+def kinematic_settings(args) -> dict | None:
+    """The kinematic tests' settings from the options, checked (before any work): friction,
+    slope (None: fit it) and lateral limit; None when they were not asked for."""
+    if not getattr(args, "kinematics", False):  # the kinematics command sets it; measure's flag does
+        return None
+    if args.friction is None:
+        raise ParameterError("--kinematics needs the joints' friction angle: add --friction PHI (degrees).")
+    check_friction(args.friction)
+    if not 0.0 <= args.lateral_limits <= 90.0:
+        raise ParameterError(f"--lateral-limits must be 0 to 90 degrees, not {args.lateral_limits}.")
+    slope = None
+    if args.slope.strip().lower() != "auto":
+        try:
+            dip, dip_direction = (float(v) for v in args.slope.split("/"))
+        except ValueError:
+            raise ParameterError(
+                f"--slope takes DIP/DIPDIR in degrees (e.g. 75/180) or 'auto', not {args.slope!r}."
+            ) from None
+        slope = Slope(dip, dip_direction)
+    return {"friction": args.friction, "slope": slope, "lateral_limit": args.lateral_limits}
 
 
 def wants_sets(args) -> bool:

@@ -6,12 +6,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..errors import ParameterError
-from ..kinematics import LATERAL_LIMIT, Slope
 from ..runs import add_sets
 from ..slope_stability import add_kinematics
 from ..tables import print_kinematics, print_sets
-from .options import add_set_options
+from .options import add_kinematic_options, add_set_options, kinematic_settings
 
 
 def add_rockmass_commands(sub) -> None:
@@ -26,22 +24,9 @@ def add_rockmass_commands(sub) -> None:
         help="which planes and wedges can slide or topple out of the slope: kinematics.csv, wedges.csv, .json, .png",
     )
     k.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure' (with --sets for set results)")
-    k.add_argument("--friction", type=float, required=True, metavar="PHI", help="friction angle of the joints, degrees")
-    k.add_argument(
-        "--slope",
-        default="auto",
-        metavar="DIP/DIPDIR",
-        help="the slope face as dip/dip direction (e.g. 75/180), or 'auto': fitted to the cloud (default)",
-    )
-    k.add_argument(
-        "--lateral-limits",
-        type=float,
-        default=LATERAL_LIMIT,
-        metavar="DEG",
-        help=f"degrees either side of the slope's dip direction (default {LATERAL_LIMIT:g})",
-    )
+    add_kinematic_options(k, flag=False)
     k.add_argument("-q", "--quiet", action="store_true", help="no table")
-    k.set_defaults(run=run_kinematics)
+    k.set_defaults(run=run_kinematics, kinematics=True)
 
 
 def run_sets(args) -> int:
@@ -52,23 +37,8 @@ def run_sets(args) -> int:
     return 0
 
 
-def parse_slope(text: str) -> Slope | None:
-    """``auto`` -> None (fit it), ``DIP/DIPDIR`` -> a given :class:`~geostructure.kinematics.Slope`."""
-    if text.strip().lower() == "auto":
-        return None
-    try:
-        dip, dip_direction = (float(v) for v in text.split("/"))
-    except ValueError:
-        raise ParameterError(f"--slope takes DIP/DIPDIR in degrees (e.g. 75/180) or 'auto', not {text!r}.") from None
-    return Slope(dip, dip_direction)
-
-
 def run_kinematics(args: argparse.Namespace) -> int:
-    if not 0.0 <= args.lateral_limits <= 90.0:
-        raise ParameterError(f"--lateral-limits must be 0 to 90 degrees, not {args.lateral_limits}.")
-    summary, paths = add_kinematics(
-        args.outdir, args.friction, slope=parse_slope(args.slope), lateral_limit=args.lateral_limits
-    )
+    summary, paths = add_kinematics(args.outdir, **kinematic_settings(args))
     if not args.quiet:
         print_kinematics(summary)
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
