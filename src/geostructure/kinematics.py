@@ -191,4 +191,4 @@ def percent_critical(critical, weights=None) -> float:
     if len(critical) == 0:
         return float("nan")
     w = np.ones(len(critical)) if weights is None else np.asarray(weights, dtype=np.float64)
-    return float(100.0 * w[critical].sum() / w.sum()) if w.sum() > 0 else float("nan")
+    return float(min(100.0, 100.0 * w[critical].sum() / w.sum())) if w.sum() > 0 else float("nan")
