@@ -180,9 +180,7 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         paths["planes"] = outputs.final("planes.csv")
         paths["dips"] = outputs.final("planes_dips.csv")
         if had_report:  # the report shows the sets: draw it again from the new set of files
-            _link_kept(outputs)
-            outputs.write_record()
-            paths.update(_stage_report(outputs, outputs.staging, None))
+            paths.update(redraw_report(outputs))
     return sets, rock, paths
 
 
@@ -191,6 +189,14 @@ def _plane_rows(region, region_ids) -> np.ndarray:
     lookup = np.full(int(max(region.max(initial=-1), region_ids.max(initial=-1))) + 2, -1, dtype=np.int64)
     lookup[region_ids + 1] = np.arange(len(region_ids))
     return lookup[np.clip(region, -1, len(lookup) - 2) + 1]
+
+
+def redraw_report(outputs: OutputSet) -> dict[str, Path]:
+    """Draw a folder's report again inside an open set (after its sets or kinematics change),
+    from the staged files and the folder's kept ones together."""
+    _link_kept(outputs)
+    outputs.write_record()
+    return _stage_report(outputs, outputs.staging, None)
 
 
 def _link_kept(outputs: OutputSet) -> None:

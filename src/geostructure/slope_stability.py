@@ -12,7 +12,7 @@ import numpy as np
 
 from .exposure import exposure
 from .io.atomic import write_figure, write_json, write_table_csv
-from .io.outdir import KINEMATICS_FILES, output_set, read_planes, read_regions, read_sets
+from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set, read_planes, read_regions, read_sets
 from .kinematics import (
     LATERAL_LIMIT,
     Slope,
@@ -89,8 +89,11 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
     >>> summary["slope"]["source"], sorted(paths)
     ('fitted', ['kinematics', 'kinematics_json', 'kinematics_png', 'wedges'])
     """
-    with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES) as outputs:
+    from .runs import redraw_report  # lazy: runs imports the report's modules when drawing
+
+    with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES + REPORT_FILES) as outputs:
         frame = Frame.from_dict(outputs.record.get("frame") or {})
+        had_report = (outputs.outdir / "report.html").is_file()
         planes = read_planes(outputs.outdir)
         if slope is None:
             points, _ = read_regions(outputs.outdir, planes.offset)
@@ -110,6 +113,8 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
             "kinematics_png": "kinematics.png",
         }
         paths = {key: outputs.final(name) for key, name in names.items()}
+        if had_report:  # the report's stereonet shows the envelopes: draw it again
+            paths.update(redraw_report(outputs))
     return summary, paths
 
 

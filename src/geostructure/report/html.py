@@ -17,6 +17,7 @@ import numpy as np
 from ..io.atomic import atomic_path, plain
 from ..projection import great_circle_xy, pole_density, pole_xy, small_circle_xy
 from ..reconstruct.georef import describe_georeference
+from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .spacing_plot import figure_spacing
 from .view3d import figure_3d, figure_json, hover_text, plane_colors, set_color
@@ -98,6 +99,16 @@ def render(scene: ReportScene, title: str) -> str:
     )
 
 
+def _net_title(scene: ReportScene) -> str:
+    if not scene.kinematics:
+        return "Poles and great circles, lower hemisphere (equal area)"
+    slope = scene.kinematics["slope"]
+    return (
+        f"Poles and kinematic envelopes: slope {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, "
+        f"friction {scene.kinematics['friction_deg']:g}° (lower hemisphere)"
+    )
+
+
 def figure_stereonet(scene: ReportScene) -> dict:
     """Poles (all), great circles (largest planes), exponential Kamb density, primitive circle."""
     import plotly.graph_objects as go
@@ -172,6 +183,8 @@ def figure_stereonet(scene: ReportScene) -> dict:
                 name="great circles",
             )
         )
+    for trace in kinematic_traces(scene.kinematics):  # under the poles, which stay clickable
+        fig.add_trace(trace)
     px, py = pole_xy(dd, dip)
     pole_colors = plane_colors(scene) if scene.sets else "#d62728"
     fig.add_trace(
@@ -209,7 +222,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
         plot_bgcolor="white",
         margin=dict(l=10, r=10, t=30, b=10),
         height=380,
-        title=dict(text="Poles and great circles, lower hemisphere (equal area)", font=dict(size=13)),
+        title=dict(text=_net_title(scene), font=dict(size=13)),
         annotations=[dict(x=0, y=1.08, text="N", showarrow=False, font=dict(size=14))],
     )
     return figure_json(fig)

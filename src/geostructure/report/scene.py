@@ -45,6 +45,7 @@ class ReportScene:
     sets: list = field(default_factory=list)  # sets.csv rows (numbers), when the sets were found
     spacings: dict = field(default_factory=dict)  # set -> normal spacings along the scanlines (m)
     rock_mass: dict = field(default_factory=dict)  # run.json's totals: Jv, block volume
+    kinematics: dict = field(default_factory=dict)  # kinematics.json, when the tests were run
     georeference: dict | None = None  # how a reconstruction was tied to the world
 
 
@@ -84,6 +85,7 @@ def load_scene(
         sets=read_sets(outdir) if "set" in planes.extra else [],
         spacings=read_spacings(outdir) if "set" in planes.extra else {},
         rock_mass=(run.get("sets") or {}).get("rock_mass") or {},
+        kinematics=_read_json(outdir / "kinematics.json"),
         georeference=run.get("reconstruction", {}).get("georef"),
     )
 
@@ -102,6 +104,18 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
     pick = np.sort(rng.choice(total, limit, replace=False)) if total > limit else slice(None)
     xyz = (np.stack(columns[:3], axis=1)[pick].astype(np.float64) - offset).astype(np.float32)
     return xyz, [np.asarray(c[pick]) for c in columns[3:]], total
+
+
+def _read_json(path: Path) -> dict:
+    """A JSON file of the folder as a dict; {} when it is not there."""
+    import json
+
+    if not path.is_file():
+        return {}
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError):
+        raise GeoStructureError(f"{path}: not a GeoStructure JSON file.") from None
 
 
 def _read_truth(path: Path) -> dict:

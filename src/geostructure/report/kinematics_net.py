@@ -1,0 +1,68 @@
+"""The kinematic envelopes on the report's stereonet, as plotly traces (``kinematics.json``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..projection import enu_vectors, equal_area_xy, great_circle_xy, pole_xy, small_circle_xy
+
+
+def _line_xy(trend, plunge):
+    return equal_area_xy(enu_vectors(np.asarray(trend, float), np.asarray(plunge, float)))
+
+
+def envelope_curves(kinematics: dict) -> list[tuple[str, str, str, np.ndarray, np.ndarray]]:
+    """(name, colour, dash, x, y) of each envelope: the slope's great circle, the planar
+    daylight envelope and its lateral limits, the friction cones of poles and of lines, the
+    toppling envelope and its lateral limits.
+
+    Examples
+    --------
+    >>> curves = envelope_curves({"slope": {"dip": 60.0, "dip_direction": 180.0}, "friction_deg": 30.0,
+    ...                           "lateral_limit_deg": 20.0})
+    >>> [c[0] for c in curves][:3]
+    ['slope (wedge daylight envelope)', 'planar daylight envelope', 'pole friction cone']
+    """
+    slope, friction = kinematics["slope"], float(kinematics["friction_deg"])
+    alpha, psi, limit = float(slope["dip_direction"]), float(slope["dip"]), float(kinematics["lateral_limit_deg"])
+    curves = [("slope (wedge daylight envelope)", "black", "solid", *great_circle_xy(alpha, psi))]
+    azimuth = np.linspace(alpha - 90.0, alpha + 90.0, 121)
+    apparent = np.degrees(np.arctan(np.tan(np.radians(psi)) * np.cos(np.radians(azimuth - alpha))))
+    curves.append(("planar daylight envelope", "#1f4fd1", "solid", *pole_xy(azimuth, apparent)))
+    curves.append(("pole friction cone", "#d62728", "dash", *small_circle_xy(0.0, 90.0, friction)))
+    curves.append(("line friction cone", "#9b30b0", "dash", *small_circle_xy(0.0, 90.0, 90.0 - friction)))
+    plunge = np.linspace(0.0, 90.0, 31)
+    for side in (-1.0, 1.0):
+        x, y = _line_xy(np.full_like(plunge, alpha + 180.0 + side * limit), plunge)
+        curves.append(("planar lateral limit", "#1f4fd1", "dot", x, y))
+        x, y = _line_xy(np.full_like(plunge, alpha + side * limit), plunge)
+        curves.append(("toppling lateral limit", "darkorange", "dot", x, y))
+    if psi - friction > 0:
+        arc = np.linspace(alpha - limit, alpha + limit, 41)
+        curves.append(("toppling envelope", "darkorange", "solid", *_line_xy(arc, np.full_like(arc, psi - friction))))
+    return curves
+
+
+def kinematic_traces(kinematics: dict) -> list:
+    """Plotly traces of :func:`envelope_curves`; [] without kinematics."""
+    import plotly.graph_objects as go
+
+    if not kinematics:
+        return []
+    seen = set()
+    traces = []
+    for name, color, dash, x, y in envelope_curves(kinematics):
+        traces.append(
+            go.Scatter(
+                x=x,
+                y=y,
+                mode="lines",
+                name=name,
+                legendgroup=name,
+                showlegend=name not in seen,
+                line=dict(color=color, width=1.8, dash=dash),
+                hoverinfo="skip",
+            )
+        )
+        seen.add(name)
+    return traces
