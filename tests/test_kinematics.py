@@ -10,13 +10,15 @@ from geostructure import measure
 from geostructure.cli import main
 from geostructure.kinematics import (
     Slope,
+    direct_toppling,
     flexural_toppling,
     intersection_lines,
     planar_factor_of_safety,
     planar_sliding,
     wedges,
 )
-from geostructure.orientation import normal_from_orientation
+from geostructure.orientation import normal_from_orientation, orientation_from_normals
+from geostructure.projection import enu_vectors
 from geostructure.runs import plane_sets, save_measurement
 from geostructure.slope_stability import add_kinematics
 from geostructure.synthetic import outcrop_scene
@@ -55,9 +57,47 @@ def test_flexural_toppling_on_each_side_of_each_boundary():
         (80.0, 315.0 + 20.0 - eps, True),
         (80.0, 315.0 + 20.0 + eps, False),
         (80.0, 135.0, False),  # dips out of the slope
+        # 15 degrees off the slope's opposite, the slip limit plane (30/135) dips 29.14 along
+        # the pole's trend, so the pole must plunge less: dip > 60.86
+        (90.0 - apparent_dip(Slope(30.0, 135.0), 150.0) + eps, 330.0, True),
+        (90.0 - apparent_dip(Slope(30.0, 135.0), 150.0) - eps, 330.0, False),
     ]
     dip, dd, expected = (np.array(c) for c in zip(*cases))
     assert flexural_toppling(dip, dd, SLOPE, friction=30.0).tolist() == expected.astype(bool).tolist()
+
+
+def planes_through(trend, plunge, spread=40.0):
+    """Dip and dip direction of two planes that meet on the line (trend, plunge)."""
+    line = enu_vectors(trend, plunge)
+    side = np.cross(line, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    normals = []
+    for angle in (-spread, spread):  # turn the plane about the line either way
+        across = np.cross(line, side)
+        normal = np.cos(np.radians(angle)) * across + np.sin(np.radians(angle)) * side
+        normals.append(normal)
+    o = orientation_from_normals(np.array(normals))
+    return list(o.dip), list(o.dip_direction)
+
+
+def test_direct_toppling_on_each_side_of_each_boundary():
+    eps = 0.5
+    base = ([20.0], [135.0])  # gentle, out of the slope: blocks stand on it
+    for trend, plunge, expected in [
+        (315.0, 90.0 - SLOPE.dip + eps, True),  # leans out of the face, just
+        (315.0, 90.0 - SLOPE.dip - eps, False),
+        (315.0 + 20.0 - eps, 60.0, True),  # lateral limit 20 about the slope's opposite
+        (315.0 + 20.0 + eps, 60.0, False),
+        (135.0, 60.0, False),  # plunges out of the slope
+    ]:
+        dip, dd = planes_through(trend, plunge)
+        t = direct_toppling(dip + base[0], dd + base[1], SLOPE, 30.0)
+        assert (len(t.a) == 1) is expected, (trend, plunge)
+        assert t.base.tolist() == [False, False, True] and t.critical is expected
+    dip, dd = planes_through(315.0, 60.0)
+    assert not direct_toppling(dip, dd, SLOPE, 30.0).critical  # no base plane to topple over
+    steep_base = direct_toppling(dip + [40.0], dd + [135.0], SLOPE, 30.0)
+    assert steep_base.critical and steep_base.sliding_base.tolist() == [False, False, True]
 
 
 def test_wedge_lines_and_the_daylight_and_friction_limits():
@@ -128,6 +168,11 @@ def test_turning_the_slope_and_every_plane_alike_changes_nothing():
         assert w.a.tolist() == reference[2].a.tolist() and w.b.tolist() == reference[2].b.tolist()
         np.testing.assert_allclose((w.trend - turn) % 360.0, reference[2].trend % 360.0, atol=1e-9)
         np.testing.assert_allclose(w.factor_of_safety, reference[2].factor_of_safety, rtol=1e-9)
+        topple, topple_turned = (
+            direct_toppling(dip[:80], dd[:80], base, 30.0),
+            direct_toppling(dip[:80], (dd[:80] + turn) % 360, turned, 30.0),
+        )
+        assert topple.a.tolist() == topple_turned.a.tolist() and (topple.base == topple_turned.base).all()
 
 
 @pytest.fixture(scope="module")

@@ -14,8 +14,16 @@ All angles are degrees; orientations are dip and dip direction (of planes), tren
   pushing; otherwise it lifts off one and slides on the other alone (Hocking 1976), which is
   the planar test's case and is flagged ``single_plane``.
 - **Flexural toppling** (:func:`flexural_toppling`; Goodman 1980): the plane dips into the slope,
-  its dip direction within ``lateral_limit`` of the slope's opposite, and its pole plunges less
-  than the slope dip minus the friction angle (its dip exceeds 90 - slope dip + friction).
+  its dip direction within ``lateral_limit`` of the slope's opposite, and its pole lies outside
+  Dips' slip limit plane (dip: slope dip - friction, dip direction: the slope's): the pole's
+  plunge is less than that plane's apparent dip along the pole's trend. Along the slope's dip
+  direction this is Goodman's dip > 90 - slope dip + friction.
+- **Direct toppling** (:func:`direct_toppling`; Hudson & Harrison 1997, as Dips applies it): the
+  intersection line of two planes plunges into the slope, its trend within ``lateral_limit`` of
+  the slope's opposite, and steeper than 90 - slope dip (the block leans out of the face), and
+  base planes exist on which such blocks stand: planes dipping out of the slope within the
+  lateral limits, gentler than the slope; a base plane steeper than the friction angle lets
+  the blocks slide as they topple.
 - **Factor of safety**, dry and without cohesion: planar FS = tan(friction) / tan(dip); a wedge's
   from limit equilibrium along its line, FS = (N_a + N_b) tan(friction) / sin(plunge) for a
   block of unit weight, which is Hoek & Bray's (1981) FS = A tan(phi_a) + B tan(phi_b).
@@ -98,7 +106,59 @@ def flexural_toppling(dip, dip_direction, slope: Slope, friction: float, lateral
     friction = check_friction(friction)
     dip = np.asarray(dip, dtype=np.float64)
     opposite = angular_difference(dip_direction, slope.dip_direction + 180.0) <= lateral_limit
-    return opposite & (dip > 90.0 - slope.dip + friction)
+    pole_trend, pole_plunge = np.asarray(dip_direction, dtype=np.float64) + 180.0, 90.0 - dip
+    limit = max(slope.dip - friction, 0.0)  # the slip limit plane's dip
+    cosine = np.cos(np.radians(pole_trend - slope.dip_direction))
+    apparent = np.degrees(np.arctan(np.tan(np.radians(limit)) * np.clip(cosine, 0.0, None)))
+    return opposite & (pole_plunge < apparent)
+
+
+@dataclass
+class DirectToppling:
+    """Pairs ``a`` < ``b`` whose intersection line (``trend``, ``plunge``) lies in the direct
+    toppling zone, and per plane whether it is a ``base`` plane for such blocks and whether
+    blocks on it would slide too (``sliding_base``)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    trend: np.ndarray
+    plunge: np.ndarray
+    base: np.ndarray
+    sliding_base: np.ndarray
+
+    @property
+    def critical(self) -> bool:
+        """Blocks can form and have something to topple over: lines in the zone and a base plane."""
+        return bool(len(self.a)) and bool(self.base.any())
+
+
+def direct_toppling(
+    dip, dip_direction, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT, *, max_planes: int = 3000
+) -> DirectToppling:
+    """Direct toppling's intersections and base planes (see the module's description).
+
+    Examples
+    --------
+    >>> slope = Slope(dip=70.0, dip_direction=180.0)
+    >>> t = direct_toppling([85, 85, 20], [330, 30, 180], slope, friction=30.0)  # two steep joints, a flat base
+    >>> t.a.tolist(), t.b.tolist(), round(float(t.plunge[0])), t.base.tolist(), t.critical  # the line plunges north
+    ([0], [1], 84, [False, False, True], True)
+    """
+    friction = check_friction(friction)
+    dip = np.asarray(dip, dtype=np.float64)
+    dd = np.asarray(dip_direction, dtype=np.float64)
+    n = len(dip)
+    if n > max_planes:
+        raise ParameterError(
+            f"{n} planes make {n * (n - 1) // 2:,} pairs; test the largest {max_planes} or the sets' means."
+        )
+    normals = normal_from_orientation(dd, dip).reshape(-1, 3)
+    a, b = np.triu_indices(n, k=1)
+    trend, plunge = intersection_lines(normals[a], normals[b])
+    into = angular_difference(trend, slope.dip_direction + 180.0) <= lateral_limit
+    zone = np.isfinite(plunge) & into & (plunge > 90.0 - slope.dip)
+    base = (angular_difference(dd, slope.dip_direction) <= lateral_limit) & (dip < slope.dip)
+    return DirectToppling(a[zone], b[zone], trend[zone], plunge[zone], base, base & (dip > friction))
 
 
 def planar_factor_of_safety(dip, friction: float) -> np.ndarray:

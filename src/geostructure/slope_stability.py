@@ -16,6 +16,7 @@ from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set, read_planes, 
 from .kinematics import (
     LATERAL_LIMIT,
     Slope,
+    direct_toppling,
     flexural_toppling,
     percent_critical,
     planar_factor_of_safety,
@@ -118,7 +119,16 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
     return summary, paths
 
 
-PLANE_COLUMNS = ("region_id", "set", "dip", "dip_direction", "planar_sliding", "flexural_toppling", "planar_fs")
+PLANE_COLUMNS = (
+    "region_id",
+    "set",
+    "dip",
+    "dip_direction",
+    "planar_sliding",
+    "flexural_toppling",
+    "planar_fs",
+    "toppling_base",
+)
 WEDGE_COLUMNS = ("region_id_a", "region_id_b", "trend", "plunge", "wedge_fs", "slides_on")
 
 
@@ -133,6 +143,10 @@ def kinematics_of(planes, sets: list, slope: Slope, friction: float, lateral_lim
     fs = planar_factor_of_safety(dip, friction)
     tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
     w = wedges(dip[tested], dd[tested], slope, friction, max_planes=MAX_WEDGE_PLANES)
+    direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
+    base = np.zeros(len(planes), dtype=bool)
+    base[tested] = direct.base
+    pairs = len(tested) * (len(tested) - 1) // 2
     ids = planes.region_id
     rows = [
         {
@@ -143,6 +157,7 @@ def kinematics_of(planes, sets: list, slope: Slope, friction: float, lateral_lim
             "planar_sliding": bool(planar[i]),
             "flexural_toppling": bool(toppling[i]),
             "planar_fs": float(fs[i]) if planar[i] else float("nan"),
+            "toppling_base": bool(base[i]),
         }
         for i in range(len(planes))
     ]
@@ -183,15 +198,22 @@ def kinematics_of(planes, sets: list, slope: Slope, friction: float, lateral_lim
         "flexural_toppling": mode(toppling),
         "wedge_sliding": {
             **mode(in_wedge),
-            "pairs_tested": int(len(tested) * (len(tested) - 1) // 2),
+            "pairs_tested": int(pairs),
             "critical_pairs": int(len(w)),
             "planes_in_pairs": int(len(tested)),
+        },
+        "direct_toppling": {
+            "critical": direct.critical,
+            "intersections_in_zone": int(len(direct.a)),
+            "percent_of_pairs": 100.0 * len(direct.a) / pairs if pairs else float("nan"),
+            "base_planes": int(direct.base.sum()),
+            "sliding_base_planes": int(direct.sliding_base.sum()),
         },
         "sets": _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit),
     }
     figure = kinematics_figure(
         dip, dd, slope=slope, friction=friction, lateral_limit=lateral_limit, planar=planar, toppling=toppling,
-        wedge_lines=(w.trend, w.plunge),
+        wedge_lines=(w.trend, w.plunge), toppling_lines=(direct.trend, direct.plunge),
     )  # fmt: skip
     return summary, rows, wedge_rows, figure
 
@@ -206,18 +228,22 @@ def _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, fric
     mean_planar = planar_sliding(mean_dip, mean_dd, slope, friction, lateral_limit)
     mean_toppling = flexural_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
     w = wedges(mean_dip, mean_dd, slope, friction)
+    direct = direct_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
     out = []
     for i, row in enumerate(sets):
         s = int(row["set"])
         members = set_labels == s
         weights = np.nan_to_num(area[members])
         partners = [int(sets[b if a == i else a]["set"]) for a, b in zip(w.a, w.b) if i in (a, b)]
+        columns = [int(sets[b if a == i else a]["set"]) for a, b in zip(direct.a, direct.b) if i in (a, b)]
         out.append(
             {
                 "set": s,
                 "mean_planar_sliding": bool(mean_planar[i]),
                 "mean_flexural_toppling": bool(mean_toppling[i]),
                 "mean_wedges_with_sets": partners,
+                "mean_toppling_blocks_with_sets": columns if direct.base.any() else [],
+                "mean_toppling_base": bool(direct.base[i]),
                 "planar_percent_by_count": percent_critical(planar[members]),
                 "planar_percent_by_area": percent_critical(planar[members], weights),
                 "toppling_percent_by_count": percent_critical(toppling[members]),

@@ -113,8 +113,13 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         mode = summary[key]
         table.add_row(name, str(mode["planes"]), f"{mode['percent_by_count']:.1f}", f"{mode['percent_by_area']:.1f}")
     console.print(table)
-    wedge = summary["wedge_sliding"]
-    console.print(f"{wedge['critical_pairs']} critical pairs of {wedge['pairs_tested']:,} tested.")
+    wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
+    console.print(f"Wedges: {wedge['critical_pairs']} critical pairs of {wedge['pairs_tested']:,} tested.")
+    console.print(
+        f"Direct toppling: {direct['intersections_in_zone']} intersections in the zone, "
+        f"{direct['base_planes']} base planes ({direct['sliding_base_planes']} steeper than friction): "
+        + ("critical." if direct["critical"] else "not critical.")
+    )
 
 
 def print_evaluation(evaluation, console: Console | None = None) -> None:

@@ -7,11 +7,22 @@ import numpy as np
 from ..projection import quiet_mplstereonet
 
 
-def kinematics_figure(dip, dip_direction, *, slope, friction, lateral_limit, planar, toppling, wedge_lines=((), ())):
+def kinematics_figure(
+    dip,
+    dip_direction,
+    *,
+    slope,
+    friction,
+    lateral_limit,
+    planar,
+    toppling,
+    wedge_lines=((), ()),
+    toppling_lines=((), ()),
+):
     """Poles (critical for planar sliding red, for flexural toppling orange), the slope's great
     circle (the wedges' daylight envelope), the planar daylight envelope and lateral limits,
     the friction cones of poles and of lines, the toppling envelope, and the critical wedges'
-    intersection lines (crosses)."""
+    intersection lines (crosses), and the intersections in the direct toppling zone."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(7.0, 8.0))
@@ -57,6 +68,9 @@ def kinematics_figure(dip, dip_direction, *, slope, friction, lateral_limit, pla
     trend, plunge = (np.asarray(v, float) for v in wedge_lines)
     if len(trend):  # one artist for all of them (ax.line makes one per line)
         curve(plunge, trend, "x", color="purple", markersize=3, alpha=0.5, label="critical wedges (intersections)")
+    trend, plunge = (np.asarray(v, float) for v in toppling_lines)
+    if len(trend):
+        curve(plunge, trend, "+", color="saddlebrown", markersize=4, alpha=0.6, label="direct toppling intersections")
     ax.grid(True)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.04), fontsize=8, frameon=False, ncol=2)
     ax.set_title(f"Kinematics: slope {psi_f:.0f}/{alpha_f:03.0f}, friction {friction:g}°", y=1.08)
