@@ -8,7 +8,8 @@ All angles are degrees; orientations are dip and dip direction (of planes), tren
   ``lateral_limit`` of its dip direction, steeper than the friction angle, and daylights: its
   dip is less than the slope's apparent dip in the plane's dip direction,
   tan(apparent) = tan(slope dip) cos(plane dip direction - slope dip direction).
-- **Wedge sliding** (:func:`wedges`): the intersection line of two planes plunges steeper than
+- **Wedge sliding** (:func:`wedges`; pairs at least :data:`MIN_PAIR_ANGLE` apart): the
+  intersection line of two planes plunges steeper than
   the friction angle and daylights (its plunge is less than the slope's apparent dip along its
   trend). The wedge rides on both planes when the normal forces that hold it up are both
   pushing; otherwise it lifts off one and slides on the other alone (Hocking 1976), which is
@@ -40,6 +41,9 @@ from .orientation import normal_from_orientation
 
 #: Dips' default lateral limits (degrees) for planar sliding and flexural toppling.
 LATERAL_LIMIT = 20.0
+#: Two planes nearer than this (degrees) form no wedge and no block: their line is noise (two
+#: facets of one joint meet anywhere along their plane).
+MIN_PAIR_ANGLE = 10.0
 
 
 @dataclass(frozen=True)
@@ -153,7 +157,7 @@ def direct_toppling(
             f"{n} planes make {n * (n - 1) // 2:,} pairs; test the largest {max_planes} or the sets' means."
         )
     normals = normal_from_orientation(dd, dip).reshape(-1, 3)
-    a, b = np.triu_indices(n, k=1)
+    a, b = plane_pairs(normals)
     trend, plunge = intersection_lines(normals[a], normals[b])
     into = angular_difference(trend, slope.dip_direction + 180.0) <= lateral_limit
     zone = np.isfinite(plunge) & into & (plunge > 90.0 - slope.dip)
@@ -215,13 +219,20 @@ def wedges(dip, dip_direction, slope: Slope, friction: float, *, max_planes: int
             f"{n} planes make {n * (n - 1) // 2:,} pairs; test the largest {max_planes} or the sets' means."
         )
     normals = normal_from_orientation(np.asarray(dip_direction, dtype=np.float64), dip).reshape(-1, 3)
-    a, b = np.triu_indices(n, k=1)
+    a, b = plane_pairs(normals)
     trend, plunge = intersection_lines(normals[a], normals[b])
     critical = np.isfinite(plunge) & (plunge > friction) & _daylights(trend, plunge, slope)
     a, b, trend, plunge = a[critical], b[critical], trend[critical], plunge[critical]
     fs, single = _wedge_equilibrium(normals[a], normals[b], plunge, dip[a], dip[b], friction)
     single = np.where(single == 0, a, np.where(single == 1, b, -1))
     return Wedges(a, b, trend, plunge, fs, single)
+
+
+def plane_pairs(normals) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair a < b of planes at least :data:`MIN_PAIR_ANGLE` apart."""
+    a, b = np.triu_indices(len(normals), k=1)
+    apart = np.abs(np.einsum("ij,ij->i", normals[a], normals[b])) < np.cos(np.radians(MIN_PAIR_ANGLE))
+    return a[apart], b[apart]
 
 
 def _wedge_equilibrium(na, nb, plunge, dip_a, dip_b, friction):
