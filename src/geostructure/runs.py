@@ -17,16 +17,8 @@ import numpy as np
 from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from .io.exports import write_dips_csv
-from .io.outdir import (
-    EVALUATION_FILES,
-    REPORT_FILES,
-    SETS_FILES,
-    OutputSet,
-    output_set,
-    read_planes,
-    read_regions,
-    read_sets,
-)
+from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
+from .io.results import read_planes, read_regions, read_sets
 from .io.truth import GroundTruth, read_truth
 from .io.writers import sets_record, write_evaluation_files, write_result, write_sets_csv, write_spacing_csv
 from .orientation import Frame

@@ -12,7 +12,8 @@ import numpy as np
 
 from .exposure import exposure
 from .io.atomic import write_figure, write_json, write_table_csv
-from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set, read_planes, read_regions, read_sets
+from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
+from .io.results import read_planes, read_regions, read_sets
 from .kinematics import (
     LATERAL_LIMIT,
     Slope,
@@ -103,7 +104,7 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
         summary, rows, wedge_rows, figure = kinematics_of(
             planes, read_sets(outputs.outdir), slope, friction, lateral_limit
         )
-        write_table_csv(rows, outputs.path("kinematics.csv"), columns=PLANE_COLUMNS)
+        write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
         write_table_csv(wedge_rows, outputs.path("wedges.csv"), columns=WEDGE_COLUMNS)
         write_json(summary, outputs.path("kinematics.json"))
         write_figure(figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120)
@@ -120,7 +121,7 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
     return summary, paths
 
 
-PLANE_COLUMNS = (
+KINEMATICS_COLUMNS = (
     "region_id",
     "set",
     "dip",

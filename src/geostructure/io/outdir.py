@@ -21,7 +21,6 @@ is refused instead of reported on.
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import json
 import os
@@ -30,10 +29,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import OutputError
-from ..planes import Planes
 from .atomic import TEMP_PATTERN, write_json
 
 STAGING = ".geostructure-staging"
@@ -128,7 +124,8 @@ def _matches(path: Path, entry) -> bool:
         return False
 
 
-def _read_record(path: Path) -> dict | None:
+def read_record(path: Path) -> dict | None:
+    """A JSON record (``run.json``, a journal) as a dict; None when absent or not one."""
     try:
         record = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -174,7 +171,7 @@ def verified_record(outdir, record_name: str = "run.json", command: str = "geost
                 f"{outdir}: holds outputs but no {record_name}, so they are an incomplete set; run '{command}' again."
             )
         raise OutputError(f"{path}: no such file; run '{command}' first.")
-    record = _read_record(path)
+    record = read_record(path)
     if record is None:
         raise OutputError(f"{path}: not a GeoStructure run record (not a JSON object).")
     outputs = record.get("outputs")
@@ -199,82 +196,6 @@ def verified_record(outdir, record_name: str = "run.json", command: str = "geost
                 f"another run), so the folder mixes two sets; run '{command}' again."
             )
     return record
-
-
-def read_run(folder) -> dict:
-    """``run.json`` of a measured folder (or of a staged set) as a dict, with its frame.
-
-    It does not check the manifest: readers of a finished folder call
-    :func:`verified_record` first.
-    """
-    path = Path(folder) / "run.json"
-    if not path.is_file():
-        raise OutputError(f"{path}: no such file; run 'geostructure measure' first.")
-    record = _read_record(path)
-    try:
-        record["frame"]["rotation"]
-    except (KeyError, TypeError):
-        raise OutputError(f"{path}: not a GeoStructure run record.") from None
-    return record
-
-
-def read_planes(folder, offset=None) -> Planes:
-    """The plane table in ``planes.csv`` of a measured folder, positions relative to ``offset``."""
-    return Planes.from_csv(Path(folder) / "planes.csv", offset)
-
-
-def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray]:
-    """The labelled points of ``regions.ply`` in a measured folder: (N, 3) float64 positions
-    relative to ``offset`` and each point's ``region_id`` (-1 for none)."""
-    from plyfile import PlyData, PlyParseError
-
-    path = Path(folder) / "regions.ply"
-    try:
-        vertex = PlyData.read(str(path), mmap=True)["vertex"].data
-        xyz = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
-        region = np.asarray(vertex["region_id"], dtype=np.int64)
-    except FileNotFoundError:
-        raise OutputError(f"{path}: no such file; run 'geostructure measure' first.") from None
-    except (PlyParseError, KeyError, ValueError) as exc:
-        raise OutputError(f"{path}: not a GeoStructure regions file ({exc}).") from None
-    if offset is not None:
-        xyz -= np.asarray(offset, dtype=np.float64)
-    return xyz, region
-
-
-def read_spacings(folder) -> dict[int, np.ndarray]:
-    """Set -> its normal spacings (m) along the scanlines, from ``spacing.csv``; {} when none."""
-    path = Path(folder) / "spacing.csv"
-    if not path.is_file():
-        return {}
-    with open(path, newline="", encoding="utf-8") as fh:
-        try:
-            rows = [(int(r["set"]), r["method"], float(r["spacing_m"])) for r in csv.DictReader(fh)]
-        except (ValueError, TypeError, KeyError):
-            raise OutputError(f"{path}: not a GeoStructure spacing table.") from None
-    out: dict[int, list] = {}
-    for s, method, value in rows:
-        if method == "scanline":
-            out.setdefault(s, []).append(value)
-    return {s: np.array(v) for s, v in out.items()}
-
-
-#: The columns of ``sets.csv`` that hold words, not numbers.
-TEXT_SET_COLUMNS = {"spacing_best_fit"}
-
-
-def read_sets(folder) -> list[dict]:
-    """The rows of ``sets.csv`` of a folder, as numbers; [] when it has none."""
-    path = Path(folder) / "sets.csv"
-    if not path.is_file():
-        return []
-    with open(path, newline="", encoding="utf-8") as fh:
-        try:
-            return [
-                {k: (v if k in TEXT_SET_COLUMNS else float(v)) for k, v in row.items()} for row in csv.DictReader(fh)
-            ]
-        except (ValueError, TypeError):
-            raise OutputError(f"{path}: not a GeoStructure sets table (a cell is not a number).") from None
 
 
 @dataclass
@@ -337,7 +258,7 @@ def output_set(
         recover(outdir)
         outputs = OutputSet(outdir, outdir / STAGING, record_name, replace)
         if replace:
-            previous = _read_record(outdir / record_name) or {}
+            previous = read_record(outdir / record_name) or {}
             manifest = previous.get("outputs") if isinstance(previous.get("outputs"), dict) else {}
             outputs.stale = [n for n, e in sorted(manifest.items()) if n in OWNED and _matches(outdir / n, e)]
         else:
@@ -377,7 +298,7 @@ def _commit(outputs: OutputSet) -> None:
 def _roll_forward(outdir: Path) -> None:
     """Finish a committed set: move its files into place (the record last), drop the stale ones."""
     staging = outdir / STAGING
-    journal = _read_record(staging / JOURNAL) or {}
+    journal = read_record(staging / JOURNAL) or {}
     for name in journal.get("files", []):
         if name in OWNED and (staging / name).exists():
             os.replace(staging / name, outdir / name)
@@ -394,7 +315,7 @@ def recover(outdir) -> None:
     outdir = Path(outdir)
     staging = outdir / STAGING
     if staging.is_dir():
-        if _read_record(staging / JOURNAL) is not None:
+        if read_record(staging / JOURNAL) is not None:
             _roll_forward(outdir)
         else:
             shutil.rmtree(staging, ignore_errors=True)

@@ -39,6 +39,7 @@ from scipy.spatial import cKDTree
 
 from ..cloud import Cloud
 from ..orientation import normal_from_orientation
+from .scanlines import scanline_crossings
 
 
 @dataclass(frozen=True)
@@ -145,43 +146,14 @@ class OutcropScene:
             shown = np.unique(self.facet_plane[self.facet_set == set_index])
             normals, points = normals[shown], points[shown]
         generated = self.sets[set_index].normal
-        first = self._lines(normals, points, generated, line_spacing)
+        face = (self.face_normal, self.face_axes, self.face_size)
+        first = scanline_crossings(normals, points, generated, face, line_spacing)
         met = np.unique(first["met"])
         if len(met) >= 2:
             mean = np.linalg.eigh(normals[met].T @ normals[met])[1][:, -1]
-            first = self._lines(normals, points, mean if mean @ generated >= 0 else -mean, line_spacing)
+            first = scanline_crossings(normals, points, mean if mean @ generated >= 0 else -mean, face, line_spacing)
         first.pop("met")
         return first
-
-    def _lines(self, normals, points, mean, line_spacing) -> dict:
-        along, up_dip = self.face_axes
-        width, height = self.face_size
-        direction = mean - (mean @ self.face_normal) * self.face_normal
-        direction /= np.linalg.norm(direction)
-        across = np.cross(self.face_normal, direction)
-        corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype=np.float64)
-        corners3 = corners[:, :1] * along + corners[:, 1:] * up_dip
-        gaps, length, met = [], 0.0, []
-        for c in np.arange((corners3 @ across).min() + line_spacing / 2, (corners3 @ across).max(), line_spacing):
-            origin = c * across
-            t_range = _segment_in_rectangle(origin, direction, along, up_dip, width, height)
-            if t_range is None:
-                continue
-            t = np.einsum("pk,pk->p", normals, points - origin) / (normals @ direction)
-            inside = (t >= t_range[0]) & (t <= t_range[1])
-            length += t_range[1] - t_range[0]
-            met.append(np.flatnonzero(inside))
-            gaps.append(np.diff(np.sort(t[inside])) * float(mean @ direction))
-        met = np.concatenate(met) if met else np.zeros(0, dtype=np.int64)
-        return {
-            "gaps": np.concatenate(gaps) if gaps else np.zeros(0),
-            "length": float(length),
-            "crossings": int(len(met)),
-            "cosine": float(mean @ direction),
-            "mean": mean,
-            "c13": float(1.0 / np.abs(normals[met] @ direction).mean()) if len(met) else float("nan"),
-            "met": met,
-        }
 
 
 def fisher_directions(mean, kappa: float, n: int, rng) -> np.ndarray:
@@ -376,21 +348,6 @@ def outcrop_scene(
             spacing[s] = line["cosine"] / p10 if p10 > 0 else np.inf
             p32[s] = line["c13"] * p10
     return scene
-
-
-def _segment_in_rectangle(origin, direction, along, up_dip, width, height):
-    """The (t0, t1) range of the line origin + t direction inside the face rectangle."""
-    o = np.array([origin @ along, origin @ up_dip])
-    d = np.array([direction @ along, direction @ up_dip])
-    lo, hi = -np.inf, np.inf
-    for k, size in enumerate((width, height)):
-        if abs(d[k]) < 1e-12:
-            if not 0.0 <= o[k] <= size:
-                return None
-            continue
-        a, b = (0.0 - o[k]) / d[k], (size - o[k]) / d[k]
-        lo, hi = max(lo, min(a, b)), min(hi, max(a, b))
-    return (lo, hi) if hi > lo else None
 
 
 def _join_coplanar_cells(ab, cell, plane_key, step) -> np.ndarray:

@@ -1,0 +1,90 @@
+"""Readers of a result folder's files: ``run.json``, ``planes.csv``, ``regions.ply``,
+``sets.csv`` and ``spacing.csv``. They read what is there; a command that must trust the
+folder checks its manifest first (:func:`~.outdir.verified_record`)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OutputError
+from ..planes import Planes
+from .outdir import read_record
+
+
+def read_run(folder) -> dict:
+    """``run.json`` of a measured folder (or of a staged set) as a dict, with its frame.
+
+    It does not check the manifest: readers of a finished folder call
+    :func:`verified_record` first.
+    """
+    path = Path(folder) / "run.json"
+    if not path.is_file():
+        raise OutputError(f"{path}: no such file; run 'geostructure measure' first.")
+    record = read_record(path)
+    try:
+        record["frame"]["rotation"]
+    except (KeyError, TypeError):
+        raise OutputError(f"{path}: not a GeoStructure run record.") from None
+    return record
+
+
+def read_planes(folder, offset=None) -> Planes:
+    """The plane table in ``planes.csv`` of a measured folder, positions relative to ``offset``."""
+    return Planes.from_csv(Path(folder) / "planes.csv", offset)
+
+
+def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray]:
+    """The labelled points of ``regions.ply`` in a measured folder: (N, 3) float64 positions
+    relative to ``offset`` and each point's ``region_id`` (-1 for none)."""
+    from plyfile import PlyData, PlyParseError
+
+    path = Path(folder) / "regions.ply"
+    try:
+        vertex = PlyData.read(str(path), mmap=True)["vertex"].data
+        xyz = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
+        region = np.asarray(vertex["region_id"], dtype=np.int64)
+    except FileNotFoundError:
+        raise OutputError(f"{path}: no such file; run 'geostructure measure' first.") from None
+    except (PlyParseError, KeyError, ValueError) as exc:
+        raise OutputError(f"{path}: not a GeoStructure regions file ({exc}).") from None
+    if offset is not None:
+        xyz -= np.asarray(offset, dtype=np.float64)
+    return xyz, region
+
+
+def read_spacings(folder) -> dict[int, np.ndarray]:
+    """Set -> its normal spacings (m) along the scanlines, from ``spacing.csv``; {} when none."""
+    path = Path(folder) / "spacing.csv"
+    if not path.is_file():
+        return {}
+    with open(path, newline="", encoding="utf-8") as fh:
+        try:
+            rows = [(int(r["set"]), r["method"], float(r["spacing_m"])) for r in csv.DictReader(fh)]
+        except (ValueError, TypeError, KeyError):
+            raise OutputError(f"{path}: not a GeoStructure spacing table.") from None
+    out: dict[int, list] = {}
+    for s, method, value in rows:
+        if method == "scanline":
+            out.setdefault(s, []).append(value)
+    return {s: np.array(v) for s, v in out.items()}
+
+
+#: The columns of ``sets.csv`` that hold words, not numbers.
+TEXT_SET_COLUMNS = {"spacing_best_fit"}
+
+
+def read_sets(folder) -> list[dict]:
+    """The rows of ``sets.csv`` of a folder, as numbers; [] when it has none."""
+    path = Path(folder) / "sets.csv"
+    if not path.is_file():
+        return []
+    with open(path, newline="", encoding="utf-8") as fh:
+        try:
+            return [
+                {k: (v if k in TEXT_SET_COLUMNS else float(v)) for k, v in row.items()} for row in csv.DictReader(fh)
+            ]
+        except (ValueError, TypeError):
+            raise OutputError(f"{path}: not a GeoStructure sets table (a cell is not a number).") from None
