@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from geostructure.cli import main
-from geostructure.synthetic import observatory_scene
+from geostructure.synthetic import observatory_scene, outcrop_scene
 
 #: An error line: the prefix, then one sentence (ending in a full stop; no second line).
 ERROR_LINE = re.compile(r"^geostructure: error: .+[.)]$")
@@ -59,3 +59,17 @@ def assert_one_sentence(err: str, *names) -> None:
     assert len(lines) == 1 and ERROR_LINE.match(lines[0]), err
     for name in names:
         assert str(name) in lines[0], (name, err)
+
+
+def lidar_outcrop(width: float, height: float):
+    """The LiDAR-like outcrop the tests share: 1 cm spacing, little noise, at a UTM offset."""
+    return outcrop_scene(
+        width=width,
+        height=height,
+        point_spacing=0.01,
+        noise=0.002,
+        correlated_noise=0.001,
+        facet_size=0.4,
+        seed=6,
+        offset=(662_000.0, 5_103_000.0, 800.0),
+    )

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from helpers import lidar_outcrop
 
 from geostructure import Params, measure
 from geostructure.evaluate import match_facets
@@ -59,16 +60,7 @@ def test_the_paper_detector_alone_finds_few_of_them(outcrop):
 
 
 def test_a_lidar_like_outcrop_at_utm_offset():
-    scene = outcrop_scene(
-        width=5.0,
-        height=3.0,
-        point_spacing=0.01,
-        noise=0.002,
-        correlated_noise=0.001,
-        seed=6,
-        offset=(662_000.0, 5_103_000.0, 800.0),
-        facet_size=0.4,
-    )
+    scene = lidar_outcrop(5.0, 3.0)
     result = measure(scene.cloud)
     match = match_facets(result.planes, scene)
     assert match.recall >= MIN_RECALL, match.recall

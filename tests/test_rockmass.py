@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pytest
+from helpers import lidar_outcrop
 
 from geostructure import measure
 from geostructure.cli import main
@@ -44,16 +45,7 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
 
 @pytest.mark.slow
 def test_spacing_on_a_lidar_like_face_at_utm_offset():
-    scene = outcrop_scene(
-        width=8.0,
-        height=5.0,
-        point_spacing=0.01,
-        noise=0.002,
-        correlated_noise=0.001,
-        facet_size=0.4,
-        seed=6,
-        offset=(662_000.0, 5_103_000.0, 800.0),
-    )
+    scene = lidar_outcrop(8.0, 5.0)
     _, sets, rock, truth = measured(scene)
     assert len(sets) == 3 and sorted(truth) == [0, 1, 2]
     np.testing.assert_allclose(rock.spacing, scene.set_spacing[truth], rtol=0.15)

@@ -188,7 +188,8 @@ def intersection_lines(normals_a, normals_b) -> tuple[np.ndarray, np.ndarray]:
 class Wedges:
     """Every pair of planes ``a`` < ``b`` whose intersection is critical, with its line's
     ``trend`` and ``plunge``, ``factor_of_safety`` and ``single_plane`` (-1 when the wedge rides
-    on both planes, else the index of the one it slides on alone)."""
+    on both planes, else the index of the one it slides on alone); ``pairs_tested`` counts the pairs
+    at least :data:`MIN_PAIR_ANGLE` apart that were tested."""
 
     a: np.ndarray
     b: np.ndarray
@@ -196,6 +197,7 @@ class Wedges:
     plunge: np.ndarray
     factor_of_safety: np.ndarray
     single_plane: np.ndarray
+    pairs_tested: int = 0
 
     def __len__(self) -> int:
         return len(self.a)
@@ -220,12 +222,13 @@ def wedges(dip, dip_direction, slope: Slope, friction: float, *, max_planes: int
         )
     normals = normal_from_orientation(np.asarray(dip_direction, dtype=np.float64), dip).reshape(-1, 3)
     a, b = plane_pairs(normals)
+    pairs_tested = len(a)
     trend, plunge = intersection_lines(normals[a], normals[b])
     critical = np.isfinite(plunge) & (plunge > friction) & _daylights(trend, plunge, slope)
     a, b, trend, plunge = a[critical], b[critical], trend[critical], plunge[critical]
     fs, single = _wedge_equilibrium(normals[a], normals[b], plunge, dip[a], dip[b], friction)
     single = np.where(single == 0, a, np.where(single == 1, b, -1))
-    return Wedges(a, b, trend, plunge, fs, single)
+    return Wedges(a, b, trend, plunge, fs, single, pairs_tested)
 
 
 def plane_pairs(normals) -> tuple[np.ndarray, np.ndarray]:

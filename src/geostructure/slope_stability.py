@@ -22,10 +22,9 @@ from .kinematics import (
     percent_critical,
     planar_factor_of_safety,
     planar_sliding,
-    plane_pairs,
     wedges,
 )
-from .orientation import Frame, normal_from_orientation, orientation_from_normals
+from .orientation import Frame, orientation_from_normals
 from .uncertainty import normal_standard_errors
 
 #: Pairs are tested among this many of the largest planes at most.
@@ -148,7 +147,7 @@ def kinematics_of(planes, sets: list, slope: Slope, friction: float, lateral_lim
     direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
     base = np.zeros(len(planes), dtype=bool)
     base[tested] = direct.base
-    pairs = len(plane_pairs(normal_from_orientation(dd[tested], dip[tested]).reshape(-1, 3))[0])
+    pairs = w.pairs_tested
     ids = planes.region_id
     rows = [
         {
