@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from .io.truth import GroundTruth
 from .orientation import angle_between_normals, azimuth_difference, orientation_from_normals
@@ -50,6 +49,8 @@ def _assign(cost: np.ndarray, limit) -> np.ndarray:
     if cost.size == 0:
         return out
     allowed = cost <= limit
+    from scipy.optimize import linear_sum_assignment  # 0.4 s to import: only when matching
+
     rows, cols = linear_sum_assignment(np.where(allowed, cost, 1e12))
     ok = allowed[rows, cols]
     out[rows[ok]] = cols[ok]

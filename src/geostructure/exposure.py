@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 from scipy.spatial import cKDTree
 
 #: Empty patches of the occupancy grid up to this many cells are gaps in the sampling, not
@@ -51,6 +50,8 @@ class Exposure:
 
     def edge(self) -> np.ndarray:
         """Cells at the exposure's edge: occupied cells with an empty neighbour (outside or hole)."""
+        from scipy import ndimage  # 0.3 s to import: only with sets
+
         padded = np.pad(self.occupied, 1)
         inner = ndimage.binary_erosion(padded, structure=np.ones((3, 3), dtype=bool))[1:-1, 1:-1]
         return self.occupied & ~inner
@@ -92,6 +93,8 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0) -> Exposure:
     ij = np.floor((uv - lower) / cell).astype(np.int64)
     occupied = np.zeros(tuple(ij.max(axis=0) + 1), dtype=bool)
     occupied[ij[:, 0], ij[:, 1]] = True
+    from scipy import ndimage  # 0.3 s to import: only with sets
+
     holes, n = ndimage.label(~occupied)
     sizes = np.bincount(holes.ravel(), minlength=n + 1)
     occupied |= (sizes[holes] <= SMALL_HOLE_CELLS) & (holes > 0)

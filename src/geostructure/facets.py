@@ -1,26 +1,29 @@
-"""Small facets on rough rock: per-point normals and planar region growing on the points.
+"""Small facets on rough rock: local planes on a fine grid and planar region growing on them.
 
 The voxel pipeline (the paper's) fits one plane per voxel, so a joint face must span a few
 voxels to be found, and a voxel must be large against the noise for its normal to mean
 anything: on a rough outcrop at 3 cm spacing that puts the smallest face found near a
-metre across, while most joints are half that. Here every point gets its own plane, from
-its ``k`` nearest neighbours (as DSE, Riquelme et al. 2014, and Facets' kd-tree mode do),
-and facets are the connected groups of points whose planes agree:
+metre across, while most joints are half that. Here the local planes are as fine as DSE's
+per-point normals (Riquelme et al. 2014) but come from a grid, not a neighbour search:
 
-1. **Normals and planarity**: the covariance of each point's ``k`` neighbours gives its
-   normal (the smallest eigenvector) and its surface variation lambda_0 / (lambda_0 +
-   lambda_1 + lambda_2) (Pauly et al. 2002): near 0 on a plane, up to 1/3 where the
-   neighbourhood straddles an edge or a step. Points above ``max_variation`` are edges and
-   belong to no facet, which is what keeps two faces meeting at an edge apart.
-2. **Growing**: two neighbouring planar points join when their normals are within
-   ``max_angle`` degrees and each lies within ``max_offset`` of the other's plane (the
-   coplanarity test; it separates parallel joints of one set that step past each other).
-   The facets are the connected components of that graph, found at once by
-   ``scipy.sparse.csgraph`` rather than seed by seed.
+1. **Local planes** (:mod:`.cells`): a grid of twice the point spacing; each cell's plane is
+   the least-squares plane of its 3 x 3 x 3 block of cells (about 30 points, as DSE's 30
+   neighbours), from additive moments. Its surface variation lambda_0 / (lambda_0 +
+   lambda_1 + lambda_2) (Pauly et al. 2002) is near 0 on a plane and up to 1/3 where the
+   block straddles an edge or a step; such cells belong to no facet, which keeps two faces
+   meeting at an edge apart.
+2. **Growing**: two touching cells join when their normals are within ``max_angle``
+   degrees and each cell's points lie (their mean) within ``max_offset`` of the other's
+   plane (the coplanarity test; it separates parallel joints of one set that step past
+   each other). The facets are the connected components of that graph (``scipy.sparse.
+   csgraph``).
+3. **Points**: each point takes its cell's facet when it lies on the cell's plane.
 
 The thresholds come from the cloud itself (:func:`facet_thresholds`): the point spacing and
 the noise of the local fits, so a LiDAR cloud at 1 cm and an SfM cloud at 3 cm are treated
-alike.
+alike. Where the local planes wander more than :data:`MAX_CELL_SCATTER` (rock rough at the
+cloud's own spacing, as a dense LiDAR scan sees it), the grid is coarsened. Why a grid rather
+than per-point neighbours: ``docs/methods.md``, "Facets".
 """
 
 from __future__ import annotations
@@ -32,19 +35,31 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .cells import CellPlanes, cell_planes, far_scatter, neighbour_pairs
+
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")
-#: Neighbours per point for its normal (DSE's default) and, of those, the nearest used as
-#: graph edges.
+#: Neighbours per point for :func:`point_planes` (DSE's default).
 NORMAL_NEIGHBOURS = 30
-GRAPH_NEIGHBOURS = 6
 #: Points per batch of covariance matrices (bounds memory at ~50 MB a batch).
 BATCH = 100_000
-#: Largest median angle (degrees) between a point's normal and its farthest neighbour's for
-#: the normals to be trusted; rougher than that at the cloud's own spacing (a dense LiDAR
-#: scan of rough rock), the cloud is thinned until its neighbourhoods are wide enough.
-MAX_FAR_SCATTER = 3.5
-THINNING_ROUNDS = 3
+#: The grid's edge in point spacings (:func:`point_spacing`), so that a block of 3 x 3 x 3
+#: cells holds some 16 to 30 points of a surface, as DSE's 30 neighbours. On outcrop seeds 4,
+#: 5 and 7 and the 1 cm face, 1.35 found 91 to 95% of the facets; 1.6, 84 to 92%; 2.25, 78
+#: to 80%.
+CELL_EDGE = 1.35
+#: Largest median angle (degrees) between local planes two cells apart for them to be
+#: trusted; where they wander more, the grid's edge is doubled, up to COARSENING_ROUNDS times,
+#: and where they still do (a noisy SfM cloud), no facet is trusted: every point is left to
+#: the voxel growing. Measured: 3.3 to 4.7 on rough SfM-like outcrops at 2.5 to 3 cm; on the
+#: LiDAR-like one at 1 cm, over 5 on the first grid and 4.1 on the doubled one.
+MAX_CELL_SCATTER = 5.0
+COARSENING_ROUNDS = 3
+#: The angle threshold is this many times the median angle between touching cells' planes
+#: (2.5 found 1 to 2% more facets than 2 or 3.5 on outcrop seeds 4 and 5).
+ANGLE_FACTOR = 2.5
+#: Points sampled to measure the point spacing.
+SPACING_SAMPLE = 20_000
 
 
 @dataclass
@@ -107,36 +122,13 @@ def point_planes(points: np.ndarray, k: int = NORMAL_NEIGHBOURS) -> PointPlanes:
     return PointPlanes(normal, variation, residual, neighbours, distances)
 
 
-def facet_thresholds(planes: PointPlanes) -> FacetThresholds:
-    """Thresholds read from the cloud: spacing, local-fit noise and how normals scatter.
-
-    - the offset a neighbour may lie off a point's plane is 3 times the median local-fit
-      residual (the noise and roughness at the neighbourhood's scale), at least a third of
-      the point spacing;
-    - the angle is 3 times the median angle between neighbouring normals, clipped to 5 to
-      15 degrees: above the scatter of one rough face, below the angle at which joints of
-      different sets meet;
-    - the surface variation is 3 times its median, clipped to 0.01 to 0.1.
-    """
-    spacing = planes.spacing
-    first = planes.neighbours[:, 1] if planes.neighbours.shape[1] > 1 else np.arange(len(planes.normal))
-    cosine = np.abs(np.einsum("ij,ij->i", planes.normal, planes.normal[first]))
-    scatter = float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0)))))
-    return FacetThresholds(
-        max_angle=float(np.clip(3.0 * scatter, 5.0, 15.0)),
-        max_offset=max(3.0 * float(np.median(planes.residual)), spacing / 3.0),
-        max_variation=float(np.clip(3.0 * np.median(planes.variation), 0.01, 0.1)),
-        spacing=spacing,
-    )
-
-
-def planar_components(points: np.ndarray, planes: PointPlanes, labels: np.ndarray, thresholds: FacetThresholds):
+def planar_components(points: np.ndarray, normals: np.ndarray, labels: np.ndarray, thresholds: FacetThresholds):
     """Which grown facets are planes (True) and which drifted round a curved surface (False).
 
     Connected components have no reference normal, so on a smooth curved surface (a Poisson
     mesh's rounded edges, a dome) they grow round it. A facet is planar when its points lie
     within twice the coplanarity offset of its least-squares plane (RMS) and four in five of
-    their normals within twice the angle of the plane's normal.
+    local ``normals`` within twice the angle of the plane's normal.
     """
     n = int(labels.max(initial=-1)) + 1
     if n == 0:
@@ -153,9 +145,7 @@ def planar_components(points: np.ndarray, planes: PointPlanes, labels: np.ndarra
     values, vectors = np.linalg.eigh(cov)
     residual = np.sqrt(np.maximum(values[:, 0], 0.0))
     normal = vectors[:, :, 0]
-    aligned = np.abs(np.einsum("ij,ij->i", planes.normal[ok], normal[lab])) >= np.cos(
-        np.radians(2.0 * thresholds.max_angle)
-    )
+    aligned = np.abs(np.einsum("ij,ij->i", normals[ok], normal[lab])) >= np.cos(np.radians(2.0 * thresholds.max_angle))
     share = np.bincount(lab, aligned.astype(np.float64), n) / count
     return (residual <= 2.0 * thresholds.max_offset) & (share >= 0.8)
 
@@ -168,7 +158,7 @@ class FacetDetection:
     labels: np.ndarray
     curved: np.ndarray
     thresholds: FacetThresholds
-    thinning: float  # grid edge the normals were computed on (0: the cloud as it is)
+    cell_edge: float  # the grid's edge the local planes were computed on
     far_scatter: float
 
     def record(self) -> dict:
@@ -176,76 +166,11 @@ class FacetDetection:
         return {
             "detector": "facets",
             "facet_thresholds": {k: float(v) for k, v in vars(self.thresholds).items()},
-            "thinning": self.thinning,
+            "cell_edge": self.cell_edge,
             "far_scatter_deg": self.far_scatter,
             "planar_facets": int(self.labels.max(initial=-1)) + 1,
             "curved_points": int(self.curved.sum()),
         }
-
-
-def far_scatter(planes: PointPlanes) -> float:
-    """Median angle (degrees) between each point's normal and its farthest neighbour's."""
-    far = planes.neighbours[:, -1]
-    cosine = np.abs(np.einsum("ij,ij->i", planes.normal, planes.normal[far]))
-    return float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0)))))
-
-
-def thin(points: np.ndarray, edge: float) -> np.ndarray:
-    """Indices of one point per grid cell of ``edge`` (the first in the cloud's order)."""
-    keys = np.floor((points - points.min(axis=0)) / edge).astype(np.int64)
-    _, first = np.unique(keys, axis=0, return_index=True)
-    return np.sort(first)
-
-
-def detect_facets(points: np.ndarray) -> FacetDetection:
-    """Per-point planes, thresholds from the cloud, facets grown and checked for planarity.
-
-    When the normals scatter more than :data:`MAX_FAR_SCATTER` at the cloud's own spacing
-    (rock rough at that scale), the detection runs on a thinned copy (a grid of twice the
-    spacing, then four times, ...) and every point takes the facet of its nearest kept point
-    when it lies on that point's plane. When they still scatter more after the last thinning
-    (a noisy SfM cloud), no facet is trusted: every point is left to the voxel growing.
-
-    Examples
-    --------
-    >>> g = np.mgrid[0:1:40j, 0:1:40j].reshape(2, -1).T
-    >>> roof = np.c_[g, np.where(g[:, 0] < 0.5, g[:, 0], 1 - g[:, 0])]
-    >>> found = detect_facets(roof)
-    >>> int(found.labels.max() + 1), found.thinning
-    (2, 0.0)
-    """
-    points = np.asarray(points, dtype=np.float64)
-    kept = np.arange(len(points))
-    planes = point_planes(points)
-    scatter = far_scatter(planes)
-    spacing = planes.spacing
-    edge = 0.0
-    for round_ in range(1, THINNING_ROUNDS + 1):
-        if scatter <= MAX_FAR_SCATTER or spacing <= 0:
-            break
-        trial_edge = 2.0**round_ * spacing
-        trial = thin(points, trial_edge)
-        if len(trial) < 100:
-            break
-        kept, edge = trial, trial_edge
-        planes = point_planes(points[kept])
-        scatter = far_scatter(planes)
-    thresholds = facet_thresholds(planes)
-    sub = points[kept]
-    if scatter > MAX_FAR_SCATTER:  # noisy at every scale tried (a rough SfM cloud): no facet is trusted
-        return FacetDetection(np.full(len(points), -1), np.ones(len(points), bool), thresholds, edge, scatter)
-    labels = grow_facets(sub, planes, thresholds)
-    planar = planar_components(sub, planes, labels, thresholds)
-    curved = (labels >= 0) & ~planar[np.maximum(labels, 0)] if len(planar) else np.zeros(len(sub), bool)
-    renumber = np.full(len(planar) + 1, -1)
-    renumber[np.flatnonzero(planar)] = np.arange(int(planar.sum()))
-    labels = renumber[labels]
-    if len(kept) < len(points):  # back to every point: the nearest kept point's facet, if on its plane
-        _, nearest = cKDTree(sub).query(points, workers=-1)
-        off = np.abs(np.einsum("ij,ij->i", points - sub[nearest], planes.normal[nearest]))
-        labels = np.where(off <= thresholds.max_offset, labels[nearest], -1)
-        curved = curved[nearest]
-    return FacetDetection(labels, curved, thresholds, edge, scatter)
 
 
 def voxel_majority(point_voxel: np.ndarray, labels: np.ndarray, n_voxels: int) -> np.ndarray:
@@ -267,37 +192,123 @@ def voxel_majority(point_voxel: np.ndarray, labels: np.ndarray, n_voxels: int) -
     return out
 
 
-def grow_facets(points: np.ndarray, planes: PointPlanes, thresholds: FacetThresholds) -> np.ndarray:
-    """Label each point with its facet (0, 1, ..., largest first) or -1 (an edge, or alone).
+def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 0) -> float:
+    """The cloud's point spacing, 1 / sqrt(surface density), from the distance r_8 of a
+    random sample of its points to their 8th nearest neighbour: 8 points in a disc of
+    radius r_8 give density 8 / (pi r_8^2). On a square grid of spacing s it reads 0.89 s;
+    unlike the nearest-neighbour distance, it reads a random (Poisson) scatter right too,
+    whose nearest neighbours lie at half its spacing."""
+    rng = np.random.default_rng(seed)
+    probe = points[rng.choice(len(points), min(sample, len(points)), replace=False)]
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # built fast: queried once
+    k = min(9, len(points))
+    r8 = float(np.median(tree.query(probe, k=k, workers=-1)[0][:, -1]))
+    return r8 * float(np.sqrt(np.pi / max(k - 1, 1)))
+
+
+def facet_thresholds(cells: CellPlanes, spacing: float) -> FacetThresholds:
+    """Thresholds read from the cloud: spacing, local-fit noise and how local planes scatter.
+
+    - the offset a cell may lie off its neighbour's plane is 3 times the median local-fit
+      residual (the noise and roughness at the block's scale), at least a third of the
+      point spacing;
+    - the angle is :data:`ANGLE_FACTOR` times the median angle between touching cells'
+      normals, clipped to 5 to 15 degrees: above the scatter of one rough face, below the
+      angle at which joints of different sets meet;
+    - the surface variation is 3 times its median, clipped to 0.01 to 0.1.
+    """
+    defined = cells.defined
+    source, target = neighbour_pairs(cells)
+    cosine = np.abs(np.einsum("ij,ij->i", cells.normal[source], cells.normal[target]))
+    scatter = float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0))))) if len(source) else 0.0
+    return FacetThresholds(
+        max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
+        max_offset=max(3.0 * float(np.median(cells.residual[defined])), spacing / 3.0) if defined.any() else spacing,
+        max_variation=float(np.clip(3.0 * np.median(cells.variation[defined]), 0.01, 0.1)) if defined.any() else 0.01,
+        spacing=spacing,
+    )
+
+
+def grow_cells(cells: CellPlanes, thresholds: FacetThresholds) -> np.ndarray:
+    """Each cell's facet (0, 1, ..., most points first) or -1 (an edge, or a facet of one cell).
 
     Examples
     --------
     >>> g = np.mgrid[0:1:40j, 0:1:40j].reshape(2, -1).T
     >>> roof = np.c_[g, np.where(g[:, 0] < 0.5, g[:, 0], 1 - g[:, 0])]  # two faces meeting at a ridge
-    >>> planes = point_planes(roof)
-    >>> labels = grow_facets(roof, planes, facet_thresholds(planes))
-    >>> int(labels.max() + 1), bool(labels[roof[:, 0] < 0.4].min() == labels[roof[:, 0] < 0.4].max())
-    (2, True)
+    >>> cells = cell_planes(roof, 0.05)
+    >>> labels = grow_cells(cells, facet_thresholds(cells, point_spacing(roof)))
+    >>> int(labels.max() + 1)
+    2
     """
-    n = len(points)
-    m = min(GRAPH_NEIGHBOURS + 1, planes.neighbours.shape[1])
-    source = np.repeat(np.arange(n), m - 1)
-    target = planes.neighbours[:, 1:m].ravel()
-    flat = planes.variation <= thresholds.max_variation
-    gap = points[target] - points[source]
+    n = len(cells)
+    source, target = neighbour_pairs(cells)
+    flat = cells.defined & (cells.variation <= thresholds.max_variation)
     ok = flat[source] & flat[target]
-    ok &= np.abs(np.einsum("ij,ij->i", planes.normal[source], planes.normal[target])) >= np.cos(
+    ok &= np.abs(np.einsum("ij,ij->i", cells.normal[source], cells.normal[target])) >= np.cos(
         np.radians(thresholds.max_angle)
     )
-    ok &= np.abs(np.einsum("ij,ij->i", gap, planes.normal[source])) <= thresholds.max_offset
-    ok &= np.abs(np.einsum("ij,ij->i", gap, planes.normal[target])) <= thresholds.max_offset
+    for a, b in ((source, target), (target, source)):  # each cell's points on the other's plane
+        gap = cells.centroid[b] - cells.block_centroid[a]
+        ok &= np.abs(np.einsum("ij,ij->i", gap, cells.normal[a])) <= thresholds.max_offset
     graph = coo_matrix((np.ones(int(ok.sum()), dtype=np.int8), (source[ok], target[ok])), shape=(n, n))
     _, component = connected_components(graph, directed=False)
     component = np.where(flat, component, -1)
-    sizes = np.bincount(component[component >= 0], minlength=1)
-    order = np.argsort(-sizes, kind="stable")
+    n_components = int(component.max(initial=-1)) + 1
+    grown = component >= 0
+    if not grown.any():
+        return np.full(n, -1)
+    cells_in = np.bincount(component[grown], minlength=n_components)
+    component = np.where(grown & (cells_in[np.maximum(component, 0)] >= 2), component, -1)
+    grown = component >= 0
+    points_in = np.bincount(component[grown], weights=cells.count[grown], minlength=n_components)
+    order = np.argsort(-points_in, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
-    labels = np.where(component >= 0, rank[np.maximum(component, 0)], -1)
-    alone = np.bincount(np.maximum(labels, 0), minlength=1)[np.maximum(labels, 0)] < 2
-    return np.where(alone, -1, labels)
+    return np.where(grown, rank[np.maximum(component, 0)], -1)
+
+
+def label_points(points: np.ndarray, cells: CellPlanes, cell_label: np.ndarray, max_offset: float) -> np.ndarray:
+    """Each point's facet: its cell's, when it lies within ``max_offset`` of the cell's plane;
+    otherwise -1.
+
+    Points of edge cells are not handed to a touching facet: tried, that labelled 99% of
+    the points instead of 95% and found no more facets, but the facets it grew reached
+    into their neighbours and their planes split joints apart (on the 8 x 5 m 1 cm face,
+    two sets' spacing came out 17 and 25% short instead of within 7%).
+    """
+    own = cell_label[cells.point_cell]
+    return np.where((own >= 0) & (cells.point_offset(points, cells.point_cell) <= max_offset), own, -1)
+
+
+def detect_facets(points: np.ndarray) -> FacetDetection:
+    """Local planes on a grid, thresholds from the cloud, facets grown and checked for planarity.
+
+    Examples
+    --------
+    >>> g = np.mgrid[0:1:40j, 0:1:40j].reshape(2, -1).T
+    >>> roof = np.c_[g, np.where(g[:, 0] < 0.5, g[:, 0], 1 - g[:, 0])]
+    >>> found = detect_facets(roof)
+    >>> int(found.labels.max() + 1), bool((found.labels >= 0).mean() > 0.9)
+    (2, True)
+    """
+    points = np.asarray(points, dtype=np.float64)
+    spacing = point_spacing(points)
+    edge = CELL_EDGE * spacing
+    cells = cell_planes(points, edge)
+    scatter = far_scatter(cells)
+    for _ in range(COARSENING_ROUNDS):
+        if scatter <= MAX_CELL_SCATTER or len(cells) < 100:
+            break
+        edge *= 2.0
+        cells = cell_planes(points, edge)
+        scatter = far_scatter(cells)
+    thresholds = facet_thresholds(cells, spacing)
+    if scatter > MAX_CELL_SCATTER:  # noisy at every scale tried (a rough SfM cloud): no facet is trusted
+        return FacetDetection(np.full(len(points), -1), np.ones(len(points), bool), thresholds, edge, scatter)
+    labels = label_points(points, cells, grow_cells(cells, thresholds), thresholds.max_offset)
+    planar = planar_components(points, cells.normal[cells.point_cell], labels, thresholds)
+    curved = (labels >= 0) & ~planar[np.maximum(labels, 0)] if len(planar) else np.zeros(len(points), bool)
+    renumber = np.full(len(planar) + 1, -1)
+    renumber[np.flatnonzero(planar)] = np.arange(int(planar.sum()))
+    return FacetDetection(renumber[labels], curved, thresholds, edge, scatter)

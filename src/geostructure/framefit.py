@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from .alignment import rotation_onto
 from .orientation import Frame, angle_between_normals
@@ -33,6 +32,8 @@ def fit_frame_to_truth(normals, truth_normals, *, start=None, candidates: int = 
     their planes' normals, starting from ``start`` (identity: the cloud is roughly in the
     truth's frame). The residuals say how well the planes agree once the frame is known.
     """
+    from scipy.optimize import linear_sum_assignment  # 0.4 s to import: only when matching
+
     normals = np.asarray(normals, dtype=np.float64)[:candidates]
     truth = np.asarray(truth_normals, dtype=np.float64)
     truth = truth / np.linalg.norm(truth, axis=1, keepdims=True)

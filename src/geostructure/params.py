@@ -55,7 +55,7 @@ class Params:
     merge : bool
         Join coplanar regions split by a small gap (not in the paper; see :mod:`.merge`).
     detector : str
-        ``facets`` (facets grown on per-point planes, down to small joints on rough rock, with
+        ``facets`` (facets grown on a fine grid's local planes, down to small joints on rough rock, with
         the paper's voxel growing where a grown facet is curved; see :mod:`.facets`) or
         ``voxel`` (the paper's region growing over voxel planes alone).
 

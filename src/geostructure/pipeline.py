@@ -286,7 +286,7 @@ def _grow_voxel_regions(filtered: Cloud, voxels: VoxelPlanes, params: Params, re
 
 
 def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict):
-    """Facets grown on per-point planes (:func:`.facets.detect_facets`); where a grown group
+    """Facets grown on a fine grid's local planes (:func:`.facets.detect_facets`); where a grown group
     is not planar (it drifted round a curved surface), the paper's voxel region growing over
     its voxels."""
     found = detect_facets(filtered.local)

@@ -218,7 +218,7 @@ def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.
     >>> from geostructure import measure
     >>> from geostructure.runs import plane_sets
     >>> from geostructure.synthetic import outcrop_scene
-    >>> scene = outcrop_scene(width=8.0, height=5.0, seed=6)
+    >>> scene = outcrop_scene(width=8.0, height=5.0, seed=5)
     >>> result = measure(scene.cloud)
     >>> sets = plane_sets(result.planes)
     >>> rock = rock_mass(result.filtered.local, result.labels, result.planes.normal, sets.labels, sets.mean_normal)

