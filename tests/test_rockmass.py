@@ -128,6 +128,18 @@ def test_spacing_distribution_fits():
     assert np.isnan(spacing_statistics([0.2, 0.3])["median"])  # too few gaps to fit
 
 
+def test_the_fits_agree_with_scipy_stats():
+    from scipy import stats
+
+    gaps = np.random.default_rng(5).lognormal(np.log(0.4), 0.6, 300)
+    fit = spacing_statistics(gaps)
+    sigma, scale = fit["lognorm_sigma"], np.exp(fit["lognorm_mu"])
+    log_likelihood = stats.lognorm.logpdf(gaps, sigma, scale=scale).sum()
+    assert fit["lognorm_aic"] == pytest.approx(4 - 2 * log_likelihood, rel=1e-9)
+    assert fit["lognorm_ks"] == pytest.approx(stats.kstest(gaps, "lognorm", args=(sigma, 0, scale)).statistic, rel=1e-9)
+    assert fit["exp_ks"] == pytest.approx(stats.kstest(gaps, "expon", args=(0, fit["exp_mean"])).statistic, rel=1e-9)
+
+
 def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
     scene = outcrop_scene(width=8.0, height=5.0, seed=6, offset=(500_000.0, 4_600_000.0, 200.0))
     cloud = tmp_path / "outcrop.xyz"

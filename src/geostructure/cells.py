@@ -153,25 +153,33 @@ def smallest_eigenpair(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ([[1.0, 2.0, 3.0]], [[0.0, 1.0, 0.0]])
     """
     a = np.asarray(cov, dtype=np.float64)
-    q = np.trace(a, axis1=1, axis2=2) / 3.0
-    off = a[:, 0, 1] ** 2 + a[:, 0, 2] ** 2 + a[:, 1, 2] ** 2
-    d = a - q[:, None, None] * np.eye(3)
-    p = np.sqrt((d[:, 0, 0] ** 2 + d[:, 1, 1] ** 2 + d[:, 2, 2] ** 2 + 2.0 * off) / 6.0)
+    xx, yy, zz, xy, xz, yz = a[:, 0, 0], a[:, 1, 1], a[:, 2, 2], a[:, 0, 1], a[:, 0, 2], a[:, 1, 2]
+    q = (xx + yy + zz) / 3.0
+    dx, dy, dz = xx - q, yy - q, zz - q
+    off = xy**2 + xz**2 + yz**2
+    p = np.sqrt((dx**2 + dy**2 + dz**2 + 2.0 * off) / 6.0)
     safe = np.where(p > 0, p, 1.0)
-    r = np.clip(np.linalg.det(d / safe[:, None, None]) / 2.0, -1.0, 1.0)
+    det = dx * (dy * dz - yz**2) - xy * (xy * dz - yz * xz) + xz * (xy * yz - dy * xz)
+    r = np.clip(det / safe**3 / 2.0, -1.0, 1.0)
     phi = np.arccos(r) / 3.0
     largest = q + 2.0 * p * np.cos(phi)
     smallest = q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
     middle = 3.0 * q - largest - smallest
     values = np.maximum(np.stack([smallest, middle, largest], axis=1), 0.0)
-    m = a - smallest[:, None, None] * np.eye(3)
-    crosses = np.stack([np.cross(m[:, 0], m[:, 1]), np.cross(m[:, 0], m[:, 2]), np.cross(m[:, 1], m[:, 2])], axis=1)
-    norms = np.linalg.norm(crosses, axis=2)
+    # Rows of cov - lambda_0 I and their three cross products, component by component.
+    ax, by, cz = xx - smallest, yy - smallest, zz - smallest
+    rows = ((ax, xy, xz), (xy, by, yz), (xz, yz, cz))
+    crosses = []
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        (u0, u1, u2), (v0, v1, v2) = rows[i], rows[j]
+        crosses.append(np.stack([u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0], axis=1))
+    crosses = np.stack(crosses, axis=1)
+    norms = np.einsum("nij,nij->ni", crosses, crosses)
     best = norms.argmax(axis=1)
-    rows = np.arange(len(a))
-    vector = crosses[rows, best] / np.where(norms[rows, best] > 0, norms[rows, best], 1.0)[:, None]
-    isotropic = norms[rows, best] == 0  # a multiple of the identity (or zero): any direction
-    vector[isotropic] = (0.0, 0.0, 1.0)
+    index = np.arange(len(a))
+    length = np.sqrt(norms[index, best])
+    vector = crosses[index, best] / np.where(length > 0, length, 1.0)[:, None]
+    vector[length == 0] = (0.0, 0.0, 1.0)  # a multiple of the identity (or zero): any direction
     return values, vector
 
 

@@ -272,14 +272,15 @@ def spacing_statistics(gaps) -> dict:
         out = dict.fromkeys(keys, float("nan"))
         out.update(n=len(g), best_fit="", mean=float(g.mean()) if len(g) else float("nan"))
         return out
-    from scipy import stats  # here, not at the top: importing it costs 0.4 s at every start
+    from scipy.special import ndtr  # the normal CDF; scipy.stats costs 0.6 s to import
 
     counts, edges = np.histogram(g, bins="fd")
     top = int(counts.argmax())
     mean = float(g.mean())
     mu, sigma = float(np.log(g).mean()), float(max(np.log(g).std(), 1e-9))
     exp_ll = -len(g) * np.log(mean) - len(g)
-    log_ll = float(stats.lognorm.logpdf(g, sigma, scale=np.exp(mu)).sum())
+    z = (np.log(g) - mu) / sigma
+    log_ll = float(np.sum(-np.log(g * sigma * np.sqrt(2.0 * np.pi)) - 0.5 * z**2))
     out = {
         "n": int(len(g)),
         "mean": mean,
@@ -287,11 +288,26 @@ def spacing_statistics(gaps) -> dict:
         "mode": float(0.5 * (edges[top] + edges[top + 1])),
         "exp_mean": mean,
         "exp_aic": float(2 * 1 - 2 * exp_ll),
-        "exp_ks": float(stats.kstest(g, "expon", args=(0, mean)).statistic),
+        "exp_ks": ks_statistic(g, 1.0 - np.exp(-np.sort(g) / mean)),
         "lognorm_mu": mu,
         "lognorm_sigma": sigma,
         "lognorm_aic": float(2 * 2 - 2 * log_ll),
-        "lognorm_ks": float(stats.kstest(g, "lognorm", args=(sigma, 0, np.exp(mu))).statistic),
+        "lognorm_ks": ks_statistic(g, ndtr((np.log(np.sort(g)) - mu) / sigma)),
     }
     out["best_fit"] = "exponential" if out["exp_aic"] <= out["lognorm_aic"] else "lognormal"
     return out
+
+
+def ks_statistic(sample: np.ndarray, cdf_of_sorted: np.ndarray) -> float:
+    """Kolmogorov-Smirnov statistic: the largest gap between the sample's empirical CDF and a
+    fitted CDF, given at the sorted sample (the statistic of ``scipy.stats.kstest``).
+
+    Examples
+    --------
+    >>> ks_statistic(np.array([1.0, 2.0]), np.array([0.5, 1.0]))
+    0.5
+    """
+    n = len(sample)
+    above = np.arange(1, n + 1) / n - cdf_of_sorted
+    below = cdf_of_sorted - np.arange(n) / n
+    return float(max(above.max(), below.max()))
