@@ -111,3 +111,24 @@ def test_bad_frames_are_refused():
         Frame.named("nwu")
     with pytest.raises(GeoStructureError):
         Frame.from_up_north([0, 0, 1], [0, 0, 5])
+
+
+def test_dip_is_never_over_90_and_agrees_with_mplstereonet():
+    """Issue "Outputs": a normal kept on its face's side may point a little down near vertical;
+    its dip is still in [0, 90]. Checked against mplstereonet's vector2pole (x east, y north)."""
+    from mplstereonet.stereonet_math import vector2pole
+
+    from geostructure.orientation import VERTICAL_TOLERANCE
+
+    rng = np.random.default_rng(0)
+    n = rng.normal(size=(20_000, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n[:2000, 2] *= 1e-4  # within 0.06 deg of vertical, half of them pointing down
+    o = orientation_from_normals(n)
+    strike, dip = vector2pole(n[:, 0], n[:, 1], n[:, 2])
+    assert o.dip.min() >= 0.0 and o.dip.max() <= 90.0
+    np.testing.assert_allclose(o.dip, dip, atol=1e-9)
+    turn = np.abs((o.strike - strike + 180.0) % 360.0 - 180.0)
+    steep = np.abs(n[:, 2]) < VERTICAL_TOLERANCE
+    assert turn[~steep].max() < 1e-9
+    assert np.minimum(turn, 180.0 - turn)[steep].max() < 1e-9  # vertical: the same strike up to its sense

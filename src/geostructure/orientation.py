@@ -189,7 +189,9 @@ def orientation_from_normals(normals, frame: Frame = Frame(), outward=None) -> O
     enu = frame.to_enu(np.atleast_2d(normals))
     out = None if outward is None else frame.to_enu(np.atleast_2d(outward))
     n = upward(enu, out)
-    dip = np.degrees(np.arccos(np.clip(n[:, 2], -1.0, 1.0)))
+    # |up|: a near-vertical normal kept on its face's side may point a little down; the dip
+    # is still at most 90 (ORIENTATION.md), the side is in the dip direction.
+    dip = np.degrees(np.arccos(np.clip(np.abs(n[:, 2]), 0.0, 1.0)))
     dip_direction = (np.degrees(np.arctan2(n[:, 0], n[:, 1])) - frame.declination) % 360.0
     strike = (dip_direction - 90.0) % 360.0
     return Orientation(strike=strike, dip=dip, dip_direction=dip_direction)

@@ -16,11 +16,17 @@ import numpy as np
 
 from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
-from .io.exports import write_dips_csv
 from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_regions, read_sets
 from .io.truth import GroundTruth, read_truth
-from .io.writers import sets_record, write_evaluation_files, write_result, write_sets_csv, write_spacing_csv
+from .io.writers import (
+    sets_record,
+    write_evaluation_files,
+    write_plane_tables,
+    write_result,
+    write_sets_csv,
+    write_spacing_csv,
+)
 from .orientation import Frame
 from .planes import Planes, reoriented
 from .rockmass import RockMass, rock_mass, with_rock_mass
@@ -76,7 +82,7 @@ def save_measurement(
     >>> result = measure(observatory_scene(30_000, seed=1).cloud)
     >>> paths = save_measurement(result, tempfile.mkdtemp())
     >>> sorted(paths)[:3]
-    ['dips', 'geojson', 'planes']
+    ['dips', 'planes', 'regions']
     """
     with output_set(outdir, inputs=inputs) as outputs:
         paths = write_result(result, outputs, extra, sets, rock)
@@ -163,14 +169,15 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         labels = _plane_rows(region, planes.region_id)
         rock = plane_rock_mass(points, labels, planes, sets, frame)
         planes = with_rock_mass(planes, sets, rock)
-        planes.to_csv(outputs.path("planes.csv"))
-        write_dips_csv(planes, outputs.path("planes_dips.csv"))
+        staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)
         write_spacing_csv(rock, outputs.path("spacing.csv"))
         outputs.record["sets"] = sets_record(sets, rock)
         paths = {"sets": outputs.final("sets.csv"), "spacing": outputs.final("spacing.csv")}
         paths["planes"] = outputs.final("planes.csv")
         paths["dips"] = outputs.final("planes_dips.csv")
+        if "planes.gpkg" in staged:
+            paths.update(geojson=outputs.final("planes.geojson"), gpkg=outputs.final("planes.gpkg"))
         if had_report:  # the report shows the sets: draw it again from the new set of files
             paths.update(redraw_report(outputs))
     return sets, rock, paths

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
 
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
+from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.truth import read_truth
@@ -28,6 +30,7 @@ from .options import (
     base_params,
     check_before_work,
     check_outdir,
+    crs_from,
     finite_float,
     folder,
     frame_from,
@@ -110,6 +113,7 @@ def add_measure_commands(sub) -> None:
 
 def run_measure(args) -> int:
     frame = frame_from(args)
+    crs_from(args)  # refused before any work
     base_params(args)
     kinematic_settings(args)  # refused before any work
     check_before_work(args, [args.input, args.truth])
@@ -123,6 +127,9 @@ def run_measure(args) -> int:
 
 def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=()) -> int:
     """Measure; write the outputs, the evaluation and the report as one set; print the planes."""
+    crs = crs_from(args)
+    if crs is not None:  # given: it is the cloud's (over any its file declared)
+        cloud = dataclasses.replace(cloud, crs=crs)
     with StageProgress(enabled=not args.quiet) as progress:
         t = time.perf_counter()
         progress("auto", 0, None)
@@ -158,6 +165,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             "(voxels need at least 5 points each to fit a plane).",
             file=sys.stderr,
         )
+    if cloud.crs is None and cloud.enu_origin is None:
+        print(f"geostructure: note: {NO_CRS_NOTE}", file=sys.stderr)
     if not args.quiet:
         print_planes(result)
         if sets is not None:
@@ -192,7 +201,10 @@ def run_demo(args) -> int:
     frame = frame_from(args)
     base_params(args)
     check_outdir(args.outdir)
+    crs = crs_from(args)
     scene = observatory_scene(args.points, seed=args.seed)
+    if crs is not None:  # a made-up scene placed where the user says, to try the GIS files
+        scene.cloud = dataclasses.replace(scene.cloud, crs=crs)
     params, auto = params_from(args, scene.cloud)
     with StageProgress(enabled=not args.quiet) as progress:
         result = measure(scene.cloud, params, frame, progress)

@@ -79,6 +79,12 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
     g.add_argument("--up", type=finite_float, nargs=3, metavar=("X", "Y", "Z"), help="up vector in cloud axes")
     g.add_argument("--north", type=finite_float, nargs=3, metavar=("X", "Y", "Z"), help="north vector in cloud axes")
     g.add_argument(
+        "--crs",
+        metavar="EPSG:XXXX|WKT_FILE",
+        help="the cloud's coordinate reference system, for one that declares none (text, PLY, E57, or a "
+        "reconstruction with ground control): planes.geojson and planes.gpkg are written only with one",
+    )
+    g.add_argument(
         "--declination",
         type=finite_float,
         default=0.0,
@@ -254,6 +260,21 @@ def frame_from(args) -> Frame:
     if args.up is not None:
         return Frame.from_up_north(args.up, args.north, args.declination)
     return Frame.named(args.frame, args.declination)
+
+
+def crs_from(args) -> str | None:
+    """``--crs`` as the text a cloud carries (``EPSG:XXXX``, or the WKT of a file), checked
+    before any work; None when not given."""
+    text = getattr(args, "crs", None)
+    if not text:
+        return None
+    from ..io.gis import parse_crs
+
+    crs = parse_crs(text)
+    authority = crs.to_authority()
+    return (
+        f"{authority[0]}:{authority[1]}" if authority and text.upper().startswith(("EPSG:", "ESRI:")) else crs.to_wkt()
+    )
 
 
 def check_before_work(args, inputs) -> None:

@@ -24,6 +24,7 @@ from .options import (
     add_measure_options,
     base_params,
     check_before_work,
+    crs_from,
     folder,
     frame_from,
     non_negative_float,
@@ -120,6 +121,7 @@ def run_frames(args) -> int:
 
 def run_run(args) -> int:
     frame_from(args)  # refuse a half-given --up/--north before hours of reconstruction
+    crs_from(args)
     frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up
     base_params(args)
     require_reconstruction_extra(

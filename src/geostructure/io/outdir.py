@@ -36,10 +36,18 @@ STAGING = ".geostructure-staging"
 JOURNAL = "COMMIT.json"
 LOCK = ".geostructure-lock"
 
-MEASURE_FILES = ("planes.csv", "planes_dips.csv", "planes.geojson", "regions.ply", "voxel_planes.ply", "run.json")
+MEASURE_FILES = (
+    "planes.csv",
+    "planes_dips.csv",
+    "planes.geojson",
+    "planes.gpkg",
+    "regions.ply",
+    "voxel_planes.ply",
+    "run.json",
+)
 EVALUATION_FILES = ("evaluation.csv", "evaluation.json")
 #: What ``sets`` writes (and ``measure --sets``): the set table, and the plane tables with a set column.
-SETS_FILES = ("sets.csv", "spacing.csv", "planes.csv", "planes_dips.csv")
+SETS_FILES = ("sets.csv", "spacing.csv", "planes.csv", "planes_dips.csv", "planes.geojson", "planes.gpkg")
 REPORT_FILES = ("report.html", "stereonet.png", "stereonet.svg", "rose.png")
 KINEMATICS_FILES = ("kinematics.csv", "wedges.csv", "kinematics.json", "kinematics.png")
 SWEEP_FILES = ("sweep.csv", "sweep.json") + tuple(

@@ -14,7 +14,8 @@ import numpy as np
 from .. import __version__
 from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
 from .atomic import atomic_path, write_json, write_table_csv
-from .exports import write_dips_csv, write_geojson
+from .exports import write_dips_csv
+from .gis import write_geojson, write_gpkg
 from .outdir import EVALUATION_FILES, OutputSet, output_set
 
 
@@ -151,11 +152,17 @@ def sets_record(sets, rock=None) -> dict:
     return record
 
 
-def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> None:
-    """Stage ``planes.csv``, ``planes_dips.csv`` and ``planes.geojson`` of a plane table."""
+def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> list[str]:
+    """Stage ``planes.csv`` and ``planes_dips.csv`` of a plane table and, for a cloud with a
+    coordinate system, ``planes.geojson`` and ``planes.gpkg``; returns the names staged."""
     planes.to_csv(outputs.path("planes.csv"))
     write_dips_csv(planes, outputs.path("planes_dips.csv"))
-    write_geojson(planes, outputs.path("planes.geojson"), crs=crs, enu_origin=enu_origin)
+    names = ["planes.csv", "planes_dips.csv"]
+    if crs or enu_origin is not None:
+        write_geojson(planes, outputs.path("planes.geojson"), crs=crs, enu_origin=enu_origin)
+        write_gpkg(planes, outputs.path("planes.gpkg"), crs=crs, enu_origin=enu_origin)
+        names += ["planes.geojson", "planes.gpkg"]
+    return names
 
 
 def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=None, rock=None) -> dict[str, Path]:
@@ -165,7 +172,6 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
     files = {
         "planes": "planes.csv",
         "dips": "planes_dips.csv",
-        "geojson": "planes.geojson",
         "regions": "regions.ply",
         "voxels": "voxel_planes.ply",
     }
@@ -173,7 +179,8 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
         planes = result.planes
     else:
         planes = with_rock_mass(result.planes, sets, rock)
-    write_plane_tables(planes, outputs, crs=result.cloud.crs, enu_origin=result.cloud.enu_origin)
+    if "planes.gpkg" in write_plane_tables(planes, outputs, crs=result.cloud.crs, enu_origin=result.cloud.enu_origin):
+        files.update(geojson="planes.geojson", gpkg="planes.gpkg")
     write_regions_ply(result, outputs.path(files["regions"]))
     write_voxel_planes_ply(result, outputs.path(files["voxels"]))
     outputs.record = run_record(result, extra)
@@ -189,8 +196,8 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
 
 
 def write_outputs(result, outdir, extra: dict | None = None, *, inputs=()) -> dict[str, Path]:
-    """Write planes.csv, planes_dips.csv, planes.geojson, regions.ply, voxel_planes.ply and
-    run.json into ``outdir``, all or none, replacing the folder's previous set.
+    """Write planes.csv, planes_dips.csv, regions.ply, voxel_planes.ply, run.json and, with a
+    coordinate system, planes.geojson and planes.gpkg into ``outdir``, all or none, replacing the folder's previous set.
 
     Parameters
     ----------

@@ -1,0 +1,136 @@
+"""GIS files of the planes: ``planes.geojson`` (RFC 7946) and ``planes.gpkg`` (GeoPackage).
+
+A GIS places a feature on Earth from its coordinate reference system (CRS), so these files
+are written only for a cloud that has one: declared by its file (LAS/LAZ), given with
+``--crs``, or a reconstruction's local east-north-up frame about a WGS84 origin. Without
+one, no file claims a place it does not know (:data:`NO_CRS_NOTE`).
+
+- ``planes.geojson``: RFC 7946 has a single CRS, WGS84 longitude/latitude, and no ``crs``
+  member (GDAL, so QGIS, ignores one). The corners are transformed with pyproj from the
+  cloud's CRS; heights are the cloud's own, in metres (its vertical datum is not changed).
+- ``planes.gpkg``: QGIS's own format, in the cloud's native CRS (no loss from a transform),
+  with two layers: ``planes``, the region rectangles as 3-D polygons carrying every column
+  of the plane table (sets, traces, kinematics when present), and ``centroids``, points
+  carrying the same for strike/dip map symbols.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GeoStructureError
+from ..geodesy import enu_to_geodetic
+from .atomic import atomic_path, json_text
+
+#: The line a run prints when its cloud has no CRS.
+NO_CRS_NOTE = (
+    "no GIS files (planes.geojson, planes.gpkg): the cloud declares no coordinate system; "
+    "give it with --crs EPSG:XXXX (or a WKT file) to place the planes on a map."
+)
+GIS_FILES = ("planes.geojson", "planes.gpkg")
+#: Plane-table columns a GIS does not need (each feature's geometry holds them).
+GEOMETRY_COLUMNS = ("rect_u_x", "rect_u_y", "rect_u_z", "rect_v_x", "rect_v_y", "rect_v_z")
+
+
+def parse_crs(text: str, source: str = "--crs"):
+    """A ``pyproj.CRS`` from ``EPSG:XXXX``, a WKT/PROJ string or a file holding WKT.
+
+    Examples
+    --------
+    >>> parse_crs("EPSG:32633").name
+    'WGS 84 / UTM zone 33N'
+    """
+    from pyproj import CRS
+    from pyproj.exceptions import CRSError
+
+    looks_like_crs = text.lstrip().upper().startswith(("EPSG:", "ESRI:", "+PROJ")) or "[" in text
+    if not looks_like_crs:
+        path = Path(text)
+        if not path.is_file():
+            raise GeoStructureError(f"{source}: {text}: neither EPSG:XXXX nor a file holding WKT.")
+        text = path.read_text(encoding="utf-8", errors="replace")
+        source = str(path)
+    try:
+        return CRS.from_user_input(text)
+    except CRSError:
+        raise GeoStructureError(
+            f"{source}: not a coordinate reference system PROJ knows (give EPSG:XXXX or WKT)."
+        ) from None
+
+
+def _lon_lat(points: np.ndarray, crs=None, enu_origin=None) -> np.ndarray:
+    """(N, 3) longitude, latitude, height of points in ``crs`` (or about ``enu_origin``)."""
+    if enu_origin is not None:
+        return enu_to_geodetic(points, enu_origin)[:, [1, 0, 2]]
+    from pyproj import Transformer
+
+    source = parse_crs(crs)
+    to_wgs84 = Transformer.from_crs(source, "EPSG:4326", always_xy=True)
+    lon, lat = to_wgs84.transform(points[:, 0], points[:, 1])
+    # RFC 7946 heights are in metres: a cloud in feet (Oregon Lambert) is scaled, not moved
+    # (its vertical datum stays the cloud's own).
+    axes = source.axis_info
+    to_metres = axes[0].unit_conversion_factor if axes and axes[0].unit_conversion_factor else 1.0
+    return np.column_stack([lon, lat, points[:, 2] * to_metres])
+
+
+def _properties(planes) -> list[dict]:
+    return [{k: v for k, v in row.items() if k not in GEOMETRY_COLUMNS} for row in planes.rows()]
+
+
+def geojson(planes, crs: str | None = None, enu_origin=None) -> dict:
+    """The region rectangles as RFC 7946 polygons (longitude, latitude, height) with every
+    column of the plane table as properties."""
+    corners = planes.corners.reshape(-1, 3)
+    lon_lat = _lon_lat(corners, crs, enu_origin).reshape(-1, 4, 3) if len(corners) else np.zeros((0, 4, 3))
+    features = []
+    for ring, properties in zip(lon_lat.tolist(), _properties(planes)):
+        # RFC 7946: exterior rings counter-clockwise seen from above
+        x, y = np.array(ring)[:, 0], np.array(ring)[:, 1]
+        if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
+            ring = ring[::-1]
+        features.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "Polygon", "coordinates": [ring + [ring[0]]]},
+                "properties": properties,
+            }
+        )
+    return {"type": "FeatureCollection", "features": features}
+
+
+def write_geojson(planes, path, crs: str | None = None, enu_origin=None) -> Path:
+    """``planes.geojson``: :func:`geojson`, written atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(json_text(geojson(planes, crs, enu_origin), indent=None), encoding="utf-8")
+    return Path(path)
+
+
+def write_gpkg(planes, path, crs: str | None = None, enu_origin=None) -> Path:
+    """``planes.gpkg``: layers ``planes`` (rectangles) and ``centroids`` (points), in the
+    cloud's CRS (WGS84 for a frame about a GPS origin)."""
+    import shapely
+    from pyogrio.raw import write as write_layer
+
+    if enu_origin is not None:
+        rings = _lon_lat(planes.corners.reshape(-1, 3), enu_origin=enu_origin).reshape(-1, 4, 3)
+        centres = _lon_lat(planes.centroid, enu_origin=enu_origin)
+        wkt = "EPSG:4979"
+    else:
+        rings, centres, wkt = planes.corners, planes.centroid, parse_crs(crs).to_wkt()
+    properties = _properties(planes)
+    names = list(properties[0]) if properties else ["region_id"]
+    fields = [np.array([row[n] for row in properties]) if properties else np.zeros(0) for n in names]
+    closed = np.concatenate([rings, rings[:, :1]], axis=1) if len(rings) else np.zeros((0, 5, 3))
+    polygons = shapely.to_wkb(shapely.polygons(closed), output_dimension=3)
+    points = shapely.to_wkb(shapely.points(centres), output_dimension=3)
+    with atomic_path(path) as tmp, warnings.catch_warnings():
+        # GDAL would note that the temporary name does not end in .gpkg; the final one does.
+        warnings.simplefilter("ignore", RuntimeWarning)
+        tmp.unlink()  # a new GeoPackage, not one appended to
+        for layer, geometry, kind in (("planes", polygons, "Polygon Z"), ("centroids", points, "Point Z")):
+            write_layer(tmp, geometry, fields, names, layer=layer, driver="GPKG", geometry_type=kind, crs=wkt)
+    return Path(path)

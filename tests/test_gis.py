@@ -1,0 +1,106 @@
+"""GIS files (issue "Outputs"): planes.geojson in WGS84 (RFC 7946) and planes.gpkg in the
+cloud's own CRS, read back with GDAL (pyogrio, and ``ogrinfo`` where Debian's gdal-bin is
+installed), the planes where pyproj puts them."""
+
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+import shapely
+from conftest import shared_file
+from helpers import run_cli
+from pyogrio import read_info
+from pyogrio.raw import read as read_layer
+from pyproj import Transformer
+
+from geostructure.synthetic import outcrop_scene
+
+UTM_33N = "EPSG:32633"
+
+
+@pytest.fixture(scope="module")
+def utm_run(tmp_path_factory):
+    """A synthetic outcrop at UTM 33N coordinates, as a text cloud that declares no CRS."""
+    tmp = tmp_path_factory.mktemp("gis")
+    scene = outcrop_scene(width=6.0, height=4.0, seed=1, offset=(500_000.0, 4_600_000.0, 300.0))
+    cloud = tmp / "outcrop.xyz"
+    np.savetxt(cloud, scene.cloud.points, fmt="%.4f")
+    out = tmp / "out"
+    return cloud, out, scene
+
+
+def centroids_csv(out):
+    import csv
+
+    rows = list(csv.DictReader(open(out / "planes.csv")))
+    return np.array([[float(r[f"centroid_{a}"]) for a in "xyz"] for r in rows])
+
+
+def test_without_a_crs_no_gis_file_and_one_line_saying_how(utm_run, capsys):
+    cloud, out, _ = utm_run
+    code, _, err = run_cli(capsys, "measure", cloud, "-o", out, "-q")
+    assert code == 0
+    assert not (out / "planes.geojson").exists() and not (out / "planes.gpkg").exists()
+    assert err.count("\n") == 1 and "--crs EPSG:XXXX" in err
+
+
+def test_with_crs_the_geopackage_is_native_and_the_geojson_wgs84(utm_run, capsys):
+    cloud, out, _ = utm_run
+    code, _, _ = run_cli(capsys, "measure", cloud, "-o", out, "-q", "--crs", UTM_33N, "--sets")
+    assert code == 0
+    assert json.loads((out / "run.json").read_text())["crs"] == UTM_33N
+    native = centroids_csv(out)
+    # GeoPackage: the cloud's CRS, every column (the set too), centroids as 3-D points, exact
+    info = read_info(out / "planes.gpkg", layer="centroids")
+    assert info["crs"] == UTM_33N and info["geometry_type"] == "Point Z" and info["features"] == len(native)
+    assert {"dip", "dip_direction", "strike", "set", "trace_strike_m"} <= set(info["fields"])
+    _, _, geometry, _ = read_layer(out / "planes.gpkg", layer="centroids")
+    np.testing.assert_allclose(shapely.get_coordinates(shapely.from_wkb(geometry), include_z=True), native, atol=1e-6)
+    assert read_info(out / "planes.gpkg", layer="planes")["geometry_type"] == "Polygon Z"
+    # GeoJSON: RFC 7946, longitude and latitude; no crs member
+    data = json.loads((out / "planes.geojson").read_text())
+    assert "crs" not in data and "crs_wkt" not in data
+    assert read_info(out / "planes.geojson")["crs"] in ("EPSG:4326", "EPSG:4979")
+    to_wgs84 = Transformer.from_crs(UTM_33N, "EPSG:4326", always_xy=True)
+    back = Transformer.from_crs("EPSG:4326", UTM_33N, always_xy=True)
+    for feature, centre in zip(data["features"], native):
+        ring = np.array(feature["geometry"]["coordinates"][0])
+        assert 14.9 < ring[0, 0] < 15.1 and 41.5 < ring[0, 1] < 41.6  # UTM 33N, 500 km E, 4600 km N
+        x, y = back.transform(ring[:-1, 0].mean(), ring[:-1, 1].mean())
+        assert np.hypot(x - centre[0], y - centre[1]) < 1.0  # the rectangle's middle, near its centroid
+    lon, lat = to_wgs84.transform(native[0, 0], native[0, 1])
+    assert abs(lon - 15.0) < 0.1 and abs(lat - 41.55) < 0.1
+
+
+def test_a_bad_crs_is_refused_before_any_work(utm_run, capsys, tmp_path):
+    cloud, _, _ = utm_run
+    code, _, err = run_cli(capsys, "measure", cloud, "-o", tmp_path / "o", "--crs", "EPSG:999999")
+    assert code == 2 and "--crs" in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.real_data
+def test_a_las_crs_is_kept_and_the_planes_land_in_oregon(tmp_path, capsys):
+    """autzen: Oregon Lambert in feet, declared by the file; GDAL places the planes in Oregon."""
+    out = tmp_path / "autzen"
+    code, _, _ = run_cli(capsys, "measure", shared_file("pdal_autzen/autzen_trim.laz"), "-o", out, "-q")
+    assert code == 0
+    native = centroids_csv(out)
+    crs = json.loads((out / "run.json").read_text())["crs"]
+    to_wgs84 = Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
+    lon, lat = to_wgs84.transform(native[:, 0], native[:, 1])
+    assert (-124 < lon).all() and (lon < -122).all() and (43.5 < lat).all() and (lat < 44.5).all()  # Eugene
+    data = json.loads((out / "planes.geojson").read_text())
+    first = np.array(data["features"][0]["geometry"]["coordinates"][0])
+    assert -124 < first[0, 0] < -122 and 43.5 < first[0, 1] < 44.5
+    if shutil.which("ogrinfo"):  # the real client, from Debian's gdal-bin
+        text = subprocess.run(
+            ["ogrinfo", "-so", "-al", str(out / "planes.gpkg")], capture_output=True, text=True
+        ).stdout
+        assert "Lambert" in text and "Feature Count: " in text
+        text = subprocess.run(
+            ["ogrinfo", "-so", "-al", str(out / "planes.geojson")], capture_output=True, text=True
+        ).stdout
+        assert "WGS 84" in text and "Extent: (-12" in text
