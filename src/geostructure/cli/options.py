@@ -12,6 +12,7 @@ from pathlib import Path
 from ..auto import choose_params
 from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
+from ..io.gis import parse_crs
 from ..io.outdir import check_inputs_not_outputs, check_outdir
 from ..kinematics import LATERAL_LIMIT, Slope, check_friction
 from ..orientation import Frame
@@ -268,8 +269,6 @@ def crs_from(args) -> str | None:
     text = getattr(args, "crs", None)
     if not text:
         return None
-    from ..io.gis import parse_crs
-
     crs = parse_crs(text)
     authority = crs.to_authority()
     return (
