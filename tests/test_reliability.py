@@ -132,10 +132,9 @@ def test_a_rerun_removes_the_previous_sets_stale_files_and_nothing_else(measured
     (measured / "rose.png").write_bytes(b"a figure the user redrew")  # no longer the file we wrote
     assert run_cli(capsys, "measure", cloud_file, "-o", measured, *FIXED)[0] == 0
     names = {p.name for p in measured.iterdir() if not p.name.startswith(".")}
-    assert names == {
+    assert names == {  # no GIS files: the cloud has no CRS
         "planes.csv",
         "planes_dips.csv",
-        "planes.geojson",
         "regions.ply",
         "voxel_planes.ply",
         "run.json",
@@ -229,7 +228,7 @@ def test_a_non_ascii_file_name_measures(tmp_path, capsys):
     path = write_xyz(tmp_path / "café.xyz", scene_points(8000))
     code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out", *FIXED)
     assert code == 0, err
-    assert len(verified_record(tmp_path / "out")["outputs"]) == 5
+    assert len(verified_record(tmp_path / "out")["outputs"]) == 4  # without a CRS, no GIS files
     assert "caf" in " ".join(PlyData.read(str(tmp_path / "out" / "regions.ply")).comments)
 
 
