@@ -23,8 +23,8 @@ from .rockmass import add_rockmass_commands
 EXIT_USER_ERROR = 2
 
 
-def main(argv=None) -> int:
-    parser = build_parser()
+def main(argv=None, parser=None) -> int:
+    parser = parser or build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help()
