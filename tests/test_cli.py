@@ -52,7 +52,7 @@ def test_measure_writes_the_contract(tmp_path, good_ply, capsys):
     sizes = [int(r[1]) for r in rows[1:]]
     assert len(sizes) >= 6 and sizes == sorted(sizes, reverse=True)
     ply = PlyData.read(str(tmp_path / "out" / "regions.ply"))
-    region_id = ply["vertex"]["region_id"]
+    region_id = ply["vertex"]["scalar_region_id"]  # the name CloudCompare's batch reader loads
     assert region_id.dtype.kind == "i" and region_id.min() == -1 and region_id.max() == len(sizes) - 1
     assert ply["vertex"]["x"].dtype == np.float64
     import json

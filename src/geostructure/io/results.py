@@ -13,6 +13,23 @@ from ..errors import OutputError
 from ..planes import Planes
 from .outdir import read_record
 
+#: The prefix of a PLY property that CloudCompare's command line loads as a scalar field.
+SCALAR = "scalar_"
+
+
+def ply_field(vertex, name: str):
+    """A PLY vertex property written by GeoStructure: ``scalar_<name>`` (since 2026-12-02) or
+    ``<name>`` (folders written before).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ply_field(np.zeros(2, dtype=[("scalar_region_id", "i4")]), "region_id").tolist()
+    [0, 0]
+    """
+    names = vertex.dtype.names or ()
+    return vertex[SCALAR + name] if SCALAR + name in names else vertex[name]
+
 
 def read_run(folder) -> dict:
     """``run.json`` of a measured folder (or of a staged set) as a dict, with its frame.
@@ -45,7 +62,7 @@ def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray]:
     try:
         vertex = PlyData.read(str(path), mmap=True)["vertex"].data
         xyz = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
-        region = np.asarray(vertex["region_id"], dtype=np.int64)
+        region = np.asarray(ply_field(vertex, "region_id"), dtype=np.int64)
     except FileNotFoundError:
         raise OutputError(f"{path}: no such file; run 'geostructure measure' first.") from None
     except (PlyParseError, KeyError, ValueError) as exc:

@@ -17,6 +17,7 @@ from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
 from .outdir import EVALUATION_FILES, OutputSet, output_set
+from .results import SCALAR
 
 
 def _ascii(text: str) -> str:
@@ -25,16 +26,18 @@ def _ascii(text: str) -> str:
 
 
 def write_regions_ply(result, path) -> Path:
-    """``regions.ply``: the filtered points (double) with an int ``region_id`` (-1 for none).
+    """``regions.ply``: the filtered points (double) with an int ``scalar_region_id`` (-1 for
+    none).
 
-    CloudCompare shows ``region_id`` as a scalar field.
+    The ``scalar_`` prefix is what CloudCompare's PLY reader asks, in its command-line mode
+    (no dialog), to load a property as a scalar field (named ``region_id`` there).
     """
     from plyfile import PlyData, PlyElement
 
     points = result.filtered.points
-    vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), ("region_id", "i4")])
+    vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), (SCALAR + "region_id", "i4")])
     vertex["x"], vertex["y"], vertex["z"] = points.T
-    vertex["region_id"] = result.labels
+    vertex[SCALAR + "region_id"] = result.labels
     with atomic_path(path) as tmp:
         PlyData(
             [PlyElement.describe(vertex, "vertex")],
@@ -46,7 +49,7 @@ def write_regions_ply(result, path) -> Path:
 
 def write_voxel_planes_ply(result, path) -> Path:
     """``voxel_planes.ply``: each fitted voxel's centroid (double) with its unit normal, point
-    count and ``region_id`` (-1 for none): the paper's "voxel planes" stage, as a cloud with
+    count and region id (-1 for none), as CloudCompare's scalar fields: the paper's "voxel planes" stage, as a cloud with
     normals that CloudCompare shows as such."""
     from plyfile import PlyData, PlyElement
 
@@ -60,15 +63,15 @@ def write_voxel_planes_ply(result, path) -> Path:
             ("nx", "f4"),
             ("ny", "f4"),
             ("nz", "f4"),
-            ("count", "i4"),
-            ("region_id", "i4"),
+            (SCALAR + "count", "i4"),
+            (SCALAR + "region_id", "i4"),
         ],
     )
     centroids = voxels.centroid + result.cloud.offset
     vertex["x"], vertex["y"], vertex["z"] = centroids.T
     vertex["nx"], vertex["ny"], vertex["nz"] = voxels.normal.T
-    vertex["count"] = voxels.count
-    vertex["region_id"] = result.voxel_labels
+    vertex[SCALAR + "count"] = voxels.count
+    vertex[SCALAR + "region_id"] = result.voxel_labels
     with atomic_path(path) as tmp:
         PlyData(
             [PlyElement.describe(vertex, "vertex")],

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
-from ..io.results import read_planes, read_run, read_sets, read_spacings
+from ..io.results import ply_field, read_planes, read_run, read_sets, read_spacings
 from ..orientation import Frame
 from ..planes import Planes
 
@@ -95,7 +95,7 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
 
     try:
         vertex = PlyData.read(str(path))["vertex"].data
-        columns = [vertex[n] for n in ("x", "y", "z", *names)]
+        columns = [vertex[n] for n in ("x", "y", "z")] + [ply_field(vertex, n) for n in names]
     except FileNotFoundError:
         raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
     except (PlyParseError, KeyError, ValueError) as exc:

@@ -1,0 +1,45 @@
+"""CloudCompare's command line (Debian's cloudcompare under xvfb-run) loads regions.ply with
+region_id as a scalar field and the coordinates within 1 mm (issue "Outputs")."""
+
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from plyfile import PlyData
+
+from geostructure import measure
+from geostructure.io.outdir import output_set
+from geostructure.io.writers import write_regions_ply
+from geostructure.synthetic import outcrop_scene
+
+CLOUDCOMPARE = shutil.which("CloudCompare")
+XVFB = shutil.which("xvfb-run")
+
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(
+        not (CLOUDCOMPARE and XVFB),
+        reason="CloudCompare and xvfb-run are not installed (Debian: apt-get install cloudcompare xvfb xauth)",
+    ),
+]
+
+
+def test_cloudcompare_loads_region_id_as_a_scalar_field_at_utm_coordinates(tmp_path):
+    scene = outcrop_scene(width=4.0, height=3.0, seed=2, offset=(500_000.0, 4_600_000.0, 300.0))
+    result = measure(scene.cloud)
+    with output_set(tmp_path / "out") as outputs:
+        write_regions_ply(result, outputs.path("regions.ply"))
+    ply = tmp_path / "out" / "regions.ply"
+    exported = tmp_path / "regions.asc"
+    command = [XVFB, "-a", CLOUDCOMPARE, "-SILENT", "-AUTO_SAVE", "OFF", "-O", "-GLOBAL_SHIFT", "AUTO", str(ply)]
+    command += ["-C_EXPORT_FMT", "ASC", "-PREC", "6", "-ADD_HEADER", "-SAVE_CLOUDS", "FILE", str(exported)]
+    subprocess.run(command, check=True, capture_output=True, timeout=120)
+    header = exported.read_text().splitlines()[0]
+    assert header.split()[-1] == "region_id"  # loaded as a scalar field, named without the prefix
+    table = np.loadtxt(exported, comments="//")
+    vertex = PlyData.read(str(ply))["vertex"].data
+    written = np.column_stack([vertex["x"], vertex["y"], vertex["z"]])
+    assert len(table) == len(written)
+    assert np.abs(table[:, :3] - written).max() < 1e-3  # within 1 mm of the input, UTM included
+    np.testing.assert_array_equal(table[:, 3].astype(int), vertex["scalar_region_id"])
