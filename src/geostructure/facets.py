@@ -206,7 +206,7 @@ def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 
     return r8 * float(np.sqrt(np.pi / max(k - 1, 1)))
 
 
-def facet_thresholds(cells: CellPlanes, spacing: float) -> FacetThresholds:
+def facet_thresholds(cells: CellPlanes, spacing: float, pairs=None) -> FacetThresholds:
     """Thresholds read from the cloud: spacing, local-fit noise and how local planes scatter.
 
     - the offset a cell may lie off its neighbour's plane is 3 times the median local-fit
@@ -218,7 +218,7 @@ def facet_thresholds(cells: CellPlanes, spacing: float) -> FacetThresholds:
     - the surface variation is 3 times its median, clipped to 0.01 to 0.1.
     """
     defined = cells.defined
-    source, target = neighbour_pairs(cells)
+    source, target = neighbour_pairs(cells) if pairs is None else pairs
     cosine = np.abs(np.einsum("ij,ij->i", cells.normal[source], cells.normal[target]))
     scatter = float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0))))) if len(source) else 0.0
     return FacetThresholds(
@@ -229,7 +229,7 @@ def facet_thresholds(cells: CellPlanes, spacing: float) -> FacetThresholds:
     )
 
 
-def grow_cells(cells: CellPlanes, thresholds: FacetThresholds) -> np.ndarray:
+def grow_cells(cells: CellPlanes, thresholds: FacetThresholds, pairs=None) -> np.ndarray:
     """Each cell's facet (0, 1, ..., most points first) or -1 (an edge, or a facet of one cell).
 
     Examples
@@ -242,7 +242,7 @@ def grow_cells(cells: CellPlanes, thresholds: FacetThresholds) -> np.ndarray:
     2
     """
     n = len(cells)
-    source, target = neighbour_pairs(cells)
+    source, target = neighbour_pairs(cells) if pairs is None else pairs
     flat = cells.defined & (cells.variation <= thresholds.max_variation)
     ok = flat[source] & flat[target]
     ok &= np.abs(np.einsum("ij,ij->i", cells.normal[source], cells.normal[target])) >= np.cos(
@@ -303,10 +303,11 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
         edge *= 2.0
         cells = cell_planes(points, edge)
         scatter = far_scatter(cells)
-    thresholds = facet_thresholds(cells, spacing)
+    pairs = neighbour_pairs(cells)  # for the thresholds and the growing both
+    thresholds = facet_thresholds(cells, spacing, pairs)
     if scatter > MAX_CELL_SCATTER:  # noisy at every scale tried (a rough SfM cloud): no facet is trusted
         return FacetDetection(np.full(len(points), -1), np.ones(len(points), bool), thresholds, edge, scatter)
-    labels = label_points(points, cells, grow_cells(cells, thresholds), thresholds.max_offset)
+    labels = label_points(points, cells, grow_cells(cells, thresholds, pairs), thresholds.max_offset)
     planar = planar_components(points, cells.normal[cells.point_cell], labels, thresholds)
     curved = (labels >= 0) & ~planar[np.maximum(labels, 0)] if len(planar) else np.zeros(len(points), bool)
     renumber = np.full(len(planar) + 1, -1)

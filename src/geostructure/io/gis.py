@@ -30,7 +30,6 @@ NO_CRS_NOTE = (
     "no GIS files (planes.geojson, planes.gpkg): the cloud declares no coordinate system; "
     "give it with --crs EPSG:XXXX (or a WKT file) to place the planes on a map."
 )
-GIS_FILES = ("planes.geojson", "planes.gpkg")
 #: Plane-table columns a GIS does not need (each feature's geometry holds them).
 GEOMETRY_COLUMNS = ("rect_u_x", "rect_u_y", "rect_u_z", "rect_v_x", "rect_v_y", "rect_v_z")
 
