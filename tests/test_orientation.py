@@ -132,3 +132,32 @@ def test_dip_is_never_over_90_and_agrees_with_mplstereonet():
     steep = np.abs(n[:, 2]) < VERTICAL_TOLERANCE
     assert turn[~steep].max() < 1e-9
     assert np.minimum(turn, 180.0 - turn)[steep].max() < 1e-9  # vertical: the same strike up to its sense
+
+
+def test_the_face_side_is_its_own_column_and_the_dip_stays_in_range():
+    """Issue "Outputs": which way a face looks (the cloud's stored normals) goes in
+    ``facing``/``overhang``, never into the dip: a wall seen from the west and the underside
+    of a slab dipping 30 deg east, seen from below."""
+    from geostructure import Cloud, measure
+    from geostructure.orientation import face_side
+
+    rng = np.random.default_rng(3)
+    u, v = rng.uniform(0, 4, size=(2, 40_000))
+    wall = np.column_stack([rng.normal(0, 0.002, u.size), u, v])  # x = 0, looking west
+    slope = np.radians(30.0)
+    up_normal = np.array([np.sin(slope), 0.0, np.cos(slope)])  # dips 30 toward east
+    along = np.array([np.cos(slope), 0.0, -np.sin(slope)])
+    slab = 10.0 + u[:, None] * along + (v[:, None] * [0, 1, 0]) + rng.normal(0, 0.002, (u.size, 1)) * up_normal
+    points = np.vstack([wall, slab])
+    normals = np.vstack([np.tile([-1.0, 0.0, 0.0], (u.size, 1)), np.tile(-up_normal, (u.size, 1))])
+    planes = measure(Cloud.from_points(points + [500_000.0, 4_600_000.0, 0.0], normals=normals)).planes
+    assert len(planes) == 2
+    wall_row, slab_row = np.argsort(-planes.dip)
+    assert planes.dip[wall_row] > 89.5 and planes.dip[wall_row] <= 90.0
+    assert abs(planes.facing[wall_row] - 270.0) < 0.5 and planes.overhang[wall_row] == 0.0
+    assert abs(planes.dip[slab_row] - 30.0) < 0.5 and abs(planes.dip_direction[slab_row] - 90.0) < 0.5
+    assert abs(planes.facing[slab_row] - 270.0) < 0.5 and planes.overhang[slab_row] == 1.0
+    # the side turns with a declination as every azimuth does, and is unknown without normals
+    facing, _ = face_side([[-1.0, 0.0, 0.0]], Frame(declination=10.0))
+    assert abs(facing[0] - 260.0) < 1e-9
+    assert np.isnan(measure(Cloud.from_points(points)).planes.facing).all()

@@ -136,7 +136,9 @@ def test_a_rerun_removes_the_previous_sets_stale_files_and_nothing_else(measured
         "planes.csv",
         "planes_dips.csv",
         "regions.ply",
+        "regions.laz",
         "voxel_planes.ply",
+        "voxel_planes.laz",
         "run.json",
         "notes.txt",
         "rose.png",
@@ -228,7 +230,7 @@ def test_a_non_ascii_file_name_measures(tmp_path, capsys):
     path = write_xyz(tmp_path / "café.xyz", scene_points(8000))
     code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out", *FIXED)
     assert code == 0, err
-    assert len(verified_record(tmp_path / "out")["outputs"]) == 4  # without a CRS, no GIS files
+    assert len(verified_record(tmp_path / "out")["outputs"]) == 6  # without a CRS, no GIS files
     assert "caf" in " ".join(PlyData.read(str(tmp_path / "out" / "regions.ply")).comments)
 
 

@@ -77,7 +77,7 @@ def test_measure_sets_and_the_sets_command(tmp_path, capsys):
     with open(out / "planes.csv", newline="") as fh:
         planes = list(csv.DictReader(fh))
     assert {int(p["set"]) for p in planes} <= {-1, 0, 1, 2}
-    assert open(out / "planes_dips.csv").readline().strip().endswith(",Set")
+    assert open(out / "planes_dips.csv").readline().startswith("Dip Direction,Dip,Set,")
     assert main(["sets", str(out), "--n-sets", "2", "-q"]) == 0
     with open(out / "sets.csv", newline="") as fh:
         assert len(list(csv.DictReader(fh))) == 2

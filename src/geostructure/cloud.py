@@ -53,6 +53,9 @@ class Cloud:
     enu_origin : (lat, lon, alt) or None
         Set when the coordinates are local east-north-up metres about this WGS84 point (a
         reconstruction georeferenced from GPS), so outputs can be written in longitude and latitude.
+    las_grid : ((3,), (3,)) float64 or None
+        The scales and offsets of a LAS/LAZ input's integer coordinates, so ``regions.laz``
+        stores its points back on the very integers they were read from.
 
     Examples
     --------
@@ -69,6 +72,7 @@ class Cloud:
     normals: np.ndarray | None = None
     source: str = "<memory>"
     enu_origin: tuple | None = None
+    las_grid: tuple | None = None
 
     def __post_init__(self):
         self.local = as_points(self.local, "local")
@@ -84,14 +88,24 @@ class Cloud:
                 )
 
     @classmethod
-    def from_points(cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None) -> "Cloud":
+    def from_points(
+        cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None, las_grid=None
+    ) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = as_points(points)
         finite = points[np.isfinite(points).all(axis=1)]  # readers report NaN/inf rows by count
         offset = (finite.min(axis=0) + finite.max(axis=0)) / 2 if len(finite) else np.zeros(3)
         # Round the offset so it prints cleanly and survives float32 writers (E57, LAS scale).
         offset = np.round(offset, 0) + 0.0  # + 0.0 turns -0.0 into 0.0
-        return cls(points - offset, offset, crs=crs, normals=normals, source=str(source), enu_origin=enu_origin)
+        return cls(
+            points - offset,
+            offset,
+            crs=crs,
+            normals=normals,
+            source=str(source),
+            enu_origin=enu_origin,
+            las_grid=las_grid,
+        )
 
     @property
     def points(self) -> np.ndarray:
@@ -104,7 +118,7 @@ class Cloud:
     def subset(self, mask: np.ndarray) -> "Cloud":
         """The cloud restricted to ``mask`` (boolean or index array)."""
         normals = None if self.normals is None else self.normals[mask]
-        return Cloud(self.local[mask], self.offset, self.crs, normals, self.source, self.enu_origin)
+        return Cloud(self.local[mask], self.offset, self.crs, normals, self.source, self.enu_origin, self.las_grid)
 
     @property
     def name(self) -> str:

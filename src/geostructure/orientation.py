@@ -197,6 +197,32 @@ def orientation_from_normals(normals, frame: Frame = Frame(), outward=None) -> O
     return Orientation(strike=strike, dip=dip, dip_direction=dip_direction)
 
 
+def face_side(outward, frame: Frame = Frame()) -> tuple[np.ndarray, np.ndarray]:
+    """Which way each exposed face looks: (``facing``, ``overhang``).
+
+    ``facing`` is the azimuth (degrees, as dip directions are read) of the face's outward
+    normal, the side it was seen from; ``overhang`` is 1.0 where that normal points below
+    the horizon (the face is the underside of its plane) and 0.0 where above. The dip and
+    dip direction never carry this side (dip stays in [0, 90], ORIENTATION.md): a plane
+    dipping 80 east seen from the east and one seen from the west share them. NaN where
+    the side is unknown (a zero or NaN row, or no azimuth for a face looking straight up).
+
+    Examples
+    --------
+    >>> facing, overhang = face_side([[0.0, -1.0, -0.2], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> facing.round(3).tolist(), overhang.tolist()
+    ([180.0, 90.0, nan], [1.0, 0.0, 0.0])
+    """
+    enu = frame.to_enu(np.atleast_2d(np.asarray(outward, dtype=np.float64)))
+    horizontal = np.hypot(enu[:, 0], enu[:, 1])
+    known = np.isfinite(enu).all(axis=1) & (np.abs(enu).max(axis=1) > 0)
+    with np.errstate(invalid="ignore"):
+        facing = (np.degrees(np.arctan2(enu[:, 0], enu[:, 1])) - frame.declination) % 360.0
+    facing = np.where(known & (horizontal > 1e-12 * np.abs(enu).max(axis=1, initial=0)), facing, np.nan)
+    overhang = np.where(known, (enu[:, 2] < 0).astype(np.float64), np.nan)
+    return facing, overhang
+
+
 def normal_from_orientation(dip_direction, dip, frame: Frame = Frame()) -> np.ndarray:
     """The upward unit normal, in cloud axes, of planes with the given dip direction and dip."""
     dd = np.radians(np.asarray(dip_direction, dtype=np.float64) + frame.declination)

@@ -14,7 +14,7 @@ from .errors import GeoStructureError, InputError, ParameterError
 from .facets import detect_facets, voxel_majority
 from .filter import FilterResult, filter_outliers
 from .merge import merge_coplanar
-from .orientation import Frame, Orientation, orientation_from_normals, upward
+from .orientation import Frame, Orientation, face_side, orientation_from_normals, upward
 from .params import Params
 from .planes import Planes
 from .rectangle import region_plane
@@ -232,6 +232,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
             n_voxels=n_voxels,
             scatter=scatter,
             uncertainty=uncertainty,
+            face=(None, None) if outward is None else face_side(outward, frame),
         )
     return Result(
         cloud=cloud,

@@ -19,7 +19,7 @@ import numpy as np
 
 from .errors import InputError, ParameterError
 from .io.atomic import write_table_csv
-from .orientation import Frame, Orientation, orientation_from_normals
+from .orientation import Frame, Orientation, face_side, orientation_from_normals
 
 #: Column name(s) of each field in ``planes.csv``, in the file's order. The first twelve
 #: columns are the stable contract other tools read (:data:`PLANE_COLUMNS`).
@@ -43,13 +43,15 @@ LAYOUT = (
     ("dip_uncertainty_deg", ("dip_uncertainty_deg",)),
     ("dip_direction_uncertainty_deg", ("dip_direction_uncertainty_deg",)),
     ("planarity", ("planarity",)),
+    ("facing", ("facing",)),
+    ("overhang", ("overhang",)),
 )
 COLUMNS = tuple(name for _, names in LAYOUT for name in names)
 #: The stable contract other tools and issues read; more columns may follow these.
 PLANE_COLUMNS = COLUMNS[:12]
 EXTRA_COLUMNS = COLUMNS[12:]
 #: Columns a ``planes.csv`` written before they existed lacks: read back as NaN.
-LATER_COLUMNS = ("dip_uncertainty_deg", "dip_direction_uncertainty_deg", "planarity")
+LATER_COLUMNS = ("dip_uncertainty_deg", "dip_direction_uncertainty_deg", "planarity", "facing", "overhang")
 _INTEGER = {"region_id", "n_points", "n_voxels"}
 
 
@@ -89,6 +91,10 @@ class Planes:
     planarity : (P,) array, optional
         1 - sqrt(lambda_3 / lambda_2) of the points' covariance: 1 for a flat patch, 0 for
         a blob, whatever its outline.
+    facing, overhang : (P,) array, optional
+        The side each face was seen from (:func:`~.orientation.face_side`): the azimuth of
+        its outward normal, and 1 where that normal points down; NaN where the cloud held
+        no normals to tell.
     offset : (3,) array, optional
         Added to the local positions to give the input's own coordinates.
     extra : dict of (P,) arrays, optional
@@ -123,6 +129,8 @@ class Planes:
     dip_uncertainty_deg: np.ndarray | None = None
     dip_direction_uncertainty_deg: np.ndarray | None = None
     planarity: np.ndarray | None = None
+    facing: np.ndarray | None = None
+    overhang: np.ndarray | None = None
     rect_v: np.ndarray | None = None
     offset: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
@@ -264,11 +272,13 @@ class Planes:
         return cls(**values, offset=offset, extra=extra)
 
     @classmethod
-    def from_regions(cls, regions, normals, orientation, *, offset, n_voxels, scatter, uncertainty: dict) -> Planes:
+    def from_regions(
+        cls, regions, normals, orientation, *, offset, n_voxels, scatter, uncertainty: dict, face=(None, None)
+    ) -> Planes:
         """The table of ``measure``'s region planes (:class:`~.rectangle.RegionPlane`, in the
         cloud's local coordinates, which ``offset`` moves back) with their oriented normals
         and spread; ``uncertainty`` holds the standard errors and planarity
-        (:func:`~.uncertainty.normal_standard_errors`)."""
+        (:func:`~.uncertainty.normal_standard_errors`), ``face`` the (facing, overhang) columns."""
 
         def stacked(attribute, width=None):
             values = np.array([getattr(r, attribute) for r in regions], dtype=np.float64)
@@ -292,6 +302,8 @@ class Planes:
             dip_uncertainty_deg=uncertainty["dip"],
             dip_direction_uncertainty_deg=uncertainty["dip_direction"],
             planarity=uncertainty["planarity"],
+            facing=face[0],
+            overhang=face[1],
             local_rect_center=stacked("center", 3),
             rect_u=stacked("u", 3),
             rect_v=stacked("v", 3),
@@ -306,7 +318,16 @@ def _whole_or_float(values: np.ndarray) -> np.ndarray:
     return values.astype(np.int64) if whole else values
 
 
-def reoriented(planes: Planes, frame: Frame) -> Planes:
-    """The same planes with strike, dip and dip direction read in another ``frame``."""
+def reoriented(planes: Planes, frame: Frame, previous: Frame = Frame()) -> Planes:
+    """The same planes with strike, dip, dip direction and facing read in another ``frame``
+    (``previous``: the one they were read in)."""
     o = orientation_from_normals(planes.normal, frame)
-    return replace(planes, strike=o.strike, dip=o.dip, dip_direction=o.dip_direction)
+    # The outward normal is +-normal: the sign whose azimuth in `previous` is `facing`.
+    enu = previous.to_enu(planes.normal)
+    azimuth = np.radians(planes.facing + previous.declination)
+    along = enu[:, 0] * np.sin(azimuth) + enu[:, 1] * np.cos(azimuth)
+    sign = np.where(np.isfinite(along) & (np.abs(along) > 1e-9), np.sign(along), 1 - 2 * planes.overhang)
+    facing, overhang = face_side(planes.normal * sign[:, None], frame)
+    facing = np.where(np.isfinite(planes.overhang), facing, np.nan)
+    overhang = np.where(np.isfinite(planes.overhang), overhang, np.nan)
+    return replace(planes, strike=o.strike, dip=o.dip, dip_direction=o.dip_direction, facing=facing, overhang=overhang)

@@ -16,6 +16,7 @@ import numpy as np
 
 from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
+from .io.laz import add_point_sets
 from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_regions, read_sets
 from .io.truth import GroundTruth, read_truth
@@ -135,7 +136,7 @@ def plane_rock_mass(points, labels, planes: Planes, sets: JointSets, frame: Fram
 def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass, dict[str, Path]]:
     """Find the joint sets of a measured folder and add them with their spacing, persistence
     and intensity: ``sets.csv``, and ``set``, trace and ``censored`` columns in ``planes.csv``
-    (``set`` in ``planes_dips.csv``); a report there is drawn again.
+    (``set`` in ``planes_dips.csv`` and ``regions.laz``); a report there is drawn again.
 
     Parameters
     ----------
@@ -178,6 +179,9 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         paths["dips"] = outputs.final("planes_dips.csv")
         if "planes.gpkg" in staged:
             paths.update(geojson=outputs.final("planes.geojson"), gpkg=outputs.final("planes.gpkg"))
+        if (outputs.outdir / "regions.laz").is_file():  # folders before 2026-12-02 have none
+            add_point_sets(outputs.outdir / "regions.laz", outputs.path("regions.laz"), planes)
+            paths["regions_laz"] = outputs.final("regions.laz")
         if had_report:  # the report shows the sets: draw it again from the new set of files
             paths.update(redraw_report(outputs))
     return sets, rock, paths
@@ -287,7 +291,7 @@ def refit_frame(planes: Planes, truth: GroundTruth, frame: Frame, truth_path):
     fit = fit_frame_to_truth(planes.normal[order], truth.normals, candidates=30)
     fit.matched = order[fit.matched]
     new = fitted_frame(frame, fit)
-    planes = reoriented(planes, new)
+    planes = reoriented(planes, new, frame)
     truth = read_truth(truth_path, new)
     pairwise = pairwise_angle_error(planes.normal[fit.matched], truth.normals)
     record = {

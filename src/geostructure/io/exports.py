@@ -6,20 +6,41 @@ from pathlib import Path
 
 from .atomic import write_table_csv
 
+#: The columns of ``planes_dips.csv`` always written; ``Set`` follows the orientation pair
+#: when the planes have sets.
+DIPS_COLUMNS = ("Dip Direction", "Dip", "X (East)", "Y (North)", "Z (Elev.)", "Region", "Points")
+
 
 def write_dips_csv(planes, path) -> Path:
-    """``planes_dips.csv``: Dip Direction, Dip first (the layout Rocscience Dips and
-    Allmendinger's Stereonet import), then the region id and its point count, and its joint
-    set (-1 for none) when the planes have one."""
-    columns = ["Dip Direction", "Dip", "Region", "Points"]
-    values = [
-        [round(v, 2) for v in planes.dip_direction.tolist()],
-        [round(v, 2) for v in planes.dip.tolist()],
-        planes.region_id.tolist(),
-        planes.n_points.tolist(),
-    ]
+    """``planes_dips.csv``, for Rocscience Dips and Allmendinger's Stereonet.
+
+    Dip Direction and Dip first (the orientation pair, as field notebooks write it), then
+    ``Set`` when the planes have sets, then Dips' location columns (the centroid, in the
+    cloud's coordinates) and, as extra columns, the region id and its point count. Dips
+    numbers its sets from 1 and leaves a pole in no set blank: ``Set`` is the run's set
+    number plus one (set 0 of ``sets.csv`` is Set 1 here), empty for a plane in no set.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from geostructure.planes import Planes
+    >>> planes = Planes(normal=[[0, 0.5, 0.866], [1.0, 0, 0.01]]).with_columns(set=[0, -1])
+    >>> path = write_dips_csv(planes, pathlib.Path(tempfile.mkdtemp()) / "planes_dips.csv")
+    >>> print(path.read_text().splitlines()[0])
+    Dip Direction,Dip,Set,X (East),Y (North),Z (Elev.),Region,Points
+    >>> [line.split(",")[:3] for line in path.read_text().splitlines()[1:]]
+    [['0.0', '30.0', '1'], ['90.0', '89.43', '']]
+    """
+    values = {
+        "Dip Direction": [round(v, 2) for v in planes.dip_direction.tolist()],
+        "Dip": [round(v, 2) for v in planes.dip.tolist()],
+    }
     if "set" in planes.extra:
-        columns.append("Set")
-        values.append(planes.extra["set"].astype(int).tolist())
-    rows = [dict(zip(columns, row)) for row in zip(*values)]
-    return write_table_csv(rows, path, columns=columns)
+        values["Set"] = ["" if s < 0 else str(s + 1) for s in planes.extra["set"].astype(int).tolist()]
+    centroid = planes.centroid
+    for axis, name in enumerate(DIPS_COLUMNS[2:5]):
+        values[name] = centroid[:, axis].tolist()
+    values["Region"] = planes.region_id.tolist()
+    values["Points"] = planes.n_points.tolist()
+    rows = [dict(zip(values, row)) for row in zip(*values.values())]
+    return write_table_csv(rows, path, columns=list(values))

@@ -42,12 +42,22 @@ MEASURE_FILES = (
     "planes.geojson",
     "planes.gpkg",
     "regions.ply",
+    "regions.laz",
     "voxel_planes.ply",
+    "voxel_planes.laz",
     "run.json",
 )
 EVALUATION_FILES = ("evaluation.csv", "evaluation.json")
 #: What ``sets`` writes (and ``measure --sets``): the set table, and the plane tables with a set column.
-SETS_FILES = ("sets.csv", "spacing.csv", "planes.csv", "planes_dips.csv", "planes.geojson", "planes.gpkg")
+SETS_FILES = (
+    "sets.csv",
+    "spacing.csv",
+    "planes.csv",
+    "planes_dips.csv",
+    "planes.geojson",
+    "planes.gpkg",
+    "regions.laz",
+)
 REPORT_FILES = ("report.html", "stereonet.png", "stereonet.svg", "rose.png")
 KINEMATICS_FILES = ("kinematics.csv", "wedges.csv", "kinematics.json", "kinematics.png")
 SWEEP_FILES = ("sweep.csv", "sweep.json") + tuple(

@@ -238,7 +238,8 @@ def read_las(path: Path) -> Cloud:
     points = np.vstack(parts) if parts else np.empty((0, 3))
     if len(points) < expected:
         raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
-    return Cloud.from_points(points, source=str(path), crs=_las_crs(header))
+    grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
+    return Cloud.from_points(points, source=str(path), crs=_las_crs(header), las_grid=grid)
 
 
 def _check_las_header(path: Path) -> None:

@@ -1,4 +1,5 @@
-"""Writers: planes.csv (through :class:`~geostructure.planes.Planes`), regions.ply, voxel_planes.ply and run.json.
+"""Writers: planes.csv (through :class:`~geostructure.planes.Planes`), regions.ply/.laz,
+voxel_planes.ply/.laz and run.json.
 
 Each writer writes one file atomically (:mod:`.atomic`); :func:`write_outputs` writes the
 whole set through :mod:`.outdir`, so it appears in the folder together or not at all.
@@ -16,6 +17,7 @@ from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
 from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
+from .laz import point_sets, write_regions_laz, write_voxel_planes_laz
 from .outdir import EVALUATION_FILES, OutputSet, output_set
 from .results import SCALAR
 
@@ -176,7 +178,9 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
         "planes": "planes.csv",
         "dips": "planes_dips.csv",
         "regions": "regions.ply",
+        "regions_laz": "regions.laz",
         "voxels": "voxel_planes.ply",
+        "voxels_laz": "voxel_planes.laz",
     }
     if sets is None:
         planes = result.planes
@@ -186,6 +190,9 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
         files.update(geojson="planes.geojson", gpkg="planes.gpkg")
     write_regions_ply(result, outputs.path(files["regions"]))
     write_voxel_planes_ply(result, outputs.path(files["voxels"]))
+    labelled = None if sets is None else point_sets(result.labels, planes)
+    write_regions_laz(result, outputs.path(files["regions_laz"]), labelled)
+    write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
     outputs.record = run_record(result, extra)
     if sets is not None:
         write_sets_csv(sets, outputs.path("sets.csv"), rock)
@@ -199,8 +206,9 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
 
 
 def write_outputs(result, outdir, extra: dict | None = None, *, inputs=()) -> dict[str, Path]:
-    """Write planes.csv, planes_dips.csv, regions.ply, voxel_planes.ply, run.json and, with a
-    coordinate system, planes.geojson and planes.gpkg into ``outdir``, all or none, replacing the folder's previous set.
+    """Write planes.csv, planes_dips.csv, regions.ply and .laz, voxel_planes.ply and .laz,
+    run.json and, with a coordinate system, planes.geojson and planes.gpkg into ``outdir``,
+    all or none, replacing the folder's previous set.
 
     Parameters
     ----------

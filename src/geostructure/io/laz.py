@@ -1,0 +1,138 @@
+"""Point outputs for point-cloud tools: ``regions.laz`` and ``voxel_planes.laz`` (LAS 1.4).
+
+LAS stores each coordinate as a 32-bit integer on a grid (``scale`` and ``offset`` per
+axis), so UTM-sized coordinates keep their precision in every reader (CloudCompare, PDAL,
+LAStools, QGIS) without a global shift; a PLY of doubles keeps them too, but CloudCompare
+loads it as float32 unless the user shifts it.
+
+- The grid: a LAS/LAZ input's own scale and offset, so its points are written back on the
+  very integers they were read from; otherwise :data:`LAS_QUANTUM` (0.1 mm in the CRS's
+  unit) about the cloud's rounded centre, or the first coarser power of ten when the cloud
+  spans more than 32-bit integers hold at that step (beyond about 200 km).
+- The CRS: a WKT VLR (LAS 1.4 asks WKT for point format 6) when the cloud has one; none for
+  a reconstruction's local east-north-up frame, which no registry names.
+- Point format 6 (x, y, z, with intensity, returns and classification left at 0) and the
+  attributes as extra-bytes dimensions, which readers show as scalar fields: ``region_id``
+  (-1 for none) and ``set`` (-1 for none, when the run has sets); for the voxel planes,
+  ``nx``, ``ny``, ``nz``, ``count`` and ``region_id``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import atomic_path
+
+#: The step of the coordinate grid for a cloud that was not read from LAS/LAZ.
+LAS_QUANTUM = 1e-4
+_INT32_REACH = 2**31 - 2
+
+
+def las_grid(points: np.ndarray, offset, grid=None) -> tuple[np.ndarray, np.ndarray]:
+    """The (scales, offsets) on which ``points`` are stored.
+
+    ``grid`` is a LAS input's own (kept when the points fit it); otherwise the step is
+    :data:`LAS_QUANTUM`, coarsened by powers of ten until every point is within reach of
+    ``offset`` in 32-bit integers.
+
+    Examples
+    --------
+    >>> scales, offsets = las_grid(np.array([[500000.0, 4600000.0, 10.0]]), [500000.0, 4600000.0, 10.0])
+    >>> scales.tolist(), offsets.tolist()
+    ([0.0001, 0.0001, 0.0001], [500000.0, 4600000.0, 10.0])
+    """
+    points = np.asarray(points, dtype=np.float64)
+    if grid is not None:
+        scales, offsets = (np.asarray(g, dtype=np.float64) for g in grid)
+        if not len(points) or (np.abs(points - offsets).max(axis=0) / scales <= _INT32_REACH).all():
+            return scales, offsets
+    offsets = np.asarray(offset, dtype=np.float64)
+    reach = np.abs(points - offsets).max(axis=0) if len(points) else np.zeros(3)
+    scales = np.full(3, LAS_QUANTUM)
+    while (reach / scales > _INT32_REACH).any():
+        scales = np.where(reach / scales > _INT32_REACH, scales * 10, scales)
+    return scales, offsets
+
+
+def point_sets(region: np.ndarray, planes) -> np.ndarray:
+    """Each point's joint set from its ``region_id`` (-1 for none), through the plane table's
+    ``set`` column.
+
+    Examples
+    --------
+    >>> from geostructure.planes import Planes
+    >>> planes = Planes(normal=[[0, 0, 1.0], [1.0, 0, 0]], region_id=[4, 7]).with_columns(set=[1, -1])
+    >>> point_sets(np.array([7, 4, -1, 4]), planes).tolist()
+    [-1, 1, -1, 1]
+    """
+    region = np.asarray(region, dtype=np.int64)
+    size = int(max(region.max(initial=-1), planes.region_id.max(initial=-1))) + 2
+    lookup = np.full(size, -1, dtype=np.int16)
+    lookup[planes.region_id + 1] = planes.extra["set"]
+    return lookup[np.clip(region, -1, size - 2) + 1]
+
+
+def write_laz(path, points: np.ndarray, fields: dict[str, np.ndarray], *, offset, crs=None, grid=None) -> Path:
+    """Write ``points`` (N, 3, absolute) with ``fields`` (name -> (N,) array) as extra
+    dimensions to a LAS 1.4 file, compressed when ``path`` ends in ``.laz``; atomically."""
+    import laspy
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = las_grid(points, offset, grid)
+    header.generating_software = "geostructure"
+    for name, values in fields.items():
+        header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=np.asarray(values).dtype))
+    if crs:
+        from .gis import parse_crs
+
+        header.add_crs(parse_crs(crs))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points[:, 0], points[:, 1], points[:, 2]
+    for name, values in fields.items():
+        setattr(las, name, values)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            las.write(fh, do_compress=str(path).endswith(".laz"))
+    return Path(path)
+
+
+def write_regions_laz(result, path, point_set=None) -> Path:
+    """``regions.laz``: the filtered points with ``region_id`` and, given each point's set
+    (``point_set``), ``set``."""
+    fields = {"region_id": np.asarray(result.labels, dtype=np.int32)}
+    if point_set is not None:
+        fields["set"] = np.asarray(point_set, dtype=np.int16)
+    cloud = result.cloud
+    return write_laz(path, result.filtered.points, fields, offset=cloud.offset, crs=cloud.crs, grid=cloud.las_grid)
+
+
+def write_voxel_planes_laz(result, path) -> Path:
+    """``voxel_planes.laz``: each fitted voxel's centroid with its normal, point count and
+    region id, the LAS twin of ``voxel_planes.ply``."""
+    voxels, cloud = result.voxels, result.cloud
+    fields = {
+        "nx": voxels.normal[:, 0].astype(np.float32),
+        "ny": voxels.normal[:, 1].astype(np.float32),
+        "nz": voxels.normal[:, 2].astype(np.float32),
+        "count": np.asarray(voxels.count, dtype=np.int32),
+        "region_id": np.asarray(result.voxel_labels, dtype=np.int32),
+    }
+    centroids = voxels.centroid + cloud.offset
+    return write_laz(path, centroids, fields, offset=cloud.offset, crs=cloud.crs, grid=cloud.las_grid)
+
+
+def add_point_sets(source, path, planes) -> Path:
+    """Write ``source`` (a ``regions.laz``) again to ``path`` with a ``set`` dimension (each
+    point's set through its region's row of ``planes``), its points on the same integers."""
+    import laspy
+
+    las = laspy.read(str(source))
+    if "set" not in las.point_format.extra_dimension_names:
+        las.add_extra_dim(laspy.ExtraBytesParams(name="set", type=np.int16))
+    las.set = point_sets(np.asarray(las.region_id), planes)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            las.write(fh, do_compress=str(path).endswith(".laz"))
+    return Path(path)
