@@ -17,6 +17,7 @@ one, no file claims a place it does not know (:data:`NO_CRS_NOTE`).
 from __future__ import annotations
 
 import warnings
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +35,12 @@ NO_CRS_NOTE = (
 GEOMETRY_COLUMNS = ("rect_u_x", "rect_u_y", "rect_u_z", "rect_v_x", "rect_v_y", "rect_v_z")
 
 
+@lru_cache(maxsize=16)
 def parse_crs(text: str, source: str = "--crs"):
     """A ``pyproj.CRS`` from ``EPSG:XXXX``, a WKT/PROJ string or a file holding WKT.
+
+    Kept for the texts seen last: a run's GeoJSON, GeoPackage and two LAZ files ask it of
+    the same CRS, and PROJ parses a long WKT in milliseconds each time.
 
     Examples
     --------

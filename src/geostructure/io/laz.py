@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_path
+from .gis import parse_crs
 
 #: The step of the coordinate grid for a cloud that was not read from LAS/LAZ.
 LAS_QUANTUM = 1e-4
@@ -85,8 +86,6 @@ def write_laz(path, points: np.ndarray, fields: dict[str, np.ndarray], *, offset
     for name, values in fields.items():
         header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=np.asarray(values).dtype))
     if crs:
-        from .gis import parse_crs
-
         header.add_crs(parse_crs(crs))
     las = laspy.LasData(header)
     las.x, las.y, las.z = points[:, 0], points[:, 1], points[:, 2]
