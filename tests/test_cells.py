@@ -63,3 +63,21 @@ def test_a_step_between_parallel_faces_separates_them():
     left, right = found.labels[g[:, 0] < 0.9], found.labels[g[:, 0] > 1.1]
     assert np.bincount(left[left >= 0]).argmax() != np.bincount(right[right >= 0]).argmax()
     assert (left >= 0).mean() > 0.8 and (right >= 0).mean() > 0.8
+
+
+def test_a_facet_label_left_without_points_is_no_plane_and_no_nan():
+    """At 8M observatory points a grown facet lost all its points to the offset test; its
+    empty label made the covariances NaN and the measure died in eigh."""
+    import warnings
+
+    from geostructure.facets import FacetThresholds, planar_components
+
+    rng = np.random.default_rng(0)
+    points = np.c_[rng.uniform(0, 1, (200, 2)), rng.normal(0, 1e-3, 200)]
+    normals = np.tile([0.0, 0.0, 1.0], (200, 1))
+    labels = np.where(np.arange(200) < 100, 0, 2)  # label 1 holds no point
+    thresholds = FacetThresholds(max_angle=5.0, max_offset=0.01, max_variation=0.01, spacing=0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        planar = planar_components(points, normals, labels, thresholds)
+    assert planar.tolist() == [True, False, True]

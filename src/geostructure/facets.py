@@ -136,18 +136,21 @@ def planar_components(points: np.ndarray, normals: np.ndarray, labels: np.ndarra
     ok = labels >= 0
     lab, p = labels[ok], points[ok]
     count = np.bincount(lab, minlength=n).astype(np.float64)
-    mean = np.stack([np.bincount(lab, p[:, a], n) for a in range(3)], axis=1) / count[:, None]
+    # A label may hold no point (its cells lost them all): it is no plane, and must not
+    # turn the covariances to NaN.
+    held = np.maximum(count, 1.0)
+    mean = np.stack([np.bincount(lab, p[:, a], n) for a in range(3)], axis=1) / held[:, None]
     d = p - mean[lab]
     cov = (
         np.stack([np.bincount(lab, d[:, a] * d[:, b], n) for a in range(3) for b in range(3)], axis=1).reshape(n, 3, 3)
-        / count[:, None, None]
+        / held[:, None, None]
     )
     values, vectors = np.linalg.eigh(cov)
     residual = np.sqrt(np.maximum(values[:, 0], 0.0))
     normal = vectors[:, :, 0]
     aligned = np.abs(np.einsum("ij,ij->i", normals[ok], normal[lab])) >= np.cos(np.radians(2.0 * thresholds.max_angle))
-    share = np.bincount(lab, aligned.astype(np.float64), n) / count
-    return (residual <= 2.0 * thresholds.max_offset) & (share >= 0.8)
+    share = np.bincount(lab, aligned.astype(np.float64), n) / held
+    return (count > 0) & (residual <= 2.0 * thresholds.max_offset) & (share >= 0.8)
 
 
 @dataclass
