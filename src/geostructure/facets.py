@@ -35,7 +35,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .cells import CellPlanes, cell_planes, far_scatter, neighbour_pairs
+from .cells import CellGrid, CellPlanes, far_scatter, grid_planes, neighbour_pairs, sampled_far_scatter
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")
@@ -60,6 +60,12 @@ COARSENING_ROUNDS = 3
 ANGLE_FACTOR = 2.5
 #: Points sampled to measure the point spacing.
 SPACING_SAMPLE = 20_000
+#: Above this many points, the scatter that decides whether to coarsen the grid is read on
+#: this many cells drawn at random (:func:`~.cells.sampled_far_scatter`), and only the grid
+#: chosen gets its planes: at 8M observatory points each whole grid took some 19 s, and
+#: three were built. Below it, every grid is fitted whole, as before.
+SCATTER_SAMPLE_POINTS = 1_000_000
+SCATTER_SAMPLE_CELLS = 200_000
 
 
 @dataclass
@@ -239,6 +245,7 @@ def grow_cells(cells: CellPlanes, thresholds: FacetThresholds, pairs=None) -> np
     --------
     >>> g = np.mgrid[0:1:40j, 0:1:40j].reshape(2, -1).T
     >>> roof = np.c_[g, np.where(g[:, 0] < 0.5, g[:, 0], 1 - g[:, 0])]  # two faces meeting at a ridge
+    >>> from geostructure.cells import cell_planes
     >>> cells = cell_planes(roof, 0.05)
     >>> labels = grow_cells(cells, facet_thresholds(cells, point_spacing(roof)))
     >>> int(labels.max() + 1)
@@ -284,6 +291,25 @@ def label_points(points: np.ndarray, cells: CellPlanes, cell_label: np.ndarray, 
     return np.where((own >= 0) & (cells.point_offset(points, cells.point_cell) <= max_offset), own, -1)
 
 
+def coarsened_planes(grid: CellGrid, sampled: bool = False) -> CellPlanes:
+    """The cells' planes on ``grid``, its edge doubled up to :data:`COARSENING_ROUNDS` times
+    while the planes two cells apart scatter more than :data:`MAX_CELL_SCATTER` (read on
+    :data:`SCATTER_SAMPLE_CELLS` cells when ``sampled``). Each coarser grid is summed from
+    the finer one's moments, without going back to the points."""
+    for _ in range(COARSENING_ROUNDS):
+        if len(grid) < 100:
+            break
+        if sampled:
+            if sampled_far_scatter(grid, SCATTER_SAMPLE_CELLS) <= MAX_CELL_SCATTER:
+                break
+        else:
+            cells = grid_planes(grid)
+            if far_scatter(cells) <= MAX_CELL_SCATTER:
+                return cells
+        grid = grid.coarser()
+    return grid_planes(grid)
+
+
 def detect_facets(points: np.ndarray) -> FacetDetection:
     """Local planes on a grid, thresholds from the cloud, facets grown and checked for planarity.
 
@@ -297,15 +323,8 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
     """
     points = np.asarray(points, dtype=np.float64)
     spacing = point_spacing(points)
-    edge = CELL_EDGE * spacing
-    cells = cell_planes(points, edge)
-    scatter = far_scatter(cells)
-    for _ in range(COARSENING_ROUNDS):
-        if scatter <= MAX_CELL_SCATTER or len(cells) < 100:
-            break
-        edge *= 2.0
-        cells = cell_planes(points, edge)
-        scatter = far_scatter(cells)
+    cells = coarsened_planes(CellGrid.of(points, CELL_EDGE * spacing), sampled=len(points) > SCATTER_SAMPLE_POINTS)
+    edge, scatter = cells.edge, far_scatter(cells)
     pairs = neighbour_pairs(cells)  # for the thresholds and the growing both
     thresholds = facet_thresholds(cells, spacing, pairs)
     if scatter > MAX_CELL_SCATTER:  # noisy at every scale tried (a rough SfM cloud): no facet is trusted
