@@ -14,11 +14,14 @@ Growing and labelling the points on these planes is :mod:`.facets`' work.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from itertools import product
 
 import numpy as np
 from scipy.sparse import csr_matrix
+
+from .voxel import group_codes
 
 #: The 27 offsets of a block, the centre (0, 0, 0) at index 13; and the 13 that go "forward"
 #: (lexicographically after the centre), so that each pair of neighbouring cells is met once.
@@ -84,7 +87,9 @@ class CellGrid:
         lower = points.min(axis=0)
         key = np.floor((points - lower) / edge).astype(np.int64) + 1
         dims = key.max(axis=0) + 2
-        codes, point_cell = np.unique((key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2], return_inverse=True)
+        codes, point_cell = group_codes(
+            (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2], math.prod(int(d) for d in dims)
+        )
         # About the cloud's centre, the covariance loses about extent^2 * 1e-16 m^2: 1e-10
         # at a kilometre, far below any surface's noise.
         centre = points.mean(axis=0)
@@ -109,7 +114,9 @@ class CellGrid:
         so every point falls in the coarse cell it would fall in from scratch."""
         key = (self.cell_key - 1) // 2 + 1
         dims = key.max(axis=0) + 2
-        codes, parent = np.unique((key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2], return_inverse=True)
+        codes, parent = group_codes(
+            (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2], math.prod(int(d) for d in dims)
+        )
         moments = np.zeros((len(codes) + 1, 10))
         for c in range(10):
             moments[:-1, c] = np.bincount(parent, self.moments[:-1, c], len(codes))

@@ -7,6 +7,7 @@ of a cloud larger than memory can be accumulated with :func:`add_moments` and fi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,6 +80,34 @@ def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarra
     return np.floor((points - origin) / edge).astype(np.int64)
 
 
+#: Codes below this many per point are grouped by a table over the whole code space
+#: (:func:`group_codes`), 8 bytes a code.
+DENSE_CODES_PER_POINT = 4
+
+
+def group_codes(codes: np.ndarray, n_codes: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(codes, return_inverse=True)`` for integer codes in [0, ``n_codes``).
+
+    Where the code space is small against the number of codes (coarse voxels), a count
+    table over it does in one pass what the sort does in several: at 8M points the
+    sort took 1.2 s a grid. The result is the same, sorted codes and all.
+
+    Examples
+    --------
+    >>> unique, inverse = group_codes(np.array([5, 2, 5, 0]), 6)
+    >>> unique.tolist(), inverse.tolist()
+    ([0, 2, 5], [2, 1, 2, 0])
+    """
+    codes = np.asarray(codes, dtype=np.int64)
+    if n_codes > DENSE_CODES_PER_POINT * max(len(codes), 1) + 1024:
+        unique, inverse = np.unique(codes, return_inverse=True)
+        return unique, inverse.ravel()
+    occupied = np.bincount(codes, minlength=n_codes) > 0
+    unique = np.flatnonzero(occupied)
+    rank = np.cumsum(occupied) - 1
+    return unique, rank[codes]
+
+
 def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique rows of an (N, 3) integer key array and the inverse map, via one int64 code
     per row (a 1-D unique is several times faster than ``np.unique(axis=0)``)."""
@@ -86,11 +115,11 @@ def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     span = keys.max(axis=0) - low + 1
     shifted = keys - low
     codes = (shifted[:, 0] * span[1] + shifted[:, 1]) * span[2] + shifted[:, 2]
-    unique_codes, inverse = np.unique(codes, return_inverse=True)
+    unique_codes, inverse = group_codes(codes, math.prod(int(d) for d in span))
     kz = unique_codes % span[2]
     ky = (unique_codes // span[2]) % span[1]
     kx = unique_codes // (span[1] * span[2])
-    return np.column_stack([kx, ky, kz]) + low, inverse.ravel()
+    return np.column_stack([kx, ky, kz]) + low, inverse
 
 
 def accumulate_moments(points: np.ndarray, edge: float, origin: np.ndarray):
