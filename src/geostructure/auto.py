@@ -31,6 +31,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .params import ParameterWarning, Params
+from .sampling import order_free_sample
 from .voxel import accumulate_moments, fit_voxels, voxel_edge
 
 #: Points wanted in the typical voxel.
@@ -91,9 +92,8 @@ class _Occupancy:
     choice of zeta may try forty)."""
 
     def __init__(self, points: np.ndarray, sample: int, seed: int):
-        rng = np.random.default_rng(seed)
         self.fraction = min(1.0, sample / len(points))
-        self.sub = points if self.fraction == 1.0 else points[rng.choice(len(points), int(sample), replace=False)]
+        self.sub = points if self.fraction == 1.0 else points[order_free_sample(points, int(sample), seed)]
         self.lower = points.min(axis=0)
         self.extent = float(np.max(points.max(axis=0) - self.lower))
 

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .sampling import order_free_sample
+
 #: Empty patches of the occupancy grid up to this many cells are gaps in the sampling, not
 #: holes in the exposure.
 SMALL_HOLE_CELLS = 2
@@ -74,8 +76,7 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0) -> Exposure:
     (8, True)
     """
     points = np.asarray(points, dtype=np.float64)
-    rng = np.random.default_rng(seed)
-    sample = points[rng.choice(len(points), min(len(points), 50_000), replace=False)]
+    sample = points[order_free_sample(points, min(len(points), 50_000), seed)]
     origin = sample.mean(axis=0)
     _, _, vt = np.linalg.svd(sample - origin, full_matrices=False)
     normal = vt[2] if vt[2] @ np.asarray(up, float) >= 0 else -vt[2]
@@ -85,7 +86,7 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0) -> Exposure:
     # The cell holds CELL_POINTS points on average, from the density the 8th neighbours give
     # (pi r8^2 holds 8 points): few cells of a sampled surface are then empty by chance,
     # whether its points lie on a grid (SfM) or at random (a scan's overlap).
-    probe = points[rng.choice(len(points), min(len(points), 2000), replace=False)]
+    probe = points[order_free_sample(points, min(len(points), 2000), seed + 1)]
     r8 = float(np.median(cKDTree(points).query(probe, k=9)[0][:, 8]))
     cell = np.sqrt(CELL_POINTS * np.pi * max(r8, 1e-6) ** 2 / 8.0)
     uv = (points - origin) @ axes.T

@@ -36,6 +36,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .cells import CellGrid, CellPlanes, far_scatter, grid_planes, neighbour_pairs, sampled_far_scatter
+from .sampling import order_free_sample
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")
@@ -207,8 +208,7 @@ def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 
     radius r_8 give density 8 / (pi r_8^2). On a square grid of spacing s it reads 0.89 s;
     unlike the nearest-neighbour distance, it reads a random (Poisson) scatter right too,
     whose nearest neighbours lie at half its spacing."""
-    rng = np.random.default_rng(seed)
-    probe = points[rng.choice(len(points), min(sample, len(points)), replace=False)]
+    probe = points[order_free_sample(points, min(sample, len(points)), seed)]
     tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # built fast: queried once
     k = min(9, len(points))
     r8 = float(np.median(tree.query(probe, k=k, workers=-1)[0][:, -1]))

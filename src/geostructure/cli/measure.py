@@ -13,6 +13,7 @@ from ..evaluate import evaluate, match_scene, scene_truth
 from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
+from ..io.tiles import expand_inputs, read_tiles
 from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
@@ -45,7 +46,12 @@ from .options import (
 def add_measure_commands(sub) -> None:
     """The parsers of measure, evaluate, report, sweep and demo."""
     m = sub.add_parser("measure", help="measure the planes of a point cloud file")
-    m.add_argument("input", type=Path, help="PLY, LAS, LAZ, E57, XYZ, TXT or CSV file")
+    m.add_argument(
+        "input",
+        type=Path,
+        nargs="+",
+        help="PLY, LAS, LAZ, E57, XYZ, TXT or CSV file; or several (tiles), a folder of them, or a quoted glob",
+    )
     m.add_argument("-o", "--outdir", type=folder, required=True, help="folder for planes.csv, regions.ply, run.json")
     m.add_argument(
         "--mesh-samples",
@@ -116,12 +122,15 @@ def run_measure(args) -> int:
     crs_from(args)  # refused before any work
     base_params(args)
     kinematic_settings(args)  # refused before any work
-    check_before_work(args, [args.input, args.truth])
+    paths = expand_inputs(args.input)
+    check_before_work(args, [*paths, args.truth])
     truth = read_truth(args.truth, frame) if args.truth else None
     t = time.perf_counter()
-    cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
+    with StageProgress(enabled=not args.quiet and len(paths) > 1) as progress:
+        cloud = read_tiles(paths, mesh_samples=args.mesh_samples or None, progress=progress)
+    extra = {"inputs": [str(p) for p in paths]} if len(paths) > 1 else None
     return measure_cloud(
-        cloud, args, frame, {"read": time.perf_counter() - t}, truth=truth, inputs=[args.input, args.truth]
+        cloud, args, frame, {"read": time.perf_counter() - t}, extra, truth=truth, inputs=[*paths, args.truth]
     )
 
 

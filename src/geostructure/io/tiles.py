@@ -1,0 +1,148 @@
+"""A survey in many files: tiles given one by one, as a folder, or as a glob pattern.
+
+A LiDAR survey comes as tiles (LAS/LAZ, often hundreds). ``geostructure measure`` takes
+them as one cloud: every file named, every point-cloud file of a folder, or every match of a
+pattern the shell left unexpanded (``'tiles/*.laz'``). All of them are checked before any is
+read: each must exist and have a known extension, and they must agree on their coordinate
+system. They are then read one after another and measured as one cloud, in memory, so a
+plane that crosses tile borders is one plane.
+"""
+
+from __future__ import annotations
+
+import glob
+from pathlib import Path
+
+import numpy as np
+
+from ..cloud import Cloud
+from ..errors import GeoStructureError
+from .gis import parse_crs
+from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, read_cloud
+
+#: Files named in a message before it says how many more there are.
+NAMED_FILES = 3
+
+
+def expand_inputs(specs) -> list[Path]:
+    """The files that ``specs`` (paths, folders or glob patterns) name, in order, each once.
+
+    A folder gives its point-cloud files (by extension), sorted; a pattern its matches,
+    sorted. Refused, in one sentence naming it: a folder with no point-cloud file, a pattern
+    that matches none, a file that does not exist.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> for name in ("b.laz", "a.laz", "notes.txt.bak"):
+    ...     _ = (folder / name).write_bytes(b"x")
+    >>> [p.name for p in expand_inputs([folder])]
+    ['a.laz', 'b.laz']
+    """
+    paths: list[Path] = []
+    for spec in specs:
+        spec = Path(spec)
+        if spec.is_dir():
+            found = sorted(p for p in spec.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES)
+            if not found:
+                raise GeoStructureError(f"{spec}: the folder holds no point-cloud file ({', '.join(SUFFIXES)}).")
+        elif not spec.exists() and glob.has_magic(str(spec)):
+            found = sorted(Path(p) for p in glob.glob(str(spec)) if Path(p).is_file())
+            if not found:
+                raise GeoStructureError(f"{spec}: the pattern matches no file.")
+        else:
+            found = [spec]
+        paths.extend(p for p in found if p not in paths)
+    for path in paths:
+        if not path.exists():
+            raise GeoStructureError(f"{path}: no such file.")
+        if path.suffix.lower() not in SUFFIXES:
+            raise GeoStructureError(
+                f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}."
+            )
+    return paths
+
+
+def describe(paths) -> str:
+    """How messages and ``run.json`` name a set of files: the file itself, or the first few
+    and how many there are."""
+    paths = [str(p) for p in paths]
+    if len(paths) == 1:
+        return paths[0]
+    shown = ", ".join(paths[:NAMED_FILES])
+    return f"{shown}, ... ({len(paths)} files)" if len(paths) > NAMED_FILES else shown
+
+
+def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progress=None) -> Cloud:
+    """One cloud from several files (:func:`~.readers.read_cloud` each).
+
+    The tiles must agree on their coordinate reference system (all the same, or none
+    declared); stored normals are kept only when every tile has them; the LAS grid (scale
+    and offset) only when every tile shares it.
+
+    Examples
+    --------
+    >>> cloud = read_tiles(sorted(Path("tiles").glob("*.laz")))  # doctest: +SKIP
+    """
+    paths = [Path(p) for p in paths]
+    if len(paths) == 1:
+        return read_cloud(paths[0], mesh_samples=mesh_samples)
+    report = progress or (lambda stage, done, total: None)
+    _check_headers(paths)  # before reading any: a LAS header says its CRS
+    clouds = []
+    for i, path in enumerate(paths):
+        cloud = read_cloud(path, mesh_samples=mesh_samples)
+        if clouds:
+            _check_same_crs(clouds[0], cloud, paths[0], path)
+        clouds.append(cloud)
+        report("read", i + 1, len(paths))
+    points = np.vstack([c.points for c in clouds])
+    normals = np.vstack([c.normals for c in clouds]) if all(c.normals is not None for c in clouds) else None
+    grids = [c.las_grid for c in clouds]
+    same_grid = all(g is not None for g in grids) and all(
+        np.array_equal(g[0], grids[0][0]) and np.array_equal(g[1], grids[0][1]) for g in grids
+    )
+    return Cloud.from_points(
+        points,
+        source=describe(paths),
+        crs=clouds[0].crs,
+        normals=normals,
+        las_grid=grids[0] if same_grid else None,
+    )
+
+
+def _check_headers(paths) -> None:
+    """Refuse LAS/LAZ tiles that declare different CRSs from their headers alone."""
+    import laspy  # lazy: only tiles read LAS headers here
+
+    from .readers import _las_crs
+
+    first = None
+    for path in paths:
+        if path.suffix.lower() not in (".las", ".laz"):
+            continue
+        try:
+            with laspy.open(str(path)) as reader:
+                cloud = Cloud(np.zeros((1, 3)), crs=_las_crs(reader.header), source=str(path))
+        except Exception:  # a damaged header: read_cloud says what is wrong with it
+            continue
+        if first is None:
+            first = (cloud, path)
+        else:
+            _check_same_crs(first[0], cloud, first[1], path)
+
+
+def _check_same_crs(first: Cloud, other: Cloud, first_path: Path, path: Path) -> None:
+    if first.crs == other.crs:
+        return
+    if first.crs and other.crs and parse_crs(first.crs) == parse_crs(other.crs):
+        return
+    raise GeoStructureError(
+        f"{path}: its coordinate system ({_crs_name(other)}) is not that of {first_path.name} "
+        f"({_crs_name(first)}); tiles measured together must share one."
+    )
+
+
+def _crs_name(cloud: Cloud) -> str:
+    return "none declared" if not cloud.crs else parse_crs(cloud.crs).name

@@ -1,0 +1,124 @@
+"""A survey in tiles (issue "Scale"): 16 LAZ tiles, given as a folder, a quoted glob or one by
+one, measure as the whole file does; a plane across four tiles is one region; tiles that
+disagree on their CRS are refused before any work; the order of the points changes nothing."""
+
+import csv
+import json
+
+import laspy
+import numpy as np
+import pyproj
+import pytest
+from helpers import assert_one_sentence, run_cli
+from plyfile import PlyData
+
+from geostructure import Cloud, measure
+from geostructure.synthetic import outcrop_scene
+
+UTM = (500_000.0, 4_600_000.0, 300.0)
+
+
+def write_laz(path, points, crs="EPSG:32633"):
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, list(UTM)
+    if crs:
+        header.add_crs(pyproj.CRS(crs))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.write(str(path))
+
+
+def tile_index(points, n=4, axes=(0, 2)):
+    """Each point's tile on an n x n grid over two axes of the bounding box."""
+    lower, upper = points.min(axis=0), points.max(axis=0)
+    index = [np.minimum(((points[:, a] - lower[a]) / (upper[a] - lower[a]) * n).astype(int), n - 1) for a in axes]
+    return index[0] * n + index[1]
+
+
+def planes_of(out):
+    with open(out / "planes.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    centroid = np.array([[float(r[f"centroid_{a}"]) for a in "xyz"] for r in rows]).reshape(-1, 3)
+    normal = np.array([[float(r[f"normal_{a}"]) for a in "xyz"] for r in rows]).reshape(-1, 3)
+    return centroid, normal
+
+
+@pytest.fixture(scope="module")
+def survey(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("tiles")
+    points = outcrop_scene(width=8.0, height=4.0, seed=1, offset=UTM).cloud.points
+    write_laz(tmp / "whole.laz", points)
+    (tmp / "tiles").mkdir()
+    tile = tile_index(points)
+    for t in np.unique(tile):
+        write_laz(tmp / "tiles" / f"tile_{t:02d}.laz", points[tile == t])
+    return tmp, points
+
+
+def test_sixteen_tiles_measure_as_the_whole_file(survey, capsys):
+    tmp, _ = survey
+    assert len(list((tmp / "tiles").glob("*.laz"))) == 16
+    assert run_cli(capsys, "measure", tmp / "whole.laz", "-o", tmp / "whole", "-q")[0] == 0
+    tiles = sorted((tmp / "tiles").glob("*.laz"))
+    for name, given in (("folder", [tmp / "tiles"]), ("glob", [str(tmp / "tiles" / "*.laz")]), ("files", tiles)):
+        assert run_cli(capsys, "measure", *given, "-o", tmp / name, "-q")[0] == 0, name
+        centroid, normal = planes_of(tmp / name)
+        whole_centroid, whole_normal = planes_of(tmp / "whole")
+        assert len(centroid) == len(whole_centroid) > 20
+        cosine = np.abs(np.einsum("ij,ij->i", normal, whole_normal))
+        assert np.degrees(np.arccos(np.clip(cosine, 0, 1))).max() < 0.05
+        assert np.abs(centroid - whole_centroid).max() < 1e-3
+        record = json.loads((tmp / name / "run.json").read_text())
+        assert len(record["inputs"]) == 16 and pyproj.CRS(record["crs"]).to_epsg() == 32633
+    # the LAS grid the tiles share is kept: the points go back on their own integers
+    regions = laspy.read(str(tmp / "folder" / "regions.laz"))
+    assert regions.header.scales.tolist() == [0.001] * 3 and regions.header.offsets.tolist() == list(UTM)
+
+
+def test_a_plane_across_four_tiles_is_one_region(tmp_path, capsys):
+    rng = np.random.default_rng(4)
+    uv = rng.uniform(-3, 3, (60_000, 2))
+    slab = np.column_stack([uv[:, 0], 0.3 * uv[:, 0] + 0.2 * uv[:, 1] + rng.normal(0, 0.003, len(uv)), uv[:, 1]])
+    points = slab + UTM
+    tile = tile_index(points, n=2)
+    for t in range(4):
+        write_laz(tmp_path / f"quarter_{t}.laz", points[tile == t])
+    assert run_cli(capsys, "measure", str(tmp_path / "quarter_*.laz"), "-o", tmp_path / "out", "-q")[0] == 0
+    vertex = PlyData.read(str(tmp_path / "out" / "regions.ply"))["vertex"].data
+    xyz = np.column_stack([vertex[a] for a in "xyz"])
+    largest = vertex["scalar_region_id"] == 0
+    assert largest.mean() > 0.9
+    assert set(tile_index(xyz[largest], n=2).tolist()) == {0, 1, 2, 3}  # it spans all four tiles
+
+
+def test_tiles_that_disagree_on_their_crs_are_refused_before_any_work(tmp_path, capsys):
+    points = outcrop_scene(width=4.0, height=3.0, seed=2, offset=UTM).cloud.points
+    half = points[:, 0] < np.median(points[:, 0])
+    write_laz(tmp_path / "a.laz", points[half])
+    write_laz(tmp_path / "b.laz", points[~half], crs="EPSG:32634")
+    code, _, err = run_cli(capsys, "measure", tmp_path / "a.laz", tmp_path / "b.laz", "-o", tmp_path / "out")
+    assert code == 2 and "UTM zone 34N" in err and "UTM zone 33N" in err
+    assert_one_sentence(err, tmp_path / "b.laz")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("given", ["empty_folder", "no_match"])
+def test_a_folder_or_pattern_without_clouds_is_one_sentence(tmp_path, capsys, given):
+    (tmp_path / "empty_folder").mkdir()
+    (tmp_path / "empty_folder" / "notes.txt.bak").write_text("not a cloud")
+    spec = tmp_path / "empty_folder" if given == "empty_folder" else str(tmp_path / "tiles_*.laz")
+    code, _, err = run_cli(capsys, "measure", spec, "-o", tmp_path / "out")
+    assert code == 2
+    assert_one_sentence(err, spec)
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_order_of_the_points_changes_no_plane():
+    """The samples the parameters are read from are drawn by the points' coordinates, not
+    their places in the array: a shuffled cloud gives the same planes."""
+    points = outcrop_scene(width=6.0, height=4.0, seed=3, offset=UTM).cloud.points
+    a = measure(Cloud.from_points(points)).planes
+    b = measure(Cloud.from_points(points[np.random.default_rng(0).permutation(len(points))])).planes
+    assert len(a) == len(b)
+    np.testing.assert_allclose(a.centroid, b.centroid, atol=1e-6)
+    assert np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", a.normal, b.normal)), 0, 1))).max() < 1e-3
