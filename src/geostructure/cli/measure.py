@@ -122,6 +122,7 @@ def run_measure(args) -> int:
     crs_from(args)  # refused before any work
     base_params(args)
     kinematic_settings(args)  # refused before any work
+    check_outdir(args.outdir)  # the folder first: it says nothing of the inputs
     paths = expand_inputs(args.input)
     check_before_work(args, [*paths, args.truth])
     truth = read_truth(args.truth, frame) if args.truth else None
