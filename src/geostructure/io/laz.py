@@ -91,9 +91,19 @@ def write_laz(path, points: np.ndarray, fields: dict[str, np.ndarray], *, offset
     las.x, las.y, las.z = points[:, 0], points[:, 1], points[:, 2]
     for name, values in fields.items():
         setattr(las, name, values)
+    return _write(las, path)
+
+
+def _write(las, path) -> Path:
+    """``las`` to ``path``, atomically. Compressed in memory first, then written by Python:
+    an interrupt or a full disk inside lazrs's own writes came back as its "IoError", with a
+    traceback, instead of as the KeyboardInterrupt or OSError the output folder answers."""
+    import io
+
+    buffer = io.BytesIO()
+    las.write(buffer, do_compress=str(path).endswith(".laz"))
     with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            las.write(fh, do_compress=str(path).endswith(".laz"))
+        tmp.write_bytes(buffer.getbuffer())
     return Path(path)
 
 
@@ -131,7 +141,4 @@ def add_point_sets(source, path, planes) -> Path:
     if "set" not in las.point_format.extra_dimension_names:
         las.add_extra_dim(laspy.ExtraBytesParams(name="set", type=np.int16))
     las.set = point_sets(np.asarray(las.region_id), planes)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            las.write(fh, do_compress=str(path).endswith(".laz"))
-    return Path(path)
+    return _write(las, path)
