@@ -151,6 +151,26 @@ def test_planar_factor_of_safety():
     assert planar_factor_of_safety([30.0, 45.0], 30.0) == pytest.approx([1.0, np.tan(np.radians(30.0))])
 
 
+def test_planar_factor_of_safety_with_cohesion_follows_culmann():
+    """Culmann (1866), as Hoek & Bray and Wyllie & Mah give it: on a face of dip psi_f, the
+    weakest plane of a cohesive, frictional rock dips (psi_f + phi) / 2, and it is at FS = 1
+    for H = 4 c sin(psi_f) cos(phi) / (gamma (1 - cos(psi_f - phi)))."""
+    c, phi, face, gamma = 40.0, 32.0, 70.0, 25.0
+    critical_height = 4 * c * np.sin(np.radians(face)) * np.cos(np.radians(phi))
+    critical_height /= gamma * (1 - np.cos(np.radians(face - phi)))
+    dips = np.linspace(phi + 1.0, face - 1.0, 3601)
+    fs = planar_factor_of_safety(dips, phi, cohesion=c, height=critical_height, slope_dip=face, unit_weight=gamma)
+    assert abs(dips[np.argmin(fs)] - (face + phi) / 2) < 0.05
+    assert fs.min() == pytest.approx(1.0, abs=1e-6)
+    # cohesion adds to friction; a higher face holds less; no block under a plane as steep as the face
+    taller = planar_factor_of_safety(
+        dips, phi, cohesion=c, height=2 * critical_height, slope_dip=face, unit_weight=gamma
+    )
+    assert (taller < fs).all() and (taller > planar_factor_of_safety(dips, phi)).all()
+    assert np.isnan(planar_factor_of_safety([70.0, 75.0], phi, cohesion=c, height=10.0, slope_dip=face)).all()
+    np.testing.assert_array_equal(planar_factor_of_safety(dips, phi, cohesion=0.0), planar_factor_of_safety(dips, phi))
+
+
 def test_turning_the_slope_and_every_plane_alike_changes_nothing():
     rng = np.random.default_rng(9)
     dip, dd = rng.uniform(0, 90, 400), rng.uniform(0, 360, 400)
@@ -242,3 +262,21 @@ def test_measure_with_kinematics_and_its_bad_options(tmp_path, capsys):
     assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "--friction", "30", "-q"]) == 0
     assert json.load(open(out / "run.json"))["kinematics"]["slope"]["source"] == "fitted"
     assert (out / "wedges.csv").is_file() and (out / "planes.csv").is_file()
+
+
+def test_the_planar_factor_of_safety_with_cohesion_from_the_command(outcrop_folder, capsys):
+    _, out = outcrop_folder
+    assert main(["kinematics", str(out), "--friction", "35", "--slope", "65/180", "-q"]) == 0
+    dry = {r["region_id"]: r for r in csv.DictReader(open(out / "kinematics.csv"))}
+    assert main(["kinematics", str(out), "--friction", "35", "--slope", "65/180", "--cohesion", "20", "-q"]) == 0
+    wet = {r["region_id"]: r for r in csv.DictReader(open(out / "kinematics.csv"))}
+    sliding = [k for k, r in dry.items() if r["planar_sliding"] == "true"]
+    assert sliding and all(float(wet[k]["planar_fs"]) > float(dry[k]["planar_fs"]) for k in sliding)
+    strength = json.load(open(out / "kinematics.json"))["strength"]
+    assert strength["cohesion_kpa"] == 20.0 and strength["height_source"] == "the cloud's height"
+    assert 4.0 < strength["height_m"] < 8.0  # the 12 x 6 m face at 65 degrees
+    assert main(["kinematics", str(out), "--friction", "35", "--cohesion", "20", "--height", "30", "-q"]) == 0
+    assert json.load(open(out / "kinematics.json"))["strength"]["height_m"] == 30.0
+    for option, value in (("--cohesion", "-5"), ("--unit-weight", "0"), ("--height", "nan")):
+        assert main(["kinematics", str(out), "--friction", "35", option, value, "-q"]) == 2
+        assert option in capsys.readouterr().err

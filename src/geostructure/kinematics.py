@@ -25,7 +25,8 @@ All angles are degrees; orientations are dip and dip direction (of planes), tren
   base planes exist on which such blocks stand: planes dipping out of the slope within the
   lateral limits, gentler than the slope; a base plane steeper than the friction angle lets
   the blocks slide as they topple.
-- **Factor of safety**, dry and without cohesion: planar FS = tan(friction) / tan(dip); a wedge's
+- **Factor of safety**, dry: planar FS = tan(friction) / tan(dip), and with cohesion that of
+  the block under a face of given height (Hoek & Bray 1981; :func:`planar_factor_of_safety`); a wedge's
   from limit equilibrium along its line, FS = (N_a + N_b) tan(friction) / sin(plunge) for a
   block of unit weight, which is Hoek & Bray's (1981) FS = A tan(phi_a) + B tan(phi_b).
 """
@@ -165,11 +166,49 @@ def direct_toppling(
     return DirectToppling(a[zone], b[zone], trend[zone], plunge[zone], base, base & (dip > friction))
 
 
-def planar_factor_of_safety(dip, friction: float) -> np.ndarray:
-    """tan(friction) / tan(dip), dry and without cohesion; inf for a flat plane."""
+#: Unit weight of rock (kN/m3) when none is given: granite, limestone and sandstone lie
+#: between about 23 and 28.
+UNIT_WEIGHT = 26.0
+
+
+def planar_factor_of_safety(
+    dip, friction: float, *, cohesion: float = 0.0, height: float | None = None, slope_dip: float | None = None,
+    unit_weight: float = UNIT_WEIGHT,
+) -> np.ndarray:  # fmt: skip
+    """Factor of safety of a block sliding on a plane, dry (Hoek & Bray 1981).
+
+    Without cohesion it is tan(friction) / tan(dip), whatever the block's size (inf for a
+    flat plane). With ``cohesion`` (kPa) the block counts. Per metre of slope, the block
+    under a face of ``slope_dip`` and ``height`` (m), with a level top and no tension crack,
+    has a sliding plane of A = H / sin(dip) and a weight of
+    W = unit_weight H^2 (cot(dip) - cot(slope_dip)) / 2 (kN), so that
+    FS = (cohesion A + W cos(dip) tan(friction)) / (W sin(dip)). A plane at least as steep
+    as the face cuts no block: NaN.
+
+    Examples
+    --------
+    Culmann's critical height, 4 c sin(face) cos(phi) / (gamma (1 - cos(face - phi))), is
+    where the plane at (face + phi) / 2 is at FS = 1:
+
+    >>> c, phi, face, gamma = 20.0, 30.0, 60.0, 26.0
+    >>> h = 4 * c * np.sin(np.radians(face)) * np.cos(np.radians(phi)) / (gamma * (1 - np.cos(np.radians(face - phi))))
+    >>> float(planar_factor_of_safety(45.0, phi, cohesion=c, height=h, slope_dip=face, unit_weight=gamma).round(6))
+    1.0
+    """
     friction = check_friction(friction)
-    with np.errstate(divide="ignore"):
-        return np.tan(np.radians(friction)) / np.tan(np.radians(np.asarray(dip, dtype=np.float64)))
+    dip = np.radians(np.asarray(dip, dtype=np.float64))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frictional = np.tan(np.radians(friction)) / np.tan(dip)
+        if not cohesion:
+            return frictional
+        if height is None or slope_dip is None or not height > 0 or not unit_weight > 0:
+            raise ParameterError(
+                "a factor of safety with cohesion needs the slope's height and dip, and a unit weight."
+            )
+        face = np.radians(slope_dip)
+        weight = 0.5 * unit_weight * height**2 * (1.0 / np.tan(dip) - 1.0 / np.tan(face))
+        fs = frictional + cohesion * (height / np.sin(dip)) / (weight * np.sin(dip))
+    return np.where(weight > 0, fs, np.nan)
 
 
 def intersection_lines(normals_a, normals_b) -> tuple[np.ndarray, np.ndarray]:

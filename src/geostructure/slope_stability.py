@@ -16,6 +16,7 @@ from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
 from .io.results import read_planes, read_regions, read_sets
 from .kinematics import (
     LATERAL_LIMIT,
+    UNIT_WEIGHT,
     Slope,
     direct_toppling,
     flexural_toppling,
@@ -60,7 +61,16 @@ def fit_slope(points, frame: Frame = Frame()) -> Slope:
     )
 
 
-def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, lateral_limit: float = LATERAL_LIMIT):
+def add_kinematics(
+    outdir,
+    friction: float,
+    *,
+    slope: Slope | None = None,
+    lateral_limit: float = LATERAL_LIMIT,
+    cohesion: float = 0.0,
+    unit_weight: float = UNIT_WEIGHT,
+    height: float | None = None,
+):
     """Run the kinematic tests on a measured folder and add their files (see the module).
 
     Parameters
@@ -73,6 +83,13 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
         The slope face; fitted to the cloud (:func:`fit_slope`) when not given.
     lateral_limit : float
         Degrees either side of the slope's dip direction (of its opposite for toppling).
+    cohesion : float
+        The joints' cohesion (kPa), for the planar factor of safety; 0: frictional.
+    unit_weight : float
+        The rock's unit weight (kN/m3).
+    height : float, optional
+        The slope's height (m) for the planar blocks with cohesion; the cloud's height
+        along up when not given.
 
     Returns
     -------
@@ -97,17 +114,26 @@ def add_kinematics(outdir, friction: float, *, slope: Slope | None = None, later
         frame = Frame.from_dict(outputs.record.get("frame") or {})
         had_report = (outputs.outdir / "report.html").is_file()
         planes = read_planes(outputs.outdir)
-        if slope is None:
+        strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
+        if slope is None or (cohesion and height is None):
             points, _ = read_regions(outputs.outdir, planes.offset)
-            slope = fit_slope(points, frame)
+            slope = fit_slope(points, frame) if slope is None else slope
+            if cohesion and height is None:  # the face's height: the cloud's, along up
+                height = float(np.ptp(frame.to_enu(points)[:, 2]))
+                strength["height_source"] = "the cloud's height"
+        if cohesion:
+            strength["height_m"] = float(height)
+            strength.setdefault("height_source", "given")
         summary, rows, wedge_rows, figure = kinematics_of(
-            planes, read_sets(outputs.outdir), slope, friction, lateral_limit
+            planes, read_sets(outputs.outdir), slope, friction, lateral_limit, strength
         )
         write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
         write_table_csv(wedge_rows, outputs.path("wedges.csv"), columns=WEDGE_COLUMNS)
         write_json(summary, outputs.path("kinematics.json"))
         write_figure(figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120)
-        outputs.record["kinematics"] = {k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg")}
+        outputs.record["kinematics"] = {
+            k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg", "strength")
+        }
         names = {
             "kinematics": "kinematics.csv",
             "wedges": "wedges.csv",
@@ -133,15 +159,27 @@ KINEMATICS_COLUMNS = (
 WEDGE_COLUMNS = ("region_id_a", "region_id_b", "trend", "plunge", "wedge_fs", "slides_on")
 
 
-def kinematics_of(planes, sets: list, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT):
-    """The tests on a plane table and its sets' rows: (summary, plane rows, wedge rows, figure)."""
+def kinematics_of(
+    planes, sets: list, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT, strength=None
+):
+    """The tests on a plane table and its sets' rows: (summary, plane rows, wedge rows,
+    figure); ``strength`` holds the cohesion (kPa), unit weight and height for the planar
+    factor of safety (frictional without it)."""
     from .report.kinematics_plot import kinematics_figure  # lazy: matplotlib
 
     dip, dd, area = planes.dip, planes.dip_direction, planes.area
     set_labels = planes.extra.get("set", np.full(len(planes), -1))
     planar = planar_sliding(dip, dd, slope, friction, lateral_limit)
     toppling = flexural_toppling(dip, dd, slope, friction, lateral_limit)
-    fs = planar_factor_of_safety(dip, friction)
+    strength = strength or {"cohesion_kpa": 0.0, "unit_weight_kn_m3": UNIT_WEIGHT}
+    fs = planar_factor_of_safety(
+        dip,
+        friction,
+        cohesion=strength["cohesion_kpa"],
+        height=strength.get("height_m"),
+        slope_dip=slope.dip,
+        unit_weight=strength["unit_weight_kn_m3"],
+    )
     tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
     w = wedges(dip[tested], dd[tested], slope, friction, max_planes=MAX_WEDGE_PLANES)
     direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
@@ -195,7 +233,14 @@ def kinematics_of(planes, sets: list, slope: Slope, friction: float, lateral_lim
         },
         "friction_deg": friction,
         "lateral_limit_deg": lateral_limit,
-        "planar_sliding": mode(planar),
+        # the wedges' factor of safety stays frictional: cohesion there needs the wedge's
+        # faces' areas, which Hoek & Bray's full solution takes from the upper slope too
+        "strength": {**strength, "wedge_fs": "frictional"},
+        "planar_sliding": {
+            **mode(planar),
+            "min_fs": float(np.min(fs[planar])) if planar.any() else float("nan"),
+            "median_fs": float(np.median(fs[planar])) if planar.any() else float("nan"),
+        },
         "flexural_toppling": mode(toppling),
         "wedge_sliding": {
             **mode(in_wedge),

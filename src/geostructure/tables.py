@@ -113,6 +113,15 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         mode = summary[key]
         table.add_row(name, str(mode["planes"]), f"{mode['percent_by_count']:.1f}", f"{mode['percent_by_area']:.1f}")
     console.print(table)
+    planar, strength = summary["planar_sliding"], summary.get("strength", {})
+    if planar["planes"]:
+        basis = (
+            f"cohesion {strength['cohesion_kpa']:g} kPa, unit weight {strength['unit_weight_kn_m3']:g} kN/m³, "
+            f"height {strength['height_m']:.1f} m ({strength['height_source']})"
+            if strength.get("cohesion_kpa")
+            else "dry, frictional"
+        )
+        console.print(f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median.")
     wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
     console.print(f"Wedges: {wedge['critical_pairs']} critical pairs of {wedge['pairs_tested']:,} tested.")
     console.print(

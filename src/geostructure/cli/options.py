@@ -14,7 +14,7 @@ from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
 from ..io.gis import parse_crs
 from ..io.outdir import check_inputs_not_outputs, check_outdir
-from ..kinematics import LATERAL_LIMIT, Slope, check_friction
+from ..kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
 from ..orientation import Frame
 from ..params import Params
 from ..pipeline import check_measurable
@@ -187,6 +187,27 @@ def add_kinematic_options(parser, *, flag: bool) -> None:
         metavar="DEG",
         help=f"degrees either side of the slope's dip direction (default {LATERAL_LIMIT:g})",
     )
+    parser.add_argument(
+        "--cohesion",
+        type=float,
+        default=0.0,
+        metavar="KPA",
+        help="cohesion of the joints, kPa, for the planar factor of safety (default 0: frictional)",
+    )
+    parser.add_argument(
+        "--unit-weight",
+        type=float,
+        default=UNIT_WEIGHT,
+        metavar="KN/M3",
+        help=f"unit weight of the rock, kN/m3 (default {UNIT_WEIGHT:g})",
+    )
+    parser.add_argument(
+        "--height",
+        type=float,
+        default=None,
+        metavar="M",
+        help="the slope's height, m, for the planar blocks with cohesion (default: the cloud's height)",
+    )
 
 
 def kinematic_settings(args) -> dict | None:
@@ -208,7 +229,20 @@ def kinematic_settings(args) -> dict | None:
                 f"--slope takes DIP/DIPDIR in degrees (e.g. 75/180) or 'auto', not {args.slope!r}."
             ) from None
         slope = Slope(dip, dip_direction)
-    return {"friction": args.friction, "slope": slope, "lateral_limit": args.lateral_limits}
+    for name, value, least in (("--cohesion", args.cohesion, 0.0), ("--unit-weight", args.unit_weight, None)):
+        if not math.isfinite(value) or (value < least if least is not None else value <= 0):
+            bound = "0 or more" if least is not None else "more than 0"
+            raise ParameterError(f"{name} must be a finite number, {bound}, not {value}.")
+    if args.height is not None and not (math.isfinite(args.height) and args.height > 0):
+        raise ParameterError(f"--height must be a finite number of metres, more than 0, not {args.height}.")
+    return {
+        "friction": args.friction,
+        "slope": slope,
+        "lateral_limit": args.lateral_limits,
+        "cohesion": args.cohesion,
+        "unit_weight": args.unit_weight,
+        "height": args.height,
+    }
 
 
 def wants_sets(args) -> bool:
