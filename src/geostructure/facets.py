@@ -35,7 +35,15 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .cells import CellGrid, CellPlanes, far_scatter, grid_planes, neighbour_pairs, sampled_far_scatter
+from .cells import (
+    CellGrid,
+    CellPlanes,
+    far_scatter,
+    grid_planes,
+    neighbour_pairs,
+    sampled_far_scatter,
+    with_sparse_cells_filled,
+)
 from .sampling import order_free_sample
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
@@ -305,9 +313,9 @@ def coarsened_planes(grid: CellGrid, sampled: bool = False) -> CellPlanes:
         else:
             cells = grid_planes(grid)
             if far_scatter(cells) <= MAX_CELL_SCATTER:
-                return cells
+                return with_sparse_cells_filled(cells, grid)
         grid = grid.coarser()
-    return grid_planes(grid)
+    return with_sparse_cells_filled(grid_planes(grid), grid)
 
 
 def detect_facets(points: np.ndarray) -> FacetDetection:
