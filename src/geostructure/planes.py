@@ -331,3 +331,19 @@ def reoriented(planes: Planes, frame: Frame, previous: Frame = Frame()) -> Plane
     facing = np.where(np.isfinite(planes.overhang), facing, np.nan)
     overhang = np.where(np.isfinite(planes.overhang), overhang, np.nan)
     return replace(planes, strike=o.strike, dip=o.dip, dip_direction=o.dip_direction, facing=facing, overhang=overhang)
+
+
+def plane_rows(region, region_ids) -> np.ndarray:
+    """Each point's row in a plane table, from its ``region_id`` (-1 where it has none, or
+    where its region is not in ``region_ids``).
+
+    Examples
+    --------
+    >>> plane_rows(np.array([7, 4, -1, 9]), np.array([4, 7])).tolist()
+    [1, 0, -1, -1]
+    """
+    region = np.asarray(region, dtype=np.int64)
+    region_ids = np.asarray(region_ids, dtype=np.int64)
+    lookup = np.full(int(max(region.max(initial=-1), region_ids.max(initial=-1))) + 2, -1, dtype=np.int64)
+    lookup[region_ids + 1] = np.arange(len(region_ids))
+    return lookup[np.clip(region, -1, len(lookup) - 2) + 1]

@@ -29,7 +29,7 @@ from .io.writers import (
     write_spacing_csv,
 )
 from .orientation import Frame
-from .planes import Planes, reoriented
+from .planes import Planes, plane_rows, reoriented
 from .rockmass import RockMass, rock_mass, with_rock_mass
 from .sets import JointSets, find_sets
 from .uncertainty import normal_standard_errors, with_correlated_tilt
@@ -167,7 +167,7 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         planes = read_planes(outputs.outdir)
         sets = plane_sets(planes, frame, n_sets)
         points, region = read_regions(outputs.outdir, planes.offset)
-        labels = _plane_rows(region, planes.region_id)
+        labels = plane_rows(region, planes.region_id)
         rock = plane_rock_mass(points, labels, planes, sets, frame)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
@@ -185,13 +185,6 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         if had_report:  # the report shows the sets: draw it again from the new set of files
             paths.update(redraw_report(outputs))
     return sets, rock, paths
-
-
-def _plane_rows(region, region_ids) -> np.ndarray:
-    """Each point's row in the plane table, from its ``region_id`` (-1 where it has none)."""
-    lookup = np.full(int(max(region.max(initial=-1), region_ids.max(initial=-1))) + 2, -1, dtype=np.int64)
-    lookup[region_ids + 1] = np.arange(len(region_ids))
-    return lookup[np.clip(region, -1, len(lookup) - 2) + 1]
 
 
 def redraw_report(outputs: OutputSet) -> dict[str, Path]:

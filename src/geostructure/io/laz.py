@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..planes import plane_rows
 from .atomic import atomic_path
 from .gis import parse_crs
 
@@ -68,11 +69,8 @@ def point_sets(region: np.ndarray, planes) -> np.ndarray:
     >>> point_sets(np.array([7, 4, -1, 4]), planes).tolist()
     [-1, 1, -1, 1]
     """
-    region = np.asarray(region, dtype=np.int64)
-    size = int(max(region.max(initial=-1), planes.region_id.max(initial=-1))) + 2
-    lookup = np.full(size, -1, dtype=np.int16)
-    lookup[planes.region_id + 1] = planes.extra["set"]
-    return lookup[np.clip(region, -1, size - 2) + 1]
+    rows = plane_rows(region, planes.region_id)
+    return np.where(rows >= 0, planes.extra["set"][np.maximum(rows, 0)], -1).astype(np.int16)
 
 
 def write_laz(path, points: np.ndarray, fields: dict[str, np.ndarray], *, offset, crs=None, grid=None) -> Path:
