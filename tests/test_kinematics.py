@@ -268,11 +268,17 @@ def test_the_planar_factor_of_safety_with_cohesion_from_the_command(outcrop_fold
     _, out = outcrop_folder
     assert main(["kinematics", str(out), "--friction", "35", "--slope", "65/180", "-q"]) == 0
     dry = {r["region_id"]: r for r in csv.DictReader(open(out / "kinematics.csv"))}
+    dry_wedges = {(r["region_id_a"], r["region_id_b"]): r for r in csv.DictReader(open(out / "wedges.csv"))}
     assert main(["kinematics", str(out), "--friction", "35", "--slope", "65/180", "--cohesion", "20", "-q"]) == 0
     wet = {r["region_id"]: r for r in csv.DictReader(open(out / "kinematics.csv"))}
     sliding = [k for k, r in dry.items() if r["planar_sliding"] == "true"]
     assert sliding and all(float(wet[k]["planar_fs"]) > float(dry[k]["planar_fs"]) for k in sliding)
+    wet_wedges = {(r["region_id_a"], r["region_id_b"]): r for r in csv.DictReader(open(out / "wedges.csv"))}
+    assert dry_wedges and wet_wedges.keys() == dry_wedges.keys()  # cohesion changes no kinematic test
+    held = [float(wet_wedges[k]["wedge_fs"]) > float(r["wedge_fs"]) for k, r in dry_wedges.items()]
+    assert np.mean(held) > 0.9  # the rest cut no block under the face (NaN)
     strength = json.load(open(out / "kinematics.json"))["strength"]
+    assert strength["wedge_fs"].startswith("with cohesion")
     assert strength["cohesion_kpa"] == 20.0 and strength["height_source"] == "the cloud's height"
     assert 4.0 < strength["height_m"] < 8.0  # the 12 x 6 m face at 65 degrees
     assert main(["kinematics", str(out), "--friction", "35", "--cohesion", "20", "--height", "30", "-q"]) == 0

@@ -39,6 +39,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .orientation import normal_from_orientation
+from .wedge import UNIT_WEIGHT, wedge_blocks, wedge_factor_of_safety
 
 #: Dips' default lateral limits (degrees) for planar sliding and flexural toppling.
 LATERAL_LIMIT = 20.0
@@ -166,11 +167,6 @@ def direct_toppling(
     return DirectToppling(a[zone], b[zone], trend[zone], plunge[zone], base, base & (dip > friction))
 
 
-#: Unit weight of rock (kN/m3) when none is given: granite, limestone and sandstone lie
-#: between about 23 and 28.
-UNIT_WEIGHT = 26.0
-
-
 def planar_factor_of_safety(
     dip, friction: float, *, cohesion: float = 0.0, height: float | None = None, slope_dip: float | None = None,
     unit_weight: float = UNIT_WEIGHT,
@@ -242,8 +238,13 @@ class Wedges:
         return len(self.a)
 
 
-def wedges(dip, dip_direction, slope: Slope, friction: float, *, max_planes: int = 3000) -> Wedges:
-    """The critical wedges among all pairs of planes (see the module's description).
+def wedges(
+    dip, dip_direction, slope: Slope, friction: float, *, max_planes: int = 3000, cohesion: float = 0.0,
+    height: float | None = None, unit_weight: float = UNIT_WEIGHT,
+) -> Wedges:  # fmt: skip
+    """The critical wedges among all pairs of planes (see the module's description); with
+    ``cohesion`` (kPa), their factor of safety is that of the tetrahedral block each pair cuts
+    under a face of ``height`` m with a level top (:mod:`.wedge`).
 
     Examples
     --------
@@ -265,7 +266,14 @@ def wedges(dip, dip_direction, slope: Slope, friction: float, *, max_planes: int
     trend, plunge = intersection_lines(normals[a], normals[b])
     critical = np.isfinite(plunge) & (plunge > friction) & _daylights(trend, plunge, slope)
     a, b, trend, plunge = a[critical], b[critical], trend[critical], plunge[critical]
-    fs, single = _wedge_equilibrium(normals[a], normals[b], plunge, dip[a], dip[b], friction)
+    blocks = None
+    if cohesion:
+        if height is None or not height > 0 or not unit_weight > 0:
+            raise ParameterError("a wedge's factor of safety with cohesion needs the slope's height and a unit weight.")
+        blocks = wedge_blocks(normals[a], normals[b], normal_from_orientation(slope.dip_direction, slope.dip), height)
+    fs, single = wedge_factor_of_safety(
+        normals[a], normals[b], friction, cohesion_a=cohesion, blocks=blocks, unit_weight=unit_weight
+    )
     single = np.where(single == 0, a, np.where(single == 1, b, -1))
     return Wedges(a, b, trend, plunge, fs, single, pairs_tested)
 
@@ -275,27 +283,6 @@ def plane_pairs(normals) -> tuple[np.ndarray, np.ndarray]:
     a, b = np.triu_indices(len(normals), k=1)
     apart = np.abs(np.einsum("ij,ij->i", normals[a], normals[b])) < np.cos(np.radians(MIN_PAIR_ANGLE))
     return a[apart], b[apart]
-
-
-def _wedge_equilibrium(na, nb, plunge, dip_a, dip_b, friction):
-    """Factor of safety of wedges of unit weight, and which plane (0: a, 1: b, -1: both) each
-    rides on. The upward normals push on the block from below; solving
-    N_a n_a + N_b n_b = the weight's part across the line (n_a and n_b both lie across it)
-    gives N_a + N_b cos t = cos(dip_a) and N_a cos t + N_b = cos(dip_b), t the angle between
-    the normals (Hoek & Bray 1981's A and B, times sin(plunge))."""
-    cos_t = np.einsum("ij,ij->i", na, nb)
-    sin2 = np.maximum(1.0 - cos_t**2, 1e-12)
-    ca, cb = np.cos(np.radians(dip_a)), np.cos(np.radians(dip_b))
-    force_a = (ca - cb * cos_t) / sin2
-    force_b = (cb - ca * cos_t) / sin2
-    tan_phi = np.tan(np.radians(friction))
-    both = (force_a >= 0) & (force_b >= 0)
-    fs = (force_a + force_b) * tan_phi / np.sin(np.radians(plunge))
-    # Lifted off one plane: it slides on the other alone, as a planar block does.
-    single = np.where(both, -1, np.where(force_a < 0, 1, 0))
-    alone = np.where(single == 1, dip_b, dip_a)
-    fs = np.where(both, fs, tan_phi / np.tan(np.radians(alone)))
-    return fs, single
 
 
 def percent_critical(critical, weights=None) -> float:

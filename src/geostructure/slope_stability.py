@@ -84,11 +84,11 @@ def add_kinematics(
     lateral_limit : float
         Degrees either side of the slope's dip direction (of its opposite for toppling).
     cohesion : float
-        The joints' cohesion (kPa), for the planar factor of safety; 0: frictional.
+        The joints' cohesion (kPa), for the planar and wedge factors of safety; 0: frictional.
     unit_weight : float
         The rock's unit weight (kN/m3).
     height : float, optional
-        The slope's height (m) for the planar blocks with cohesion; the cloud's height
+        The slope's height (m) for the planar and wedge blocks with cohesion; the cloud's height
         along up when not given.
 
     Returns
@@ -164,7 +164,7 @@ def kinematics_of(
 ):
     """The tests on a plane table and its sets' rows: (summary, plane rows, wedge rows,
     figure); ``strength`` holds the cohesion (kPa), unit weight and height for the planar
-    factor of safety (frictional without it)."""
+    and wedge factors of safety (frictional without it)."""
     from .report.kinematics_plot import kinematics_figure  # lazy: matplotlib
 
     dip, dd, area = planes.dip, planes.dip_direction, planes.area
@@ -181,7 +181,16 @@ def kinematics_of(
         unit_weight=strength["unit_weight_kn_m3"],
     )
     tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
-    w = wedges(dip[tested], dd[tested], slope, friction, max_planes=MAX_WEDGE_PLANES)
+    w = wedges(
+        dip[tested],
+        dd[tested],
+        slope,
+        friction,
+        max_planes=MAX_WEDGE_PLANES,
+        cohesion=strength["cohesion_kpa"],
+        height=strength.get("height_m"),
+        unit_weight=strength["unit_weight_kn_m3"],
+    )
     direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
     base = np.zeros(len(planes), dtype=bool)
     base[tested] = direct.base
@@ -233,9 +242,12 @@ def kinematics_of(
         },
         "friction_deg": friction,
         "lateral_limit_deg": lateral_limit,
-        # the wedges' factor of safety stays frictional: cohesion there needs the wedge's
-        # faces' areas, which Hoek & Bray's full solution takes from the upper slope too
-        "strength": {**strength, "wedge_fs": "frictional"},
+        "strength": {
+            **strength,
+            "wedge_fs": "with cohesion: the tetrahedral block under the face, level top (Hoek & Bray 1981)"
+            if strength["cohesion_kpa"]
+            else "frictional",
+        },
         "planar_sliding": {
             **mode(planar),
             "min_fs": float(np.min(fs[planar])) if planar.any() else float("nan"),

@@ -192,7 +192,7 @@ def add_kinematic_options(parser, *, flag: bool) -> None:
         type=float,
         default=0.0,
         metavar="KPA",
-        help="cohesion of the joints, kPa, for the planar factor of safety (default 0: frictional)",
+        help="cohesion of the joints, kPa, for the planar and wedge factors of safety (default 0: frictional)",
     )
     parser.add_argument(
         "--unit-weight",
@@ -206,7 +206,7 @@ def add_kinematic_options(parser, *, flag: bool) -> None:
         type=float,
         default=None,
         metavar="M",
-        help="the slope's height, m, for the planar blocks with cohesion (default: the cloud's height)",
+        help="the slope's height, m, for the planar and wedge blocks with cohesion (default: the cloud's height)",
     )
 
 
