@@ -90,3 +90,33 @@ def test_on_an_sfm_like_outcrop_with_the_correlated_tilt_the_joints_show(seed, c
     # ... but the facets of each joint, which should share its normal, show it.
     assert rock.correlated_tilt > 0.3 and rock.correlated_tilt_n > 100
     assert 0.7 < ratio_rms(errors, planes.normal_uncertainty_deg[on]) < 1.5
+
+
+def test_the_block_sums_of_parts_add_up_to_the_whole():
+    """The standard errors come from sums that add over parts of a cloud (tiles, chunks), given
+    each plane's extent: the ground a streaming run stands on."""
+    from geostructure.uncertainty import (
+        block_sums,
+        coordinate_ranges,
+        errors_from_sums,
+        normal_standard_errors,
+        plane_axes,
+        plane_coordinates,
+    )
+
+    rng = np.random.default_rng(5)
+    uv = rng.uniform(-2, 2, (6000, 2))
+    points = np.column_stack([uv, 0.01 * rng.standard_normal(6000) + 0.02 * np.sin(uv[:, 0])])
+    labels = np.where(uv[:, 1] > 1.5, -1, (uv[:, 0] > 0).astype(int))
+    normals, centroids, u = [[0, 0, 1.0], [0, 0, 1.0]], [[-1.0, 0, 0], [1.0, 0, 0]], [[1.0, 0, 0], [1.0, 0, 0]]
+    whole = normal_standard_errors(points, labels, normals, centroids, u)
+    axes = plane_axes(normals, u)
+    parts = [plane_coordinates(points[s], labels[s], centroids, axes) for s in (slice(0, 2500), slice(2500, None))]
+    ranges = np.stack([coordinate_ranges(c, 2) for c in parts])
+    ranges = np.column_stack(
+        [ranges[:, :, 0].min(0), ranges[:, :, 1].max(0), ranges[:, :, 2].min(0), ranges[:, :, 3].max(0)]
+    )
+    summed = errors_from_sums(sum(block_sums(c, ranges, 2) for c in parts), axes)
+    for key in whole:
+        np.testing.assert_allclose(summed[key], whole[key], rtol=1e-9)
+    assert np.isfinite(whole["normal"]).all()

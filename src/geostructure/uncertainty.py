@@ -58,33 +58,76 @@ def normal_standard_errors(points, labels, normals, centroids, axes_u, up=(0.0, 
     >>> bool(0.7 < se["normal"][0] / theory < 1.5)
     True
     """
-    points = np.asarray(points, dtype=np.float64)
-    labels = np.asarray(labels)
+    axes = plane_axes(normals, axes_u)
+    coords = plane_coordinates(points, labels, centroids, axes)
+    return errors_from_sums(block_sums(coords, coordinate_ranges(coords, len(axes[0])), len(axes[0])), axes, up)
+
+
+def plane_axes(normals, axes_u) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each plane's (normal, u, v): ``axes_u`` made orthogonal to the normal, v = n x u."""
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    centroids = np.asarray(centroids, dtype=np.float64).reshape(-1, 3)
     u_axis = np.asarray(axes_u, dtype=np.float64).reshape(-1, 3)
     u_axis = u_axis - np.einsum("ij,ij->i", u_axis, normals)[:, None] * normals
     u_axis /= np.maximum(np.linalg.norm(u_axis, axis=1, keepdims=True), 1e-12)
-    v_axis = np.cross(normals, u_axis)
-    n = len(normals)
+    return normals, u_axis, np.cross(normals, u_axis)
+
+
+def plane_coordinates(points, labels, centroids, axes) -> tuple[np.ndarray, ...]:
+    """The labelled points' plane, and their (u, v, h) about its centroid along its axes."""
+    points = np.asarray(points, dtype=np.float64)
+    labels = np.asarray(labels)
+    centroids = np.asarray(centroids, dtype=np.float64).reshape(-1, 3)
+    normals, u_axis, v_axis = axes
     mine = labels >= 0
     lab, d = labels[mine], points[mine] - centroids[labels[mine]]
     u = np.einsum("ij,ij->i", d, u_axis[lab])
     v = np.einsum("ij,ij->i", d, v_axis[lab])
     h = np.einsum("ij,ij->i", d, normals[lab])
-    # Blocks: thirds of each plane's extent along u and v.
+    return lab, u, v, h
+
+
+def coordinate_ranges(coords, n: int) -> np.ndarray:
+    """(n, 4) least and greatest u, then v, of each plane's points (inf, -inf for none):
+    the extent its blocks divide. Of parts of a cloud, the element-wise min and max."""
+    lab, u, v, _ = coords
+    out = np.column_stack([np.full(n, np.inf), np.full(n, -np.inf), np.full(n, np.inf), np.full(n, -np.inf)])
+    for column, coord in ((0, u), (2, v)):
+        np.minimum.at(out[:, column], lab, coord)
+        np.maximum.at(out[:, column + 1], lab, coord)
+    return out
+
+
+def block_sums(coords, ranges: np.ndarray, n: int) -> np.ndarray:
+    """Additive sums per plane and block, (n, BLOCKS^2, 4): count and sums of u, v, h; and
+    per plane, in block 0's last three columns of a second slab, the sums of u^2, v^2, h^2
+    for the planarity. Of parts of a cloud with the same ``ranges``, the sum."""
+    lab, u, v, h = coords
     blocks = BLOCKS * BLOCKS
     key = lab * blocks
-    for coord, stride in ((u, BLOCKS), (v, 1)):
-        lo, hi = np.full(n, np.inf), np.full(n, -np.inf)
-        np.minimum.at(lo, lab, coord)
-        np.maximum.at(hi, lab, coord)
+    for coord, stride, column in ((u, BLOCKS, 0), (v, 1, 2)):
+        lo, hi = ranges[:, column], ranges[:, column + 1]
         width = np.maximum(hi - lo, 1e-12)[lab]
-        key = key + stride * np.minimum((BLOCKS * (coord - lo[lab]) / width).astype(np.int64), BLOCKS - 1)
+        index = np.clip((BLOCKS * (coord - lo[lab]) / width).astype(np.int64), 0, BLOCKS - 1)
+        key = key + stride * index
     size = n * blocks
-    count = np.bincount(key, minlength=size).astype(np.float64)
+    out = np.zeros((2, n, blocks, 4))
+    out[0, :, :, 0] = np.bincount(key, minlength=size).reshape(n, blocks)
+    for column, x in ((1, u), (2, v), (3, h)):
+        out[0, :, :, column] = np.bincount(key, x, size).reshape(n, blocks)
+        out[1, :, 0, column] = np.bincount(lab, x * x, n)
+    out[1, :, 0, 0] = np.bincount(lab, minlength=n)
+    return out
+
+
+def errors_from_sums(sums: np.ndarray, axes, up=(0.0, 0.0, 1.0)) -> dict:
+    """The standard errors and planarity (:func:`normal_standard_errors`) from
+    :func:`block_sums`."""
+    normals, u_axis, v_axis = axes
+    n = len(normals)
+    blocks = BLOCKS * BLOCKS
+    count = sums[0, :, :, 0].ravel()
     filled = count > 0
-    mean = {name: np.bincount(key, x, size)[filled] / count[filled] for name, x in (("u", u), ("v", v), ("h", h))}
+    mean = {name: sums[0, :, :, c].ravel()[filled] / count[filled] for name, c in (("u", 1), ("v", 2), ("h", 3))}
     owner = np.flatnonzero(filled) // blocks
     b = np.bincount(owner, minlength=n).astype(np.float64)
     # Regress block means h_b on (1, u_b, v_b) per plane: centre u_b, v_b, then solve 2 x 2.
@@ -119,15 +162,17 @@ def normal_standard_errors(points, labels, normals, centroids, axes_u, up=(0.0, 
     dip_direction = np.degrees(np.sqrt(np.maximum(along(strike), 0.0)) / np.maximum(sin_dip, 1e-9))
     nan = np.where(ok, 1.0, np.nan)
     # Planarity from the points' variances along the plane's axes (its covariance's eigenvalues
+    # Planarity from the points' variances along the plane's axes (its covariance's eigenvalues
     # when the rectangle's axes are the principal ones, as for a least-squares plane).
-    count_p = np.maximum(np.bincount(lab, minlength=n), 1)
-    var = np.sort(np.stack([np.bincount(lab, x * x, n) / count_p for x in (u, v, h)], axis=1), axis=1)
+    n_points = sums[1, :, 0, 0]
+    count_p = np.maximum(n_points, 1)
+    var = np.sort(sums[1, :, 0, 1:] / count_p[:, None], axis=1)
     planarity = 1.0 - np.sqrt(var[:, 0] / np.maximum(var[:, 1], 1e-300))
     return {
         "normal": normal * nan,
         "dip": dip * nan,
         "dip_direction": np.minimum(dip_direction, 180.0) * nan,
-        "planarity": np.where(np.bincount(lab, minlength=n) >= 3, planarity, np.nan),
+        "planarity": np.where(n_points >= 3, planarity, np.nan),
     }
 
 
