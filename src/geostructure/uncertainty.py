@@ -21,6 +21,8 @@ dip line) and dip direction (the tilt along strike, over sin(dip)).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 #: Blocks along each of a plane's two axes for the regression on block means.
@@ -97,10 +99,26 @@ def coordinate_ranges(coords, n: int) -> np.ndarray:
     return out
 
 
-def block_sums(coords, ranges: np.ndarray, n: int) -> np.ndarray:
-    """Additive sums per plane and block, (n, BLOCKS^2, 4): count and sums of u, v, h; and
-    per plane, in block 0's last three columns of a second slab, the sums of u^2, v^2, h^2
-    for the planarity. Of parts of a cloud with the same ``ranges``, the sum."""
+@dataclass
+class BlockSums:
+    """Sums that add over parts of a cloud given each plane's extent: per plane and block,
+    ``blocks`` (n, BLOCKS^2, 4) holds the count and the sums of u, v, h; per plane,
+    ``points`` (n,) the count and ``squares`` (n, 3) the sums of u^2, v^2, h^2 (the planarity)."""
+
+    blocks: np.ndarray
+    points: np.ndarray
+    squares: np.ndarray
+
+    def __add__(self, other: BlockSums) -> BlockSums:
+        return BlockSums(self.blocks + other.blocks, self.points + other.points, self.squares + other.squares)
+
+    def __radd__(self, other):  # sum() starts from 0
+        return self if isinstance(other, int) and other == 0 else NotImplemented
+
+
+def block_sums(coords, ranges: np.ndarray, n: int) -> BlockSums:
+    """The :class:`BlockSums` of points in :func:`plane_coordinates` over the blocks that
+    ``ranges`` (:func:`coordinate_ranges`) cut each plane's extent into."""
     lab, u, v, h = coords
     blocks = BLOCKS * BLOCKS
     key = lab * blocks
@@ -110,24 +128,23 @@ def block_sums(coords, ranges: np.ndarray, n: int) -> np.ndarray:
         index = np.clip((BLOCKS * (coord - lo[lab]) / width).astype(np.int64), 0, BLOCKS - 1)
         key = key + stride * index
     size = n * blocks
-    out = np.zeros((2, n, blocks, 4))
-    out[0, :, :, 0] = np.bincount(key, minlength=size).reshape(n, blocks)
-    for column, x in ((1, u), (2, v), (3, h)):
-        out[0, :, :, column] = np.bincount(key, x, size).reshape(n, blocks)
-        out[1, :, 0, column] = np.bincount(lab, x * x, n)
-    out[1, :, 0, 0] = np.bincount(lab, minlength=n)
-    return out
+    per_block = [np.bincount(key, minlength=size).astype(np.float64)]
+    per_block += [np.bincount(key, x, size) for x in (u, v, h)]
+    squares = np.column_stack([np.bincount(lab, x * x, n) for x in (u, v, h)]).reshape(n, 3)
+    return BlockSums(
+        np.stack(per_block, axis=1).reshape(n, blocks, 4), np.bincount(lab, minlength=n).astype(np.float64), squares
+    )
 
 
-def errors_from_sums(sums: np.ndarray, axes, up=(0.0, 0.0, 1.0)) -> dict:
+def errors_from_sums(sums: BlockSums, axes, up=(0.0, 0.0, 1.0)) -> dict:
     """The standard errors and planarity (:func:`normal_standard_errors`) from
     :func:`block_sums`."""
     normals, u_axis, v_axis = axes
     n = len(normals)
     blocks = BLOCKS * BLOCKS
-    count = sums[0, :, :, 0].ravel()
+    count = sums.blocks[:, :, 0].ravel()
     filled = count > 0
-    mean = {name: sums[0, :, :, c].ravel()[filled] / count[filled] for name, c in (("u", 1), ("v", 2), ("h", 3))}
+    mean = {name: sums.blocks[:, :, c].ravel()[filled] / count[filled] for name, c in (("u", 1), ("v", 2), ("h", 3))}
     owner = np.flatnonzero(filled) // blocks
     b = np.bincount(owner, minlength=n).astype(np.float64)
     # Regress block means h_b on (1, u_b, v_b) per plane: centre u_b, v_b, then solve 2 x 2.
@@ -164,9 +181,9 @@ def errors_from_sums(sums: np.ndarray, axes, up=(0.0, 0.0, 1.0)) -> dict:
     # Planarity from the points' variances along the plane's axes (its covariance's eigenvalues
     # Planarity from the points' variances along the plane's axes (its covariance's eigenvalues
     # when the rectangle's axes are the principal ones, as for a least-squares plane).
-    n_points = sums[1, :, 0, 0]
+    n_points = sums.points
     count_p = np.maximum(n_points, 1)
-    var = np.sort(sums[1, :, 0, 1:] / count_p[:, None], axis=1)
+    var = np.sort(sums.squares / count_p[:, None], axis=1)
     planarity = 1.0 - np.sqrt(var[:, 0] / np.maximum(var[:, 1], 1e-300))
     return {
         "normal": normal * nan,

@@ -134,7 +134,8 @@ def wedge_factor_of_safety(
     sin_plunge = np.abs(line[:, 2]) / np.maximum(np.linalg.norm(line, axis=1), 1e-300)
     both = (force_a >= 0) & (force_b >= 0)
     alone = np.where(force_a < 0, 1, 0)  # lifted off a: it rides on b
-    if cohesion_a or cohesion_b:
+    cohesive = bool(cohesion_a or cohesion_b)
+    if cohesive:
         if blocks is None:
             raise ValueError("a wedge's factor of safety with cohesion needs its block (wedge_blocks).")
         weight = unit_weight * blocks.volume
@@ -148,6 +149,6 @@ def wedge_factor_of_safety(
         sin_a, sin_b = np.sqrt(np.maximum(1 - cos_a**2, 0)), np.sqrt(np.maximum(1 - cos_b**2, 0))
         on_a, on_b = (hold_a + cos_a * tan_a) / sin_a, (hold_b + cos_b * tan_b) / sin_b
     fs = np.where(both, riding, np.where(alone == 1, on_b, on_a))
-    if blocks is not None and (cohesion_a or cohesion_b):
+    if cohesive:
         fs = np.where(blocks.formed, fs, np.nan)
     return fs, np.where(both, -1, alone)
