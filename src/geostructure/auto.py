@@ -32,10 +32,12 @@ from scipy.spatial import cKDTree
 
 from .params import ParameterWarning, Params
 from .sampling import order_free_sample
-from .voxel import accumulate_moments, fit_voxels, voxel_edge
+from .voxel import accumulate_moments, fit_voxels
 
 #: Points wanted in the typical voxel.
 TARGET_POINTS = 30
+#: Points of the order-free subsample the occupancy is counted on.
+SAMPLE_POINTS = 400_000
 #: Largest noise (median voxel-plane residual) as a fraction of the voxel edge.
 MAX_NOISE_RATIO = 0.05
 ZETA_RANGE = (0.004, 0.1)
@@ -89,7 +91,8 @@ def typical_occupancy(points: np.ndarray, zeta: float, *, sample: int = 400_000,
 class _Occupancy:
     """:func:`typical_occupancy` at many zetas: the subsample drawn, and the cloud's corner
     and extent read, once (at 8M points each of those took a third of a second, and a
-    choice of zeta may try forty)."""
+    choice of zeta may try forty). :meth:`of_sample` builds one from a sample drawn
+    elsewhere (a streamed cloud's, chunk by chunk)."""
 
     def __init__(self, points: np.ndarray, sample: int, seed: int):
         self.fraction = min(1.0, sample / len(points))
@@ -97,15 +100,22 @@ class _Occupancy:
         self.lower = points.min(axis=0)
         self.extent = float(np.max(points.max(axis=0) - self.lower))
 
+    @classmethod
+    def of_sample(cls, sub: np.ndarray, n_points: int, lower, extent: float) -> "_Occupancy":
+        probe = cls.__new__(cls)
+        probe.sub, probe.fraction = sub, min(1.0, len(sub) / n_points)
+        probe.lower, probe.extent = np.asarray(lower, dtype=np.float64), float(extent)
+        return probe
+
     def at(self, zeta: float) -> float:
         moments, inverse = accumulate_moments(self.sub, zeta * self.extent, self.lower)
         return float(np.median(moments.count[inverse])) / self.fraction
 
 
-def choose_zeta(points: np.ndarray, target: float = TARGET_POINTS) -> tuple[float, float]:
+def choose_zeta(points: np.ndarray, target: float = TARGET_POINTS, probe: _Occupancy | None = None) -> tuple[float, float]:
     """Smallest zeta on a geometric grid whose typical voxel holds ``target`` points."""
     grid = np.geomspace(*ZETA_RANGE, 40)
-    occupancy, probe = 0.0, _Occupancy(points, 400_000, 0)
+    occupancy, probe = 0.0, probe or _Occupancy(points, SAMPLE_POINTS, 0)
     for zeta in grid:
         occupancy = probe.at(zeta)
         if occupancy >= target:
@@ -150,15 +160,26 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     >>> 0.001 <= choice.params.zeta <= 0.1 and choice.params.k
     8
     """
-    density_zeta, occupancy = choose_zeta(points)
-    voxels = fit_voxels(points, density_zeta, max_curvature=1 / 3)
+    return choose_from(
+        _Occupancy(points, SAMPLE_POINTS, 0),
+        lambda zeta: fit_voxels(points, zeta, max_curvature=1 / 3),
+        base,
+    )
+
+
+def choose_from(probe: _Occupancy, fit, base: Params = Params()) -> AutoChoice:
+    """:func:`choose_params` from an occupancy probe of the cloud and ``fit(zeta)``, its
+    voxel planes at ``zeta`` with any planarity: how a streamed cloud, never in memory
+    at once, is given the same choice."""
+    density_zeta, occupancy = choose_zeta(None, probe=probe)
+    voxels = fit(density_zeta)
     sigma = float(np.median(voxels.residual)) if len(voxels) else 0.0  # no voxel plane: no noise to read
-    extent = voxel_edge(points, 1.0)
+    extent = probe.extent
     zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), *ZETA_RANGE))
     if zeta != density_zeta:  # noise made the voxels coarser: measure the noise at that size
-        occupancy = typical_occupancy(points, zeta)
-        voxels = None
-    angle, offset = surface_noise(points, zeta, voxels=voxels)
+        occupancy = probe.at(zeta)
+        voxels = fit(zeta)
+    angle, offset = surface_noise(None, zeta, voxels=voxels)
     theta = float(np.clip(1.5 * angle, *THETA_RANGE))
     psi = float(np.clip(3.0 * offset, *PSI_RANGE))
     with warnings.catch_warnings():

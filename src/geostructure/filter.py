@@ -81,22 +81,53 @@ def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, isolat
         A block holding fewer than this fraction of the median point's block count (and
         fewer than 10) is isolated: its points are dropped.
     """
-    origin = points.min(axis=0)
-    moments, inverse = accumulate_moments(points, edge, origin)
+    moments, inverse = accumulate_moments(points, edge, points.min(axis=0))
+    blocks = neighbourhoods(moments)
+    keep, distance = blocks.judge(points, inverse, blocks.typical_support(), threshold, isolation)
+    return FilterResult(keep, distance, "local", threshold)
+
+
+@dataclass
+class Neighbourhoods:
+    """Each occupied voxel's 3x3x3 block: its points' mean (local coordinates), inverse
+    covariance and count. Built from additive moments, so from a whole cloud or from the sum
+    of its chunks' alike; :meth:`judge` then decides any points of those voxels."""
+
+    mean: np.ndarray
+    inverse: np.ndarray
+    support: np.ndarray
+    voxel_count: np.ndarray
+
+    def typical_support(self) -> float:
+        """The median over the points of their block's count (``np.median`` over the points,
+        read from the voxels: each voxel's block count weighted by its points)."""
+        order = np.argsort(self.support, kind="stable")
+        ends = np.cumsum(self.voxel_count[order])
+        total = int(ends[-1])
+        low, high = (total - 1) // 2, total // 2  # the middle point(s), as np.median takes them
+        pick = self.support[order][np.searchsorted(ends, [low + 1, high + 1])]
+        return float(pick.mean())
+
+    def judge(self, points, voxel, typical: float, threshold: float = 3.0, isolation: float = 0.1):
+        """Keep (N,) and Mahalanobis distance (N,) of ``points`` whose voxels are ``voxel``."""
+        diff = points - self.mean[voxel]
+        d = np.sqrt(np.clip(np.einsum("ni,nij,nj->n", diff, self.inverse[voxel], diff), 0.0, None))
+        support = self.support[voxel]
+        isolated = support < min(max(3.0, isolation * typical), MIN_COVARIANCE_POINTS)
+        testable = support >= MIN_COVARIANCE_POINTS
+        keep = ~isolated & (~testable | (d <= threshold))
+        return keep, np.where(testable, d, 0.0)
+
+
+def neighbourhoods(moments) -> Neighbourhoods:
+    """The :class:`Neighbourhoods` of every voxel of ``moments`` (:class:`~.voxel.VoxelMoments`)."""
+    edge = moments.edge
     count, sums, products = _block_sums(moments.keys, moments.count, moments.sums, moments.products, edge)
     mean, cov = covariance_from_moments(count, sums, products)
     # A perfectly flat patch has a singular covariance; a floor of (edge/1000)^2 keeps it invertible.
     cov = cov + np.eye(3) * (edge * 1e-3) ** 2
-    inv = np.linalg.inv(cov)
-    corner = origin + moments.keys * edge
-    diff = points - (corner + mean)[inverse]
-    d = np.sqrt(np.clip(np.einsum("ni,nij,nj->n", diff, inv[inverse], diff), 0.0, None))
-    support = count[inverse]
-    typical = float(np.median(support))
-    isolated = support < min(max(3.0, isolation * typical), MIN_COVARIANCE_POINTS)
-    testable = support >= MIN_COVARIANCE_POINTS
-    keep = ~isolated & (~testable | (d <= threshold))
-    return FilterResult(keep, np.where(testable, d, 0.0), "local", threshold)
+    corner = moments.origin + moments.keys * edge
+    return Neighbourhoods(corner + mean, np.linalg.inv(cov), count, moments.count)
 
 
 def _block_sums(keys, count, sums, products, edge):

@@ -148,7 +148,22 @@ def region_plane(points: np.ndarray, method: str = "exact") -> RegionPlane:
     (4.0, 2.0)
     """
     centroid, normal, axes, residual = fit_plane(points)
-    uv = (points - centroid) @ axes.T
+    return bound_plane(centroid, normal, axes, residual, (points - centroid) @ axes.T, len(points), method)
+
+
+def plane_from_scatter(count: float, centroid, scatter) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """:func:`fit_plane`'s centroid, normal, axes and residual from a region's point count,
+    centroid and scatter matrix (sum of outer products about the centroid), as sums over
+    its parts give them."""
+    values, vectors = np.linalg.eigh(np.asarray(scatter, dtype=np.float64) / count)
+    normal, u = vectors[:, 0], vectors[:, 2]
+    residual = float(np.sqrt(max(values[0], 0.0)))
+    return np.asarray(centroid, dtype=np.float64), normal, np.vstack([u, np.cross(normal, u)]), residual
+
+
+def bound_plane(centroid, normal, axes, residual, uv: np.ndarray, n_points: int, method: str = "exact") -> RegionPlane:
+    """The region plane through ``centroid`` whose points lie at ``uv`` (2-D, along ``axes``):
+    all of them, or any set with the same convex hull (the hull of parts' hulls)."""
     hull = hull_2d(uv)
     if method == "golden":
         phi = golden_angle(hull, normal, axes)
@@ -157,13 +172,13 @@ def region_plane(points: np.ndarray, method: str = "exact") -> RegionPlane:
     c, s = np.cos(phi), np.sin(phi)
     u = c * axes[0] + s * axes[1]
     v = -s * axes[0] + c * axes[1]
-    a, b = uv @ np.array([c, s]), uv @ np.array([-s, c])
+    a, b = hull @ np.array([c, s]), hull @ np.array([-s, c])  # the extremes lie on the hull
     width, height = float(np.ptp(a)), float(np.ptp(b))
     center = centroid + u * (a.max() + a.min()) / 2 + v * (b.max() + b.min()) / 2
     if height > width:  # report the long side as the width
         u, v, width, height = v, -u, height, width
     area = _polygon_area(hull) if len(hull) >= 3 else 0.0
-    return RegionPlane(centroid, normal, u, v, width, height, center, residual, area, len(points))
+    return RegionPlane(centroid, normal, u, v, width, height, center, residual, area, int(n_points))
 
 
 def _polygon_area(poly: np.ndarray) -> float:

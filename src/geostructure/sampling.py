@@ -22,15 +22,16 @@ _MULTIPLIERS = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xC2B2AE3D27D4EB4F), np
 HASH_STEPS = 2**16
 
 
-def coordinate_hash(points: np.ndarray, seed: int = 0) -> np.ndarray:
+def coordinate_hash(points: np.ndarray, seed: int = 0, *, lower=None, extent: float | None = None) -> np.ndarray:
     """A 64-bit hash (N,) of each point's position on a fine grid anchored at the cloud's
     corner (splitmix64's finaliser over the three integers): the same for the same point
-    wherever it sits in the array, and however the cloud is translated."""
+    wherever it sits in the array, and however the cloud is translated. A chunk of a larger
+    cloud is hashed as the whole is when given the whole's ``lower`` corner and ``extent``."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if not len(points):
         return np.zeros(0, dtype=np.uint64)
-    lower = points.min(axis=0)
-    extent = float((points.max(axis=0) - lower).max())
+    lower = points.min(axis=0) if lower is None else np.asarray(lower, dtype=np.float64)
+    extent = float((points.max(axis=0) - lower).max()) if extent is None else float(extent)
     step = 2.0 ** np.ceil(np.log2(extent / HASH_STEPS)) if extent > 0 else 1.0
     keys = np.floor((points - lower) / step).astype(np.int64).view(np.uint64)
     with np.errstate(over="ignore"):

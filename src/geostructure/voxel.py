@@ -209,23 +209,34 @@ def fit_voxels(points: np.ndarray, zeta: float, *, min_points: int = 5, max_curv
     edge = voxel_edge(points, zeta)
     if not edge > 0:
         raise ValueError("the cloud has no extent")
-    origin = points.min(axis=0)
-    moments, inverse = accumulate_moments(points, edge, origin)
+    moments, inverse = accumulate_moments(points, edge, points.min(axis=0))
+    voxels, kept_index = voxel_planes_from_moments(moments, min_points, max_curvature)
+    lookup = np.full(len(moments.keys), -1, dtype=np.int64)
+    lookup[kept_index] = np.arange(len(kept_index))
+    voxels.point_voxel = lookup[inverse]
+    return voxels
+
+
+def voxel_planes_from_moments(
+    moments: VoxelMoments, min_points: int = 5, max_curvature: float = 0.05
+) -> tuple[VoxelPlanes, np.ndarray]:
+    """The voxel planes of accumulated moments (of a whole cloud, or summed over its chunks
+    with :func:`add_moments`), and the rows of ``moments`` they came from. Their
+    ``point_voxel`` is empty: the points are not at hand."""
     keep, centroid, normal, residual, curvature = fit_planes(moments, min_points)
     planar = curvature <= max_curvature
     kept_index = np.flatnonzero(keep)[planar]
-    lookup = np.full(len(moments.keys), -1, dtype=np.int64)
-    lookup[kept_index] = np.arange(len(kept_index))
-    return VoxelPlanes(
+    voxels = VoxelPlanes(
         centroid=centroid[planar],
         normal=normal[planar],
         residual=residual[planar],
         curvature=curvature[planar],
         count=moments.count[kept_index].astype(np.int64),
         keys=moments.keys[kept_index],
-        point_voxel=lookup[inverse],
-        edge=edge,
+        point_voxel=np.zeros(0, dtype=np.int64),
+        edge=moments.edge,
     )
+    return voxels, kept_index
 
 
 def subset_voxels(voxels: VoxelPlanes, keep: np.ndarray) -> VoxelPlanes:

@@ -86,28 +86,34 @@ def check_points(points: np.ndarray, path) -> None:
     """Refuse coordinates no measurement can use: NaN/inf, too few, degenerate."""
     if len(points) == 0:
         raise GeoStructureError(f"{path}: holds no points.")
+    check_coordinates(points, path)
+    if len(points) < 3:
+        raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
+
+
+def check_coordinates(points: np.ndarray, path, first: int = 0) -> None:
+    """Refuse NaN/inf coordinates and ones beyond :data:`MAX_COORDINATE`; ``first`` is the
+    number of the first of ``points`` in the file (a chunk's), for the message."""
     bad = ~np.isfinite(points).all(axis=1)
     if bad.any():
-        first = int(np.flatnonzero(bad)[0])
+        row = first + int(np.flatnonzero(bad)[0])
         raise GeoStructureError(
-            f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {first})."
+            f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {row})."
         )
     far = np.abs(points).max(axis=1) > MAX_COORDINATE
     if far.any():
-        first = int(np.flatnonzero(far)[0])
+        row = first + int(np.flatnonzero(far)[0])
         raise GeoStructureError(
-            f"{path}: point {first} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
+            f"{path}: point {row} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
             f"uses (float64 keeps no millimetres there); the file may be damaged."
         )
-    if len(points) < 3:
-        raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
 
 
 def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
     """PLY, ASCII or binary, float or double; extra vertex properties are ignored."""
     from plyfile import PlyData
 
-    _check_ply_size(path)
+    check_ply_size(path)
     # Memory-mapped, read-only: a binary vertex block is read at the disk's speed (plyfile
     # without a map reads it row by row, 30 times slower) and the file cannot be written.
     data = PlyData.read(str(path), mmap="r")
@@ -133,7 +139,7 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     return Cloud.from_points(points, source=str(path), normals=normals)
 
 
-def _check_ply_size(path: Path) -> None:
+def check_ply_size(path: Path) -> None:
     """Catch a binary PLY whose header promises more than the file holds (plyfile may not)."""
     with open(path, "rb") as fh:
         head = fh.read(65536)
@@ -226,7 +232,7 @@ def read_las(path: Path) -> Cloud:
     """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared."""
     import laspy
 
-    _check_las_header(path)
+    check_las_header(path)
     with laspy.open(str(path)) as reader:
         header = reader.header
         expected = header.point_count
@@ -239,10 +245,10 @@ def read_las(path: Path) -> Cloud:
     if len(points) < expected:
         raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
-    return Cloud.from_points(points, source=str(path), crs=_las_crs(header), las_grid=grid)
+    return Cloud.from_points(points, source=str(path), crs=las_crs(header), las_grid=grid)
 
 
-def _check_las_header(path: Path) -> None:
+def check_las_header(path: Path) -> None:
     """Catch a header whose counts cannot be true before laspy loops over them (a flipped
     byte in the VLR count would have it read four billion records)."""
     import struct
@@ -260,7 +266,7 @@ def _check_las_header(path: Path) -> None:
         )
 
 
-def _las_crs(header) -> str | None:
+def las_crs(header) -> str | None:
     for vlr in header.vlrs:
         text = getattr(vlr, "string", None)
         if isinstance(text, str) and text.strip().startswith(("PROJCS", "GEOGCS", "COMPD", "PROJCRS", "GEOGCRS")):

@@ -89,12 +89,12 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
     if len(paths) == 1:
         return read_cloud(paths[0], mesh_samples=mesh_samples)
     report = progress or (lambda stage, done, total: None)
-    _check_headers(paths)  # before reading any: a LAS header says its CRS
+    check_headers(paths)  # before reading any: a LAS header says its CRS
     clouds = []
     for i, path in enumerate(paths):
         cloud = read_cloud(path, mesh_samples=mesh_samples)
         if clouds:
-            _check_same_crs(clouds[0], cloud, paths[0], path)
+            check_same_crs(clouds[0], cloud, paths[0], path)
         clouds.append(cloud)
         report("read", i + 1, len(paths))
     points = np.vstack([c.points for c in clouds])
@@ -112,11 +112,11 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
     )
 
 
-def _check_headers(paths) -> None:
+def check_headers(paths) -> None:
     """Refuse LAS/LAZ tiles that declare different CRSs from their headers alone."""
     import laspy  # lazy: only tiles read LAS headers here
 
-    from .readers import _las_crs
+    from .readers import las_crs
 
     first = None
     for path in paths:
@@ -124,16 +124,16 @@ def _check_headers(paths) -> None:
             continue
         try:
             with laspy.open(str(path)) as reader:
-                cloud = Cloud(np.zeros((1, 3)), crs=_las_crs(reader.header), source=str(path))
+                cloud = Cloud(np.zeros((1, 3)), crs=las_crs(reader.header), source=str(path))
         except Exception:  # a damaged header: read_cloud says what is wrong with it
             continue
         if first is None:
             first = (cloud, path)
         else:
-            _check_same_crs(first[0], cloud, first[1], path)
+            check_same_crs(first[0], cloud, first[1], path)
 
 
-def _check_same_crs(first: Cloud, other: Cloud, first_path: Path, path: Path) -> None:
+def check_same_crs(first: Cloud, other: Cloud, first_path: Path, path: Path) -> None:
     if first.crs == other.crs:
         return
     if first.crs and other.crs and parse_crs(first.crs) == parse_crs(other.crs):

@@ -1,0 +1,62 @@
+"""Surveys larger than memory: read once into a spill file, measured in passes over chunks
+(:mod:`.engine`), on this machine or a Dask cluster (:mod:`.executor`).
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> from geostructure.synthetic import observatory_scene
+>>> from geostructure.io.laz import write_laz
+>>> cloud = observatory_scene(40_000, seed=1).cloud
+>>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
+>>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+>>> result = measure_stream([path], chunk_points=10_000)
+>>> len(result) >= 6, result.engine
+(True, 'stream')
+"""
+
+from __future__ import annotations
+
+from ..io.readers import DEFAULT_MESH_SAMPLES
+from ..orientation import Frame
+from ..params import Params
+from .engine import DEFAULT_CHUNK_POINTS, StreamResult, measure_spill
+from .executor import DaskExecutor, SerialExecutor
+from .source import Spill, spill_inputs
+
+__all__ = ["DaskExecutor", "SerialExecutor", "Spill", "StreamResult", "measure_spill", "measure_stream", "spill_inputs"]
+
+
+def measure_stream(
+    paths,
+    params: Params = Params(detector="voxel"),
+    frame: Frame = Frame(),
+    *,
+    auto: dict | None = None,
+    chunk_points: int = DEFAULT_CHUNK_POINTS,
+    executor=None,
+    progress=None,
+    writers=(),
+    spill_dir=None,
+    mesh_samples: int | None = DEFAULT_MESH_SAMPLES,
+) -> StreamResult:
+    """Measure the files ``paths`` (tiles of one survey) without holding their points.
+
+    The files are read chunk by chunk into a spill file in ``spill_dir`` (a temporary
+    folder by default, removed afterwards), then measured by :func:`.engine.measure_spill`,
+    whose parameters these are.
+    """
+    report = progress or (lambda stage, done, total: None)
+    spill = spill_inputs(paths, chunk_points, mesh_samples=mesh_samples, progress=report, folder=spill_dir)
+    try:
+        return measure_spill(
+            spill,
+            params,
+            frame,
+            auto=auto,
+            chunk_points=chunk_points,
+            executor=executor,
+            progress=report,
+            writers=writers,
+        )
+    finally:
+        spill.close()

@@ -1,0 +1,228 @@
+"""A streamed survey's points: read once from its files, chunk by chunk, into a spill file
+that every later pass reads back in chunks.
+
+A LAS/LAZ tile is read with laspy's chunked reader and a binary PLY through a memory map,
+so neither is ever held whole; a text or E57 file, or a PLY mesh to be sampled, is read
+whole, one file at a time. The absolute float64 coordinates go to a raw file in a
+temporary folder (24 bytes a point, normals 24 more when every file has them): the
+passes after the first read it at the disk's speed, where decoding LAZ again would cost
+several times that, and a Dask worker on the same machine or a shared disk reads it too.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..cloud import Cloud
+from ..errors import GeoStructureError
+from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, las_crs, read_cloud
+from ..io.tiles import check_headers, check_same_crs, describe
+
+#: Bytes of one point in the spill file (x, y, z as float64).
+POINT_BYTES = 24
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """Rows ``start`` to ``stop`` of a spill file: what one task of a pass reads."""
+
+    path: str
+    start: int
+    stop: int
+    normals_path: str | None = None
+
+    def __len__(self) -> int:
+        return self.stop - self.start
+
+    def points(self) -> np.ndarray:
+        """The chunk's absolute coordinates (n, 3) float64."""
+        return _read_rows(self.path, self.start, self.stop)
+
+    def normals(self) -> np.ndarray | None:
+        return None if self.normals_path is None else _read_rows(self.normals_path, self.start, self.stop)
+
+
+def _read_rows(path: str, start: int, stop: int) -> np.ndarray:
+    values = np.fromfile(path, dtype="<f8", count=3 * (stop - start), offset=start * POINT_BYTES)
+    return values.reshape(-1, 3)
+
+
+@dataclass
+class Spill:
+    """The survey spilled to disk: its point count, bounds, offset (the bounding box's rounded
+    centre, as :meth:`~.cloud.Cloud.from_points` takes it) and what its files declared."""
+
+    folder: Path
+    n_points: int
+    lower: np.ndarray
+    upper: np.ndarray
+    source: str
+    crs: str | None = None
+    las_grid: tuple | None = None
+    has_normals: bool = False
+    las_inputs: bool = False
+    tile_rows: list = field(default_factory=list)  # (path, first row, rows) per input file
+
+    @property
+    def points_path(self) -> str:
+        return str(self.folder / "points.f8")
+
+    @property
+    def normals_path(self) -> str | None:
+        return str(self.folder / "normals.f8") if self.has_normals else None
+
+    @property
+    def offset(self) -> np.ndarray:
+        return np.round((self.lower + self.upper) / 2, 0) + 0.0
+
+    def cloud(self) -> Cloud:
+        """A Cloud with no points that carries the survey's offset, CRS and LAS grid, for the
+        writers and ``run.json``."""
+        return Cloud(np.zeros((0, 3)), self.offset, crs=self.crs, source=self.source, las_grid=self.las_grid)
+
+    def chunks(self, rows: int) -> list[Chunk]:
+        """The spill cut into chunks of at most ``rows`` points."""
+        edges = list(range(0, self.n_points, max(1, int(rows)))) + [self.n_points]
+        return [Chunk(self.points_path, a, b, self.normals_path) for a, b in zip(edges[:-1], edges[1:])]
+
+    def close(self) -> None:
+        for name in ("points.f8", "normals.f8", "labels.i4"):
+            (self.folder / name).unlink(missing_ok=True)
+        try:
+            self.folder.rmdir()
+        except OSError:
+            pass
+
+
+def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progress=None, folder=None):
+    """Read ``paths`` chunk by chunk (at most ``rows`` points at a time for LAS/LAZ and PLY
+    vertices) into a :class:`Spill` in ``folder`` (a new temporary folder by default).
+
+    Every file is checked as the in-memory readers check it (:func:`~.io.readers.check_points`);
+    tiles must share a CRS (checked from the LAS headers before any is read)."""
+    paths = [Path(p) for p in paths]
+    check_headers(paths)
+    report = progress or (lambda stage, done, total: None)
+    folder = Path(tempfile.mkdtemp(prefix="geostructure-stream-", dir=folder))
+    spill = Spill(folder, 0, np.full(3, np.inf), np.full(3, -np.inf), describe(paths))
+    grids, first = [], None
+    try:
+        with open(spill.folder / "points.f8", "wb") as out, open(spill.folder / "normals.f8", "wb") as out_n:
+            all_normals = True
+            for i, path in enumerate(paths):
+                start = spill.n_points
+                for points, normals, meta in _file_chunks(path, rows, mesh_samples):
+                    check_coordinates(points, path, spill.n_points - start)
+                    points.astype("<f8", copy=False).tofile(out)
+                    all_normals = all_normals and normals is not None
+                    if all_normals:
+                        normals.astype("<f8", copy=False).tofile(out_n)
+                    spill.n_points += len(points)
+                    if len(points):
+                        spill.lower = np.minimum(spill.lower, points.min(axis=0))
+                        spill.upper = np.maximum(spill.upper, points.max(axis=0))
+                if spill.n_points - start < 3:
+                    held = spill.n_points - start
+                    raise GeoStructureError(
+                        f"{path}: holds no points." if not held else f"{path}: holds {held} point(s); a plane needs at least 3."
+                    )
+                if first is None:
+                    first = (meta["cloud"], path)
+                else:
+                    check_same_crs(first[0], meta["cloud"], first[1], path)
+                grids.append(meta.get("grid"))
+                spill.tile_rows.append((str(path), start, spill.n_points - start))
+                report("read", i + 1, len(paths))
+        spill.has_normals = all_normals and spill.n_points > 0
+        spill.crs = first[0].crs if first else None
+        spill.las_inputs = all(p.suffix.lower() in (".las", ".laz") for p in paths)
+        same = all(g is not None for g in grids) and all(
+            np.array_equal(g[0], grids[0][0]) and np.array_equal(g[1], grids[0][1]) for g in grids
+        )
+        spill.las_grid = grids[0] if same and grids else None
+        if not spill.has_normals:
+            os.unlink(spill.folder / "normals.f8")
+    except BaseException:
+        spill.close()
+        raise
+    return spill
+
+
+def _file_chunks(path: Path, rows: int, mesh_samples):
+    """(points, normals, meta) chunks of one file; ``meta`` carries a Cloud with its CRS and,
+    for LAS/LAZ, the file's grid."""
+    suffix = path.suffix.lower()
+    if suffix in (".las", ".laz"):
+        yield from _las_chunks(path, rows)
+    elif suffix == ".ply" and not _ply_has_faces(path, mesh_samples):
+        yield from _ply_chunks(path, rows)
+    else:  # text, E57, a mesh to sample: read whole (one file at a time)
+        cloud = read_cloud(path, mesh_samples=mesh_samples)
+        points = cloud.points
+        meta = {"cloud": cloud}
+        for a in range(0, max(len(points), 1), rows):
+            normals = None if cloud.normals is None else cloud.normals[a : a + rows]
+            yield points[a : a + rows], normals, meta
+
+
+def _las_chunks(path: Path, rows: int):
+    import laspy
+
+    from ..io.readers import check_las_header
+
+    check_las_header(path)
+    with laspy.open(str(path)) as reader:
+        header = reader.header
+        grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
+        meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header), source=str(path)), "grid": grid}
+        seen = 0
+        for chunk in reader.chunk_iterator(rows):
+            points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+            seen += len(points)
+            yield points, None, meta
+        if seen < header.point_count:
+            raise GeoStructureError(f"{path}: the header promises {header.point_count} points, the file holds {seen}.")
+        if seen == 0:
+            yield np.zeros((0, 3)), None, meta
+
+
+def _ply_has_faces(path: Path, mesh_samples) -> bool:
+    from plyfile import PlyData
+
+    if not mesh_samples:
+        return False
+    try:
+        header = PlyData.read(str(path), mmap="r")
+    except Exception:  # read_cloud says what is wrong with it
+        return True
+    return "face" in header and len(header["face"].data) > 0
+
+
+def _ply_chunks(path: Path, rows: int):
+    from plyfile import PlyData
+
+    from ..io.readers import check_ply_size
+
+    check_ply_size(path)
+    data = PlyData.read(str(path), mmap="r")
+    if "vertex" not in data:
+        raise GeoStructureError(f"{path}: has no 'vertex' element.")
+    vertex = data["vertex"].data
+    names = vertex.dtype.names or ()
+    missing = [axis for axis in "xyz" if axis not in names]
+    if missing:
+        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property.")
+    has_normals = all(n in names for n in ("nx", "ny", "nz"))
+    meta = {"cloud": Cloud(np.zeros((0, 3)), source=str(path))}
+    for a in range(0, max(len(vertex), 1), rows):
+        part = vertex[a : a + rows]
+        points = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
+        normals = (
+            np.column_stack([np.asarray(part[c], dtype=np.float64) for c in ("nx", "ny", "nz")]) if has_normals else None
+        )
+        yield points, normals, meta
