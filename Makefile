@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed-stamp
 $(STAMP): pyproject.toml constraints.txt
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -c constraints.txt -e ".[test,reconstruct]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[test,reconstruct,dask]"
 	touch $@
 
 install: $(STAMP)

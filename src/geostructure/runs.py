@@ -88,9 +88,9 @@ def save_measurement(
     with output_set(outdir, inputs=inputs) as outputs:
         paths = write_result(result, outputs, extra, sets, rock)
         if evaluation is not None:
-            paths.update(_stage_evaluation(outputs, evaluation, evaluation_extra))
+            paths.update(stage_evaluation(outputs, evaluation, evaluation_extra))
         if report:
-            paths.update(_stage_report(outputs, outputs.staging, max_points))
+            paths.update(stage_report(outputs, outputs.staging, max_points))
     return paths
 
 
@@ -192,7 +192,7 @@ def redraw_report(outputs: OutputSet) -> dict[str, Path]:
     from the staged files and the folder's kept ones together."""
     _link_kept(outputs)
     outputs.write_record()
-    return _stage_report(outputs, outputs.staging, None)
+    return stage_report(outputs, outputs.staging, None)
 
 
 def _link_kept(outputs: OutputSet) -> None:
@@ -230,7 +230,7 @@ def add_report(outdir, *, max_points: int | None = None) -> dict[str, Path]:
     ['report.html', 'rose.png', 'stereonet.png', 'stereonet.svg']
     """
     with output_set(outdir, replace=False, rewrites=REPORT_FILES) as outputs:
-        paths = _stage_report(outputs, outputs.outdir, max_points)
+        paths = stage_report(outputs, outputs.outdir, max_points)
     return paths
 
 
@@ -274,7 +274,7 @@ def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Eval
             planes, truth, extra = refit_frame(planes, truth, frame, truth_path)
             matched = extra["frame_fit"]["matched_regions"]
         evaluation = evaluate(planes, truth, matched=matched)
-        paths = _stage_evaluation(outputs, evaluation, extra)
+        paths = stage_evaluation(outputs, evaluation, extra)
     return evaluation, extra, paths
 
 
@@ -299,12 +299,12 @@ def refit_frame(planes: Planes, truth: GroundTruth, frame: Frame, truth_path):
     return planes, truth, {"frame_fit": record}
 
 
-def _stage_evaluation(outputs: OutputSet, evaluation: Evaluation, extra: dict | None) -> dict[str, Path]:
+def stage_evaluation(outputs: OutputSet, evaluation: Evaluation, extra: dict | None) -> dict[str, Path]:
     write_evaluation_files(evaluation, outputs.staging, extra)
     return {"evaluation_csv": outputs.final("evaluation.csv"), "evaluation_json": outputs.final("evaluation.json")}
 
 
-def _stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> dict[str, Path]:
+def stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> dict[str, Path]:
     """Draw the report from the files in ``source`` (the staged set, or a verified folder)."""
     # Lazy on purpose: plotly and matplotlib (0.4 to 0.5 s to import here) load only when a report is asked for.
     from .report.html import build_report

@@ -13,7 +13,7 @@ from ..evaluate import evaluate, match_scene, scene_truth
 from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
-from ..io.tiles import expand_inputs, read_tiles
+from ..io.tiles import describe, expand_inputs, read_tiles
 from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
@@ -24,6 +24,7 @@ from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
 from ..tables import print_evaluation, print_kinematics, print_match, print_planes, print_sets, print_sweep
+from .engine import add_engine_options, check_streamable, chosen_engine, run_streamed
 from .options import (
     add_kinematic_options,
     add_measure_options,
@@ -64,6 +65,7 @@ def add_measure_commands(sub) -> None:
     add_set_options(m, "--sets")
     add_kinematic_options(m, flag=True)
     add_measure_options(m)
+    add_engine_options(m)
     m.set_defaults(run=run_measure)
 
     e = sub.add_parser("evaluate", help="score a measured OUTDIR against a ground-truth CSV")
@@ -125,7 +127,19 @@ def run_measure(args) -> int:
     check_outdir(args.outdir)  # the folder first: it says nothing of the inputs
     paths = expand_inputs(args.input)
     check_before_work(args, [*paths, args.truth])
+    engine = chosen_engine(args, paths)
+    if engine != "memory":
+        check_streamable(args, engine)
     truth = read_truth(args.truth, frame) if args.truth else None
+    if engine != "memory":
+        if args.engine == "auto" and not args.quiet:
+            print(
+                f"geostructure: note: {describe(paths)} holds more points than fit in --max-memory; measuring it "
+                f"streamed, in chunks, with the voxel detector.",
+                file=sys.stderr,
+            )
+        extra = {"inputs": [str(p) for p in paths]} if len(paths) > 1 else None
+        return run_streamed(args, paths, frame, engine, extra, truth=truth, inputs=[*paths, args.truth])
     t = time.perf_counter()
     with StageProgress(enabled=not args.quiet and len(paths) > 1) as progress:
         cloud = read_tiles(paths, mesh_samples=args.mesh_samples or None, progress=progress)

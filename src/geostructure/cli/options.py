@@ -139,9 +139,10 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
     a.add_argument(
         "--detector",
         choices=DETECTORS,
-        default=defaults.detector,
+        default=None,
         help="facets: grown on per-point planes, down to small joints on rough rock, with the paper's "
-        "voxel growing where a facet is curved; voxel: the paper's region growing alone (default %(default)s)",
+        f"voxel growing where a facet is curved; voxel: the paper's region growing alone (default "
+        f"{defaults.detector} in memory; voxel when streamed)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
 
@@ -267,7 +268,7 @@ def base_params(args) -> Params:
         reference=args.reference,
         rectangle=args.rectangle,
         merge=args.merge,
-        detector=args.detector,
+        detector=args.detector or Params().detector,
         **given,
     )
 

@@ -170,10 +170,14 @@ def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) ->
     return names
 
 
-def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=None, rock=None) -> dict[str, Path]:
+def write_result(
+    result, outputs: OutputSet, extra: dict | None = None, sets=None, rock=None, *, point_files: bool = True
+) -> dict[str, Path]:
     """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`;
     with ``sets``, the plane tables carry a ``set`` column and ``sets.csv`` is written; with
-    ``rock``, the planes' traces and the sets' spacing and intensity too."""
+    ``rock``, the planes' traces and the sets' spacing and intensity too. Without
+    ``point_files``, ``regions.ply`` and ``regions.laz`` are taken as staged already (a
+    streamed run writes them chunk by chunk)."""
     files = {
         "planes": "planes.csv",
         "dips": "planes_dips.csv",
@@ -188,10 +192,11 @@ def write_result(result, outputs: OutputSet, extra: dict | None = None, sets=Non
         planes = with_rock_mass(result.planes, sets, rock)
     if "planes.gpkg" in write_plane_tables(planes, outputs, crs=result.cloud.crs, enu_origin=result.cloud.enu_origin):
         files.update(geojson="planes.geojson", gpkg="planes.gpkg")
-    write_regions_ply(result, outputs.path(files["regions"]))
     write_voxel_planes_ply(result, outputs.path(files["voxels"]))
-    labelled = None if sets is None else point_sets(result.labels, planes)
-    write_regions_laz(result, outputs.path(files["regions_laz"]), labelled)
+    if point_files:
+        write_regions_ply(result, outputs.path(files["regions"]))
+        labelled = None if sets is None else point_sets(result.labels, planes)
+        write_regions_laz(result, outputs.path(files["regions_laz"]), labelled)
     write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
     outputs.record = run_record(result, extra)
     if sets is not None:

@@ -94,7 +94,7 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
     from plyfile import PlyData, PlyParseError
 
     try:
-        vertex = PlyData.read(str(path))["vertex"].data
+        vertex = PlyData.read(str(path), mmap="r")["vertex"].data
         columns = [vertex[n] for n in ("x", "y", "z")] + [ply_field(vertex, n) for n in names]
     except FileNotFoundError:
         raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
@@ -102,8 +102,11 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
         raise GeoStructureError(f"{path}: not a GeoStructure PLY ({exc}).") from None
     total = len(vertex)
     pick = np.sort(rng.choice(total, limit, replace=False)) if total > limit else slice(None)
-    xyz = (np.stack(columns[:3], axis=1)[pick].astype(np.float64) - offset).astype(np.float32)
-    return xyz, [np.asarray(c[pick]) for c in columns[3:]], total
+    # The sample first, then the columns: a memory-mapped file of a streamed survey's
+    # hundreds of millions of points is read only where the sample falls.
+    columns = [np.asarray(c[pick]) for c in columns]
+    xyz = (np.stack(columns[:3], axis=1).astype(np.float64) - offset).astype(np.float32)
+    return xyz, columns[3:], total
 
 
 def _read_json(path: Path) -> dict:

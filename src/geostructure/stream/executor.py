@@ -53,7 +53,9 @@ class DaskExecutor:
     def map(self, fn, chunks, context):
         from collections import deque
 
-        shared = self.client.scatter(context, broadcast=True)
+        # One future for the whole context (a tuple would be scattered element by element),
+        # not keyed by its content: two passes with equal contexts must not share one.
+        [shared] = self.client.scatter([context], broadcast=True, hash=False)
         waiting, queue = deque(chunks), deque()
         window = IN_FLIGHT_PER_WORKER * self.n_workers
         while waiting or queue:

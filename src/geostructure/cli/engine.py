@@ -1,0 +1,156 @@
+"""``measure --engine``: in memory, streamed in chunks, or on a Dask cluster, and the memory
+bound that chooses between them."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import time
+
+from ..errors import GeoStructureError
+from ..evaluate import evaluate
+from ..io.outdir import output_set
+from ..io.writers import write_result
+from ..progress import StageProgress
+from ..runs import stage_evaluation, stage_report
+from ..stream import DaskExecutor, SerialExecutor, measure_stream
+from ..stream.engine import DEFAULT_CHUNK_POINTS
+from ..stream.output import RegionsLaz, RegionsPly
+from ..stream.source import estimate_points
+from .options import base_params, given_factors, wants_sets
+
+ENGINES = ("auto", "memory", "stream", "dask")
+#: What a run in memory holds per point (measured: 1.1 GB peak for a 1M-point LAZ), and
+#: what the interpreter and libraries take before any point.
+MEMORY_BYTES_PER_POINT = 1000
+BASELINE_BYTES = 300 * 2**20
+#: What a streamed run holds per point of a chunk (its temporaries, measured), and the
+#: share of the bound left to the voxel tables.
+CHUNK_BYTES_PER_POINT = 600
+_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def memory_size(text: str) -> int:
+    """``--max-memory``: bytes from ``8G``, ``500M``, ``2GiB`` or a plain number of bytes.
+
+    Examples
+    --------
+    >>> memory_size("2G"), memory_size("512MiB"), memory_size("1000")
+    (2147483648, 536870912, 1000)
+    """
+    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([KMGT]?)(?:I?B)?\s*", str(text).upper())
+    if not match:
+        raise argparse.ArgumentTypeError(f"expected a size such as 4G or 500M, got '{text}'")
+    size = int(float(match.group(1)) * _UNITS[match.group(2)])
+    if size < 2 * BASELINE_BYTES:
+        raise argparse.ArgumentTypeError(f"{text} is too little to run in: give at least {2 * BASELINE_BYTES >> 20}M")
+    return size
+
+
+def default_max_memory() -> int:
+    """Half the machine's memory."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
+    except (ValueError, OSError, AttributeError):
+        return 4 * 2**30
+
+
+def add_engine_options(p) -> None:
+    g = p.add_argument_group("scale (surveys larger than memory)")
+    g.add_argument(
+        "--engine",
+        choices=ENGINES,
+        default="auto",
+        help="memory: the whole cloud at once (all detectors); stream: in chunks, the voxel detector, memory "
+        "bounded by --max-memory; dask: the chunks as tasks on a dask.distributed cluster; auto (default): "
+        "memory when the cloud fits in --max-memory, else stream",
+    )
+    g.add_argument(
+        "--max-memory",
+        type=memory_size,
+        default=None,
+        metavar="SIZE",
+        help="the most memory a run may take, e.g. 8G (default: half the machine's)",
+    )
+    g.add_argument("--scheduler", metavar="ADDRESS", help="--engine dask: a running scheduler (default: a local cluster)")
+    g.add_argument("--workers", type=int, default=None, help="--engine dask: local workers (default 2)")
+    g.add_argument(
+        "--spill-dir", metavar="FOLDER", help="where a streamed run spills the points (default: the temporary folder)"
+    )
+
+
+def chosen_engine(args, paths) -> str:
+    """The engine a run takes: the one asked, or for ``auto`` memory when the cloud fits."""
+    engine = getattr(args, "engine", "memory")
+    if engine != "auto":
+        return engine
+    limit = args.max_memory or default_max_memory()
+    need = BASELINE_BYTES + MEMORY_BYTES_PER_POINT * estimate_points(paths, args.mesh_samples or None)
+    return "memory" if need <= limit else "stream"
+
+
+def chunk_points(args) -> int:
+    """Points per chunk from ``--max-memory``: half the bound past the baseline for the chunk."""
+    if args.max_memory is None:
+        return DEFAULT_CHUNK_POINTS
+    budget = (args.max_memory - BASELINE_BYTES) // 2
+    return int(max(50_000, min(DEFAULT_CHUNK_POINTS, budget // CHUNK_BYTES_PER_POINT)))
+
+
+def check_streamable(args, engine: str) -> None:
+    """Refuse, before any work, what a streamed run cannot give yet."""
+    wanted = [name for name, on in (("--sets", wants_sets(args)), ("--kinematics", args.kinematics)) if on]
+    if wanted:
+        raise GeoStructureError(
+            f"{' and '.join(wanted)} need the points in memory (spacing, the slope face), which the {engine} "
+            f"engine does not hold; give --engine memory, or measure first and add them to the folder later."
+        )
+    if args.detector == "facets":
+        raise GeoStructureError(
+            f"the facet detector needs each point's neighbours in memory; the {engine} engine measures with "
+            f"the voxel detector: give --detector voxel or --engine memory."
+        )
+
+
+def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=None, inputs=()) -> int:
+    """Measure ``paths`` streamed (or on Dask) and write the folder's files as one set."""
+    from ..tables import print_evaluation, print_planes
+
+    params = base_params(args).with_(detector="voxel")
+    auto = given_factors(args) if args.auto else None
+    executor = DaskExecutor(args.scheduler, args.workers) if engine == "dask" else SerialExecutor()
+    t = time.perf_counter()
+    try:
+        with StageProgress(enabled=not args.quiet) as progress, output_set(args.outdir, inputs=inputs) as outputs:
+            writers = [RegionsPly(outputs.path("regions.ply")), RegionsLaz(outputs.path("regions.laz"))]
+            result = measure_stream(
+                paths,
+                params,
+                frame,
+                auto=auto,
+                chunk_points=chunk_points(args),
+                executor=executor,
+                progress=progress,
+                writers=writers,
+                spill_dir=args.spill_dir,
+                mesh_samples=args.mesh_samples or None,
+            )
+            evaluation = evaluate(result.planes, truth) if truth is not None else None
+            record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {})}
+            written = write_result(result, outputs, record, point_files=False)
+            if evaluation is not None:
+                written.update(stage_evaluation(outputs, evaluation, None))
+            if args.report:
+                written.update(stage_report(outputs, outputs.staging, None))
+    finally:
+        executor.close()
+    if not args.quiet:
+        print_planes(result)
+        if evaluation is not None:
+            print_evaluation(evaluation)
+        print(
+            f"{len(result)} planes from {result.counts['input']:,} points ({engine} engine) in "
+            f"{time.perf_counter() - t:.1f} s; wrote {', '.join(str(p) for p in written.values())}"
+        )
+    return 0

@@ -1,0 +1,75 @@
+"""The point outputs of a streamed run, written chunk by chunk as the label pass goes:
+``regions.ply`` and ``regions.laz``, the same files (format, fields, grid) that
+:mod:`geostructure.io.writers` and :mod:`geostructure.io.laz` write in memory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..io.gis import parse_crs
+from ..io.laz import las_grid
+from ..io.results import SCALAR
+
+
+class RegionsPly:
+    """``regions.ply``: the kept points (double) with an int ``scalar_region_id``."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self._file = None
+        self._dtype = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), (SCALAR + "region_id", "<i4")])
+
+    def begin(self, n_points: int, lower, upper, cloud) -> None:
+        name = Path(cloud.source.split(",")[0]).name.encode("ascii", "backslashreplace").decode("ascii")
+        header = (
+            "ply\nformat binary_little_endian 1.0\ncomment written by geostructure\n"
+            f"comment source {name}\nelement vertex {n_points}\n"
+            "property double x\nproperty double y\nproperty double z\n"
+            f"property int {SCALAR}region_id\nend_header\n"
+        )
+        self._file = open(self.path, "wb")
+        self._file.write(header.encode("ascii"))
+
+    def write(self, points: np.ndarray, labels: np.ndarray) -> None:
+        rows = np.empty(len(points), dtype=self._dtype)
+        rows["x"], rows["y"], rows["z"] = points.T
+        rows[SCALAR + "region_id"] = labels
+        rows.tofile(self._file)
+
+    def end(self) -> None:
+        self._file.close()
+
+
+class RegionsLaz:
+    """``regions.laz`` (LAS 1.4, point format 6): the kept points on the input's grid when
+    every tile shares one, with ``region_id`` as an extra dimension and the CRS kept."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self._writer = None
+        self._header = None
+
+    def begin(self, n_points: int, lower, upper, cloud) -> None:
+        import laspy
+
+        header = laspy.LasHeader(point_format=6, version="1.4")
+        header.scales, header.offsets = las_grid(np.vstack([lower, upper]), cloud.offset, cloud.las_grid)
+        header.generating_software = "geostructure"
+        header.add_extra_dim(laspy.ExtraBytesParams(name="region_id", type=np.int32))
+        if cloud.crs:
+            header.add_crs(parse_crs(cloud.crs))
+        self._header = header
+        self._writer = laspy.open(str(self.path), mode="w", header=header, do_compress=self.path.suffix == ".laz")
+
+    def write(self, points: np.ndarray, labels: np.ndarray) -> None:
+        import laspy
+
+        record = laspy.ScaleAwarePointRecord.zeros(len(points), header=self._header)
+        record.x, record.y, record.z = points[:, 0], points[:, 1], points[:, 2]
+        record.region_id = np.asarray(labels, dtype=np.int32)
+        self._writer.write_points(record)
+
+    def end(self) -> None:
+        self._writer.close()
