@@ -112,7 +112,9 @@ class _Occupancy:
         return float(np.median(moments.count[inverse])) / self.fraction
 
 
-def choose_zeta(points: np.ndarray, target: float = TARGET_POINTS, probe: _Occupancy | None = None) -> tuple[float, float]:
+def choose_zeta(
+    points: np.ndarray, target: float = TARGET_POINTS, probe: _Occupancy | None = None
+) -> tuple[float, float]:
     """Smallest zeta on a geometric grid whose typical voxel holds ``target`` points."""
     grid = np.geomspace(*ZETA_RANGE, 40)
     occupancy, probe = 0.0, probe or _Occupancy(points, SAMPLE_POINTS, 0)

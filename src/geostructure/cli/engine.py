@@ -73,7 +73,9 @@ def add_engine_options(p) -> None:
         metavar="SIZE",
         help="the most memory a run may take, e.g. 8G (default: half the machine's)",
     )
-    g.add_argument("--scheduler", metavar="ADDRESS", help="--engine dask: a running scheduler (default: a local cluster)")
+    g.add_argument(
+        "--scheduler", metavar="ADDRESS", help="--engine dask: a running scheduler (default: a local cluster)"
+    )
     g.add_argument("--workers", type=int, default=None, help="--engine dask: local workers (default 2)")
     g.add_argument(
         "--spill-dir", metavar="FOLDER", help="where a streamed run spills the points (default: the temporary folder)"

@@ -308,7 +308,9 @@ def _merge_labelled_sample(a, b, n: int):
 def _grow(voxels: VoxelPlanes, params: Params):
     """Region growing and the coplanar merge over the voxel planes, as
     :func:`~geostructure.pipeline.measure` runs them for the voxel detector."""
-    growth = grow_regions(voxels, params.theta, params.psi, params.k, reference=params.reference, max_gap=params.max_gap)
+    growth = grow_regions(
+        voxels, params.theta, params.psi, params.k, reference=params.reference, max_gap=params.max_gap
+    )
     labels, merges = growth.labels, 0
     if params.merge:
         labels, merges = merge_coplanar(voxels, growth.labels, params.theta, params.psi * voxels.edge)

@@ -34,9 +34,7 @@ class DaskExecutor:
         try:
             from distributed import Client, LocalCluster
         except ImportError:
-            raise GeoStructureError(
-                "--engine dask needs dask.distributed: pip install 'geostructure[dask]'."
-            ) from None
+            raise GeoStructureError("--engine dask needs dask.distributed: pip install 'geostructure[dask]'.") from None
         self._cluster = None
         if address:
             try:

@@ -129,7 +129,9 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                 if spill.n_points - start < 3:
                     held = spill.n_points - start
                     raise GeoStructureError(
-                        f"{path}: holds no points." if not held else f"{path}: holds {held} point(s); a plane needs at least 3."
+                        f"{path}: holds no points."
+                        if not held
+                        else f"{path}: holds {held} point(s); a plane needs at least 3."
                     )
                 if first is None:
                     first = (meta["cloud"], path)
@@ -223,7 +225,9 @@ def _ply_chunks(path: Path, rows: int):
         part = vertex[a : a + rows]
         points = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
         normals = (
-            np.column_stack([np.asarray(part[c], dtype=np.float64) for c in ("nx", "ny", "nz")]) if has_normals else None
+            np.column_stack([np.asarray(part[c], dtype=np.float64) for c in ("nx", "ny", "nz")])
+            if has_normals
+            else None
         )
         yield points, normals, meta
 
