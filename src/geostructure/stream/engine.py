@@ -21,6 +21,7 @@ whole cloud, to rounding.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,7 +31,7 @@ from ..errors import GeoStructureError
 from ..filter import neighbourhoods
 from ..merge import merge_coplanar
 from ..orientation import Frame, face_side, orientation_from_normals, upward
-from ..params import Params
+from ..params import ParameterWarning, Params
 from ..pipeline import default_min_points, normal_spread
 from ..planes import Planes
 from ..rectangle import bound_plane, plane_from_scatter
@@ -109,7 +110,11 @@ def measure_spill(
         Point outputs, each with ``begin(n_points, lower, upper, cloud)``, ``write(points,
         labels)`` for each chunk's kept points (absolute) in order, and ``end()``.
     """
-    run = _Run(spill, params.with_(detector="voxel"), executor or SerialExecutor(), chunk_points, progress)
+    if params.detector != "voxel":
+        with warnings.catch_warnings():  # the user has been told of a zeta outside the paper's range
+            warnings.simplefilter("ignore", ParameterWarning)
+            params = params.with_(detector="voxel")
+    run = _Run(spill, params, executor or SerialExecutor(), chunk_points, progress)
     seconds, counts = {}, {"input": spill.n_points}
     t = time.perf_counter()
     params, choice = run.choose(auto)

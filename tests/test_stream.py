@@ -1,0 +1,137 @@
+"""Streaming larger than memory (issue "Scale"): a survey cut into 16 LAZ tiles and measured
+in chunks, here and on a Dask LocalCluster, gives the planes the whole cloud gives in memory;
+a plane across four tiles is one region; the point outputs keep every coordinate; a memory
+bound far below the cloud's size holds, measured in a subprocess."""
+
+import json
+import subprocess
+import sys
+
+import laspy
+import numpy as np
+import pytest
+from helpers import assert_one_sentence, run_cli
+from test_tiles import UTM, planes_of, tile_index, write_laz
+
+from geostructure import measure
+from geostructure.auto import choose_params
+from geostructure.io.tiles import read_tiles
+from geostructure.params import Params
+from geostructure.stream import DaskExecutor, measure_stream
+from geostructure.synthetic import observatory_scene
+
+VOXEL = Params(detector="voxel")
+
+
+def angles(a, b):
+    return np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", a, b)), 0.0, 1.0)))
+
+
+def assert_same_planes(memory, streamed):
+    assert len(streamed) == len(memory) > 0
+    assert angles(memory.normal, streamed.normal).max() < 0.05
+    assert np.abs(memory.centroid - streamed.centroid).max() < 1e-3
+    assert (memory.n_points == streamed.n_points).all()
+
+
+@pytest.fixture(scope="module")
+def tiled(tmp_path_factory):
+    """The observatory (walls, roofs, a ground) at a UTM offset, in 16 tiles, and what the
+    whole of it gives in memory with the parameters chosen from it."""
+    tmp = tmp_path_factory.mktemp("stream")
+    points = observatory_scene(120_000, seed=4).cloud.points + UTM
+    tile = tile_index(points, axes=(0, 1))
+    paths = []
+    for t in np.unique(tile):
+        paths.append(tmp / f"tile_{t:02d}.laz")
+        write_laz(paths[-1], points[tile == t])
+    cloud = read_tiles(paths)
+    params = choose_params(cloud.local, VOXEL).params
+    return paths, measure(cloud, params).planes, params
+
+
+def test_sixteen_tiles_streamed_give_the_planes_of_the_whole_cloud(tiled):
+    paths, memory, params = tiled
+    assert len(paths) == 16
+    streamed = measure_stream(paths, VOXEL, auto={}, chunk_points=9_000)  # about 14 chunks
+    assert streamed.params == params  # the automatic choice made from chunks is the same
+    assert_same_planes(memory, streamed.planes)
+
+
+def test_sixteen_tiles_on_a_dask_local_cluster_give_the_same_planes(tiled):
+    paths, memory, params = tiled
+    executor = DaskExecutor(workers=2)
+    try:
+        streamed = measure_stream(paths, params, chunk_points=20_000, executor=executor)
+    finally:
+        executor.close()
+    assert streamed.engine == "dask"
+    assert_same_planes(memory, streamed.planes)
+
+
+def test_a_plane_across_four_tiles_is_one_region(tmp_path):
+    rng = np.random.default_rng(3)
+    uv = rng.uniform(-10, 10, (60_000, 2))
+    normal = np.array([0.3, -0.2, 1.0]) / np.linalg.norm([0.3, -0.2, 1.0])
+    z = -(normal[0] * uv[:, 0] + normal[1] * uv[:, 1]) / normal[2] + 0.005 * rng.standard_normal(len(uv))
+    points = np.column_stack([uv, z]) + UTM
+    tile = tile_index(points, n=2, axes=(0, 1))
+    paths = []
+    for t in range(4):
+        paths.append(tmp_path / f"quarter_{t}.laz")
+        write_laz(paths[-1], points[tile == t])
+    result = measure_stream(paths, VOXEL.with_(zeta=0.02), chunk_points=10_000)
+    assert len(result) == 1
+    assert angles(result.planes.normal, normal[None])[0] < 0.05
+    assert result.planes.n_points[0] == measure(read_tiles(paths), VOXEL.with_(zeta=0.02)).planes.n_points[0]
+    assert result.planes.n_points[0] > 0.95 * len(points)
+    assert result.planes.rect_width[0] > 19  # the whole 20 m square, not a quarter of it
+
+
+def test_streamed_command_writes_every_point_on_its_own_integers(tiled, tmp_path, capsys):
+    paths, memory, _ = tiled
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "measure", str(paths[0].parent), "-o", str(out), "--engine", "stream", "-q")
+    assert code == 0, err
+    centroid, normal = planes_of(out)
+    assert len(centroid) == len(memory)
+    assert np.abs(centroid - memory.centroid).max() < 1e-3
+    record = json.loads((out / "run.json").read_text())
+    assert record["engine"] == "stream" and record["params"]["detector"] == "voxel"
+    written = laspy.read(str(out / "regions.laz"))
+    inputs = np.vstack([np.column_stack([las.X, las.Y, las.Z]) for las in map(laspy.read, map(str, paths))])
+    assert set(map(tuple, np.column_stack([written.X, written.Y, written.Z]))) <= set(map(tuple, inputs))
+    assert len(written) == record["counts"]["filtered"]
+    sizes = np.bincount(np.asarray(written.region_id)[np.asarray(written.region_id) >= 0])
+    assert (sizes == memory.n_points).all()
+    assert written.header.parse_crs().to_epsg() == 32633
+
+
+def test_streamed_run_refuses_what_needs_the_points_in_memory(tiled, tmp_path, capsys):
+    paths, _, _ = tiled
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "measure", str(paths[0]), "-o", str(out), "--engine", "stream", "--sets")
+    assert code == 2
+    assert_one_sentence(err, "--sets")
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_a_memory_bound_far_below_the_cloud_is_kept(tmp_path):
+    """2.5M points, which take about 2.8 GB in memory, measured under --max-memory 700M: the
+    automatic engine streams them, and the process's peak resident memory stays below."""
+    points = observatory_scene(2_500_000, seed=5).cloud.points + UTM
+    write_laz(tmp_path / "big.laz", points)
+    probe = (
+        "import resource, subprocess, sys; code = subprocess.call(sys.argv[1:]); "
+        "print(code, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024)"
+    )
+    command = [sys.executable, "-m", "geostructure", "measure", str(tmp_path / "big.laz"), "-o", str(tmp_path / "out")]
+    done = subprocess.run(
+        [sys.executable, "-c", probe, *command, "--max-memory", "700M", "-q"], capture_output=True, text=True
+    )
+    code, peak = map(int, done.stdout.split())
+    assert code == 0, done.stderr
+    assert peak < 700 * 2**20, f"peak {peak / 2**20:.0f} MiB"
+    record = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert record["engine"] == "stream" and record["counts"]["input"] == len(points)
