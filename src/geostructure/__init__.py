@@ -46,6 +46,7 @@ _PUBLIC = {
     "save_measurement": "runs",
     "add_report": "runs",
     "add_evaluation": "runs",
+    "measure_stream": "stream",
 }
 
 __all__ = sorted(_PUBLIC) + ["__version__"]

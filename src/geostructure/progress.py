@@ -5,7 +5,15 @@ from __future__ import annotations
 import time
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    SpinnerColumn,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 
 LABELS = {
     "read": "Reading",
@@ -16,6 +24,7 @@ LABELS = {
     "planes": "Region planes",
     "orientation": "Orientation",
     "write": "Writing",
+    "stream": "Streamed passes",
 }
 
 
@@ -34,6 +43,7 @@ class StageProgress:
             BarColumn(),
             MofNCompleteColumn(),
             TimeElapsedColumn(),
+            TimeRemainingColumn(),  # the time left: a streamed survey's passes take minutes
             console=self.console,
             disable=not self.enabled,
         )

@@ -18,6 +18,7 @@ from ..stream import DaskExecutor, SerialExecutor, measure_stream
 from ..stream.engine import DEFAULT_CHUNK_POINTS
 from ..stream.output import RegionsLaz, RegionsPly
 from ..stream.source import estimate_points
+from ..tables import print_evaluation, print_planes
 from .options import base_params, given_factors, wants_sets
 
 ENGINES = ("auto", "memory", "stream", "dask")
@@ -36,8 +37,8 @@ def memory_size(text: str) -> int:
 
     Examples
     --------
-    >>> memory_size("2G"), memory_size("512MiB"), memory_size("1000")
-    (2147483648, 536870912, 1000)
+    >>> memory_size("2G"), memory_size("700MiB"), memory_size("1000000000")
+    (2147483648, 734003200, 1000000000)
     """
     match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([KMGT]?)(?:I?B)?\s*", str(text).upper())
     if not match:
@@ -117,8 +118,6 @@ def check_streamable(args, engine: str) -> None:
 
 def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=None, inputs=()) -> int:
     """Measure ``paths`` streamed (or on Dask) and write the folder's files as one set."""
-    from ..tables import print_evaluation, print_planes
-
     params = base_params(args).with_(detector="voxel")
     auto = given_factors(args) if args.auto else None
     executor = DaskExecutor(args.scheduler, args.workers) if engine == "dask" else SerialExecutor()

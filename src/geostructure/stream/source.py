@@ -20,7 +20,7 @@ import numpy as np
 
 from ..cloud import Cloud
 from ..errors import GeoStructureError
-from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, las_crs, read_cloud
+from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, check_las_header, check_ply_size, las_crs, read_cloud
 from ..io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
@@ -175,8 +175,6 @@ def _file_chunks(path: Path, rows: int, mesh_samples):
 def _las_chunks(path: Path, rows: int):
     import laspy
 
-    from ..io.readers import check_las_header
-
     check_las_header(path)
     with laspy.open(str(path)) as reader:
         header = reader.header
@@ -207,8 +205,6 @@ def _ply_has_faces(path: Path, mesh_samples) -> bool:
 
 def _ply_chunks(path: Path, rows: int):
     from plyfile import PlyData
-
-    from ..io.readers import check_ply_size
 
     check_ply_size(path)
     data = PlyData.read(str(path), mmap="r")
