@@ -122,7 +122,11 @@ def measure_spill(
 
     t = time.perf_counter()
     keep = run.filter_context(params)
+    keep.path = str(spill.folder / "keep.u1")
+    with open(keep.path, "wb") as fh:  # sized first: each chunk writes its own bytes
+        fh.truncate(spill.n_points)
     n_kept, kept_lower, kept_upper = run.kept(keep)
+    keep.written = True
     counts["filtered"] = n_kept
     if n_kept < 3:
         raise GeoStructureError(f"{spill.source}: the outlier filter left {n_kept} point(s); try `filter='none'`.")

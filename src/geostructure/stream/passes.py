@@ -10,6 +10,7 @@ the survey, so the same function runs in a loop or as a Dask task.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,34 +33,63 @@ def lookup_codes(keys: np.ndarray) -> np.ndarray:
     return (keys[:, 0] << (2 * _BITS)) | (keys[:, 1] << _BITS) | keys[:, 2]
 
 
+#: Entries of a dense index over a table's bounding box of voxel indices, at most: where the
+#: box is this small (every grid the automatic zeta gives), a point's voxel is one lookup.
+DENSE_LOOKUP = 2**25
+
+
 @dataclass
 class VoxelTable:
-    """Voxels of a grid (edge, origin) found again by their codes: row ``index[i]`` of the
-    table the voxels came from has code ``codes[i]`` (sorted)."""
+    """Voxels of a grid (edge, origin) found again from the points: row ``index[i]`` of the
+    table the voxels came from has code ``codes[i]`` (sorted); ``dense``, where the voxels'
+    box is small, maps every index in it (from ``low``, of ``span``) straight to its row."""
 
     edge: float
     origin: np.ndarray
     codes: np.ndarray
     index: np.ndarray
+    low: np.ndarray | None = None
+    span: np.ndarray | None = None
+    dense: np.ndarray | None = None
 
     @classmethod
     def of(cls, keys, edge: float, origin) -> VoxelTable:
+        keys = np.asarray(keys, dtype=np.int64).reshape(-1, 3)
         codes = lookup_codes(keys)
         order = np.argsort(codes)
-        return cls(float(edge), np.asarray(origin, dtype=np.float64), codes[order], order)
+        table = cls(float(edge), np.asarray(origin, dtype=np.float64), codes[order], order)
+        if len(keys):
+            low, span = keys.min(axis=0), keys.max(axis=0) - keys.min(axis=0) + 1
+            if int(np.prod(span)) <= DENSE_LOOKUP:
+                table.low, table.span = low, span
+                table.dense = np.full(int(np.prod(span)), -1, dtype=np.int32)
+                table.dense[table._flat(keys)] = np.arange(len(keys), dtype=np.int32)
+        return table
+
+    def _flat(self, keys: np.ndarray) -> np.ndarray:
+        k = keys - self.low
+        return (k[:, 0] * self.span[1] + k[:, 1]) * self.span[2] + k[:, 2]
 
     def find(self, points: np.ndarray) -> np.ndarray:
         """Each point's row in the table, -1 where its voxel is not in it."""
         if not len(self.codes):
             return np.full(len(points), -1, dtype=np.int64)
-        codes = lookup_codes(voxel_keys(points, self.edge, self.origin))
+        keys = voxel_keys(points, self.edge, self.origin)
+        if self.dense is not None:
+            inside = ((keys >= self.low) & (keys < self.low + self.span)).all(axis=1)
+            found = np.full(len(keys), -1, dtype=np.int64)
+            found[inside] = self.dense[self._flat(keys[inside])]
+            return found
+        codes = lookup_codes(keys)
         at = np.minimum(np.searchsorted(self.codes, codes), len(self.codes) - 1)
         return np.where(self.codes[at] == codes, self.index[at], -1)
 
 
 @dataclass
 class FilterContext:
-    """What decides whether a point survives the outlier filter, for any chunk."""
+    """What decides whether a point survives the outlier filter, for any chunk. Once the
+    decisions are in the keep spill (``path``, a byte a point, written by
+    :func:`kept_bounds`), later passes read them instead of deciding again."""
 
     method: str
     threshold: float
@@ -68,14 +98,21 @@ class FilterContext:
     typical: float = 0.0
     mean: np.ndarray | None = None
     cov: np.ndarray | None = None
+    path: str | None = None
+    written: bool = False
 
-    def keep(self, local: np.ndarray) -> np.ndarray:
+    def decide(self, local: np.ndarray) -> np.ndarray:
         if self.method == "none":
             return np.ones(len(local), dtype=bool)
         if self.method == "global":
             return mahalanobis_distance(local, self.mean, self.cov) <= self.threshold
         keep, _ = self.blocks.judge(local, self.table.find(local), self.typical, self.threshold)
         return keep
+
+    def keep(self, local: np.ndarray, chunk: Chunk) -> np.ndarray:
+        if self.written:
+            return np.fromfile(self.path, dtype=np.bool_, count=len(chunk), offset=chunk.start)
+        return self.decide(local)
 
 
 def local_points(chunk: Chunk, offset) -> np.ndarray:
@@ -113,7 +150,7 @@ def chunk_moments(chunk: Chunk, context) -> VoxelMoments | None:
     offset, edge, origin, keep = context
     local = local_points(chunk, offset)
     if keep is not None:
-        local = local[keep.keep(local)]
+        local = local[keep.keep(local, chunk)]
     if not len(local):
         return None
     moments, _ = accumulate_moments(local, edge, origin)
@@ -128,10 +165,18 @@ def chunk_sums(chunk: Chunk, context) -> tuple[int, np.ndarray, np.ndarray]:
 
 
 def kept_bounds(chunk: Chunk, context) -> tuple[int, np.ndarray, np.ndarray]:
-    """How many of the chunk's points the filter keeps, and their bounds."""
+    """How many of the chunk's points the filter keeps, and their bounds; the decisions are
+    written to the keep spill at the chunk's rows (each chunk its own bytes of one file)."""
     offset, keep = context
     local = local_points(chunk, offset)
-    local = local[keep.keep(local)]
+    decided = keep.decide(local)
+    if keep.path is not None:
+        fd = os.open(keep.path, os.O_WRONLY)
+        try:
+            os.pwrite(fd, decided.astype(np.bool_).tobytes(), chunk.start)
+        finally:
+            os.close(fd)
+    local = local[decided]
     if not len(local):
         return 0, np.full(3, np.inf), np.full(3, -np.inf)
     return len(local), local.min(axis=0), local.max(axis=0)
@@ -155,7 +200,7 @@ def chunk_labels(chunk: Chunk, context: LabelContext):
     """The chunk's filter decision (N,), its kept points' planes (-1 for none), each plane's
     hull vertices in its own (u, v) among the chunk's points, and sums of stored normals."""
     local = local_points(chunk, context.offset)
-    keep = context.keep.keep(local)
+    keep = context.keep.keep(local, chunk)
     kept = local[keep]
     voxel = context.voxels.find(kept)
     labels = np.where(voxel >= 0, context.plane_of_voxel[np.maximum(voxel, 0)], -1).astype(np.int32)
