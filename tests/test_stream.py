@@ -135,3 +135,12 @@ def test_a_memory_bound_far_below_the_cloud_is_kept(tmp_path):
     assert peak < 700 * 2**20, f"peak {peak / 2**20:.0f} MiB"
     record = json.loads((tmp_path / "out" / "run.json").read_text())
     assert record["engine"] == "stream" and record["counts"]["input"] == len(points)
+
+
+def test_dask_options_without_the_dask_engine_are_refused(tiled, tmp_path, capsys):
+    paths, _, _ = tiled
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "measure", str(paths[0]), "-o", str(out), "--scheduler", "tcp://127.0.0.1:1")
+    assert code == 2
+    assert_one_sentence(err, "--scheduler", "--engine dask")
+    assert not out.exists()

@@ -41,6 +41,9 @@ SAMPLE_POINTS = 400_000
 #: Largest noise (median voxel-plane residual) as a fraction of the voxel edge.
 MAX_NOISE_RATIO = 0.05
 ZETA_RANGE = (0.004, 0.1)
+#: The least zeta chosen, for a survey so large and dense that ZETA_RANGE's least voxel
+#: holds far more than TARGET_POINTS (a road cut a kilometre long): 1e-4 of the extent.
+ZETA_FLOOR = 1e-4
 THETA_RANGE = (3.0, 8.0)  # the paper's optimum; wider merged too much on its own cloud
 PSI_RANGE = (0.02, 0.6)
 
@@ -85,10 +88,10 @@ class AutoChoice:
 
 def typical_occupancy(points: np.ndarray, zeta: float, *, sample: int = 400_000, seed: int = 0) -> float:
     """Points in the voxel of the median point, estimated on a subsample."""
-    return _Occupancy(points, sample, seed).at(zeta)
+    return Occupancy(points, sample, seed).at(zeta)
 
 
-class _Occupancy:
+class Occupancy:
     """:func:`typical_occupancy` at many zetas: the subsample drawn, and the cloud's corner
     and extent read, once (at 8M points each of those took a third of a second, and a
     choice of zeta may try forty). :meth:`of_sample` builds one from a sample drawn
@@ -101,7 +104,7 @@ class _Occupancy:
         self.extent = float(np.max(points.max(axis=0) - self.lower))
 
     @classmethod
-    def of_sample(cls, sub: np.ndarray, n_points: int, lower, extent: float) -> "_Occupancy":
+    def of_sample(cls, sub: np.ndarray, n_points: int, lower, extent: float) -> "Occupancy":
         probe = cls.__new__(cls)
         probe.sub, probe.fraction = sub, min(1.0, len(sub) / n_points)
         probe.lower, probe.extent = np.asarray(lower, dtype=np.float64), float(extent)
@@ -113,14 +116,22 @@ class _Occupancy:
 
 
 def choose_zeta(
-    points: np.ndarray, target: float = TARGET_POINTS, probe: _Occupancy | None = None
+    points: np.ndarray, target: float = TARGET_POINTS, probe: Occupancy | None = None
 ) -> tuple[float, float]:
-    """Smallest zeta on a geometric grid whose typical voxel holds ``target`` points."""
+    """Smallest zeta on a geometric grid whose typical voxel holds ``target`` points.
+
+    Where even the grid's smallest zeta holds more (a dense survey hundreds of metres
+    across), zeta is taken down from it as the points on a surface scale, with the square of
+    the edge, to at most :data:`ZETA_FLOOR`: the subsample is too sparse to count smaller
+    voxels directly."""
     grid = np.geomspace(*ZETA_RANGE, 40)
-    occupancy, probe = 0.0, probe or _Occupancy(points, SAMPLE_POINTS, 0)
+    occupancy, probe = 0.0, probe or Occupancy(points, SAMPLE_POINTS, 0)
     for zeta in grid:
         occupancy = probe.at(zeta)
         if occupancy >= target:
+            if zeta == grid[0] and occupancy > target:
+                finer = max(ZETA_FLOOR, float(zeta) * float(np.sqrt(target / occupancy)))
+                return finer, occupancy * (finer / float(zeta)) ** 2
             return float(zeta), occupancy
     return float(grid[-1]), occupancy
 
@@ -163,13 +174,13 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     8
     """
     return choose_from(
-        _Occupancy(points, SAMPLE_POINTS, 0),
+        Occupancy(points, SAMPLE_POINTS, 0),
         lambda zeta: fit_voxels(points, zeta, max_curvature=1 / 3),
         base,
     )
 
 
-def choose_from(probe: _Occupancy, fit, base: Params = Params()) -> AutoChoice:
+def choose_from(probe: Occupancy, fit, base: Params = Params()) -> AutoChoice:
     """:func:`choose_params` from an occupancy probe of the cloud and ``fit(zeta)``, its
     voxel planes at ``zeta`` with any planarity: how a streamed cloud, never in memory
     at once, is given the same choice."""
@@ -177,7 +188,7 @@ def choose_from(probe: _Occupancy, fit, base: Params = Params()) -> AutoChoice:
     voxels = fit(density_zeta)
     sigma = float(np.median(voxels.residual)) if len(voxels) else 0.0  # no voxel plane: no noise to read
     extent = probe.extent
-    zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), *ZETA_RANGE))
+    zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), ZETA_FLOOR, ZETA_RANGE[1]))
     if zeta != density_zeta:  # noise made the voxels coarser: measure the noise at that size
         occupancy = probe.at(zeta)
         voxels = fit(zeta)
@@ -186,5 +197,7 @@ def choose_from(probe: _Occupancy, fit, base: Params = Params()) -> AutoChoice:
     psi = float(np.clip(3.0 * offset, *PSI_RANGE))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ParameterWarning)  # a sparse cloud may need zeta past 0.07
-        params = base.with_(zeta=round(zeta, 5), theta=round(theta, 2), psi=round(psi, 3), k=8)
+        params = base.with_(
+            zeta=round(zeta, 5) if zeta >= 1e-3 else float(f"{zeta:.3g}"), theta=round(theta, 2), psi=round(psi, 3), k=8
+        )
     return AutoChoice(params, occupancy, angle, offset)

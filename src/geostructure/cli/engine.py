@@ -86,6 +86,11 @@ def add_engine_options(p) -> None:
 def chosen_engine(args, paths) -> str:
     """The engine a run takes: the one asked, or for ``auto`` memory when the cloud fits."""
     engine = getattr(args, "engine", "memory")
+    given = [name for name, value in (("--scheduler", args.scheduler), ("--workers", args.workers)) if value]
+    if given and engine != "dask":
+        raise GeoStructureError(f"{' and '.join(given)} set up a Dask cluster: give them with --engine dask.")
+    if args.workers is not None and args.workers < 1:
+        raise GeoStructureError(f"--workers must be at least 1, not {args.workers}.")
     if engine != "auto":
         return engine
     limit = args.max_memory or default_max_memory()

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..auto import SAMPLE_POINTS, _Occupancy, choose_from
+from ..auto import SAMPLE_POINTS, Occupancy, choose_from
 from ..errors import GeoStructureError
 from ..filter import neighbourhoods
 from ..merge import merge_coplanar
@@ -36,7 +36,6 @@ from ..pipeline import default_min_points, normal_spread
 from ..planes import Planes
 from ..rectangle import bound_plane, plane_from_scatter
 from ..regions import grow_regions
-from ..sampling import coordinate_hash
 from ..uncertainty import errors_from_sums, plane_axes
 from ..voxel import VoxelPlanes, voxel_planes_from_moments
 from . import passes
@@ -45,16 +44,12 @@ from .source import Spill
 
 #: Points a chunk holds when no memory bound says otherwise.
 DEFAULT_CHUNK_POINTS = 2_000_000
-#: Points of the filtered cloud kept, order-free, for the report's 3D view.
-REPORT_SAMPLE = 100_000
 
 
 @dataclass
 class StreamResult:
     """What a streamed run found: :class:`~geostructure.pipeline.Result` less its per-point
-    arrays. ``cloud`` holds no points (its offset, CRS and grid); ``sample`` and
-    ``sample_labels`` are an order-free sample of the kept points (local coordinates) and
-    their planes, for the report."""
+    arrays (the point outputs hold them). ``cloud`` holds no points: its offset, CRS and grid."""
 
     cloud: object
     params: Params
@@ -62,8 +57,6 @@ class StreamResult:
     voxels: VoxelPlanes
     voxel_labels: np.ndarray
     planes: Planes
-    sample: np.ndarray
-    sample_labels: np.ndarray
     auto: dict | None = None
     seconds: dict = field(default_factory=dict)
     counts: dict = field(default_factory=dict)
@@ -156,7 +149,7 @@ def measure_spill(
         spill.has_normals,
     )
     labels_path = str(spill.folder / "labels.i4")
-    hulls, normal_sums, sample = run.label(label_context, labels_path, writers, n_kept, kept_lower, kept_upper)
+    hulls, normal_sums = run.label(label_context, labels_path, writers, n_kept, kept_lower, kept_upper)
     regions = [
         bound_plane(c, n, axes, r, hulls.get(i, np.zeros((1, 2))), count, params.rectangle)
         for i, (c, n, axes, r, count) in enumerate(fits)
@@ -193,8 +186,6 @@ def measure_spill(
         voxels=voxels,
         voxel_labels=plane_of_voxel,
         planes=planes,
-        sample=sample[1] if sample is not None else np.zeros((0, 3)),
-        sample_labels=sample[2] if sample is not None else np.zeros(0, dtype=np.int32),
         auto=choice,
         seconds=seconds,
         counts=counts,
@@ -246,7 +237,7 @@ class _Run:
         for part in self.map(passes.hash_sample, (self.offset, self.lower, self.extent, SAMPLE_POINTS)):
             sample = passes.merge_samples(sample, part, SAMPLE_POINTS)
         order = np.argsort(sample[0], kind="stable")
-        probe = _Occupancy.of_sample(sample[1][order], self.spill.n_points, self.lower, self.extent)
+        probe = Occupancy.of_sample(sample[1][order], self.spill.n_points, self.lower, self.extent)
 
         def fit(zeta: float):
             moments = self.moments(zeta * self.extent, self.lower)
@@ -281,10 +272,10 @@ class _Run:
 
     def label(self, context, labels_path, writers, n_kept, lower, upper):
         """The label pass: the label spill and the point outputs written in chunk order,
-        the planes' hulls, stored-normal sums and the report's sample gathered."""
+        the planes' hulls and stored-normal sums gathered."""
         for writer in writers:
             writer.begin(n_kept, lower + self.offset, upper + self.offset, self.spill.cloud())
-        hulls, normal_sums, sample = {}, None, None
+        hulls, normal_sums = {}, None
         with open(labels_path, "wb") as spill_out:
             for chunk, (keep, labels, part_hulls, sums) in zip(self.chunks, self.map(passes.chunk_labels, context)):
                 every = np.full(len(keep), passes.DROPPED, dtype="<i4")
@@ -296,22 +287,9 @@ class _Run:
                 kept = chunk.points()[keep]
                 for writer in writers:
                     writer.write(kept, labels)
-                local = kept - self.offset
-                h = coordinate_hash(local, 1, lower=self.lower, extent=self.extent)
-                sample = _merge_labelled_sample(sample, (h, local, labels), REPORT_SAMPLE)
         for writer in writers:
             writer.end()
-        return hulls, normal_sums, sample
-
-
-def _merge_labelled_sample(a, b, n: int):
-    if a is not None:
-        b = tuple(np.concatenate([x, y]) for x, y in zip(a, b))
-    h = b[0]
-    if len(h) <= n:
-        return b
-    chosen = np.argpartition(h, n - 1)[:n]
-    return tuple(x[chosen] for x in b)
+        return hulls, normal_sums
 
 
 def _grow(voxels: VoxelPlanes, params: Params):
