@@ -42,8 +42,10 @@ SAMPLE_POINTS = 400_000
 MAX_NOISE_RATIO = 0.05
 ZETA_RANGE = (0.004, 0.1)
 #: The least zeta chosen, for a survey so large and dense that ZETA_RANGE's least voxel
-#: holds far more than TARGET_POINTS (a road cut a kilometre long): 1e-4 of the extent.
-ZETA_FLOOR = 1e-4
+#: holds far more than TARGET_POINTS (a road cut a kilometre long): a thousand voxels along
+#: the longest extent, which keeps the voxel tables of any survey to about a million (a
+#: finer voxel is the user's to give, with --zeta).
+ZETA_FLOOR = 1e-3
 THETA_RANGE = (3.0, 8.0)  # the paper's optimum; wider merged too much on its own cloud
 PSI_RANGE = (0.02, 0.6)
 

@@ -109,6 +109,8 @@ def _merge_round(voxels, labels, theta, offset_limit, min_voxels):
     merges = 0
     for i, j in pairs:
         a, b = regions[i], regions[j]
+        if joined.connected(a, b):  # joined through others already: nothing to test
+            continue
         nearest, _ = trees[b].query(members[a], k=1)
         if nearest.min() <= min(diameter[i], diameter[j]) and joined.merge(a, b):
             merges += 1

@@ -126,7 +126,7 @@ def accumulate_moments(points: np.ndarray, edge: float, origin: np.ndarray):
     """Moments of every occupied voxel, and each point's voxel index (inverse map)."""
     keys = voxel_keys(points, edge, origin)
     unique, inverse = unique_keys(keys)
-    rel = points - (origin + unique[inverse] * edge)
+    rel = points - (origin + keys * edge)  # keys == unique[inverse], without the gather
     n = len(unique)
     count = np.bincount(inverse, minlength=n).astype(np.float64)
     sums = np.stack([np.bincount(inverse, rel[:, a], n) for a in range(3)], axis=1)

@@ -206,7 +206,9 @@ class _Run:
             raise GeoStructureError(f"{spill.source}: all points lie at one spot; there is no plane to measure.")
         self.report = progress or (lambda stage, done, total: None)
         self.done = 0
-        self.total_work = len(self.chunks) * 6  # filter x2, fit, label, errors, and one spare for auto
+        # The passes: the filter's moments and decisions, the fit, the labels, the errors
+        # (the automatic choice adds its own as it goes).
+        self.total_work = len(self.chunks) * 5
 
     def _step(self) -> None:
         self.done += 1
@@ -224,6 +226,7 @@ class _Run:
         return whole
 
     def moments(self, edge: float, origin, keep=None):
+        """The voxel moments on a grid, of all the points or of those ``keep`` keeps."""
         total = passes.MomentsTotal()
         for part in self.map(passes.chunk_moments, (self.offset, edge, origin, keep)):
             total.add(part)
@@ -232,7 +235,8 @@ class _Run:
     def choose(self, auto: dict | None):
         if auto is None:
             return self.params, None
-        self.total_work += 3 * len(self.chunks)
+        self.total_work += 2 * len(self.chunks)  # the sample and the first fit
+        fits = []
         sample = None
         for part in self.map(passes.hash_sample, (self.offset, self.lower, self.extent, SAMPLE_POINTS)):
             sample = passes.merge_samples(sample, part, SAMPLE_POINTS)
@@ -240,6 +244,9 @@ class _Run:
         probe = Occupancy.of_sample(sample[1][order], self.spill.n_points, self.lower, self.extent)
 
         def fit(zeta: float):
+            if fits:  # a second fit: noise made the voxels coarser
+                self.total_work += len(self.chunks)
+            fits.append(zeta)
             moments = self.moments(zeta * self.extent, self.lower)
             return voxel_planes_from_moments(moments, 5, 1 / 3)[0]
 
