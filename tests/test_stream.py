@@ -91,8 +91,12 @@ def test_a_plane_across_four_tiles_is_one_region(tmp_path):
 def test_streamed_command_writes_every_point_on_its_own_integers(tiled, tmp_path, capsys):
     paths, memory, _ = tiled
     out = tmp_path / "out"
-    code, _, err = run_cli(capsys, "measure", str(paths[0].parent), "-o", str(out), "--engine", "stream", "-q")
+    code, _, err = run_cli(
+        capsys, "measure", str(paths[0].parent), "-o", str(out), "--engine", "stream", "--report", "-q"
+    )
     assert code == 0, err
+    page = (out / "report.html").read_text()
+    assert f'"n_planes":{len(memory)}' in page and '"points_total":' in page  # from a sample of regions.ply
     centroid, normal = planes_of(out)
     assert len(centroid) == len(memory)
     assert np.abs(centroid - memory.centroid).max() < 1e-3
@@ -102,6 +106,7 @@ def test_streamed_command_writes_every_point_on_its_own_integers(tiled, tmp_path
     inputs = np.vstack([np.column_stack([las.X, las.Y, las.Z]) for las in map(laspy.read, map(str, paths))])
     assert set(map(tuple, np.column_stack([written.X, written.Y, written.Z]))) <= set(map(tuple, inputs))
     assert len(written) == record["counts"]["filtered"]
+    assert f'"points_total":{len(written)}' in page
     sizes = np.bincount(np.asarray(written.region_id)[np.asarray(written.region_id) >= 0])
     assert (sizes == memory.n_points).all()
     assert written.header.parse_crs().to_epsg() == 32633
