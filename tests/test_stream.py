@@ -149,3 +149,24 @@ def test_dask_options_without_the_dask_engine_are_refused(tiled, tmp_path, capsy
     assert code == 2
     assert_one_sentence(err, "--scheduler", "--engine dask")
     assert not out.exists()
+
+
+def test_a_binary_ply_with_normals_streams_as_it_measures_in_memory(tmp_path):
+    """A PLY is read through a memory map, chunk by chunk, its stored normals kept (they decide
+    which side of a vertical plane faces out)."""
+    from plyfile import PlyData, PlyElement
+
+    from geostructure import read_cloud
+
+    scene = observatory_scene(60_000, seed=6)
+    rng = np.random.default_rng(0)
+    normals = rng.normal(size=(len(scene.cloud), 3))
+    vertex = np.empty(len(normals), dtype=[(a, "f8") for a in ("x", "y", "z", "nx", "ny", "nz")])
+    for i, a in enumerate("xyz"):
+        vertex[a], vertex["n" + a] = scene.cloud.points[:, i], normals[:, i]
+    path = tmp_path / "scene.ply"
+    PlyData([PlyElement.describe(vertex, "vertex")]).write(str(path))
+    memory = measure(read_cloud(path), VOXEL.with_(zeta=0.02)).planes
+    streamed = measure_stream([path], VOXEL.with_(zeta=0.02), chunk_points=7_000).planes
+    assert_same_planes(memory, streamed)
+    assert np.allclose(memory.facing, streamed.facing, atol=1e-6)  # the sums of normals, added in another order

@@ -111,19 +111,8 @@ def check_coordinates(points: np.ndarray, path, first: int = 0) -> None:
 
 def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
     """PLY, ASCII or binary, float or double; extra vertex properties are ignored."""
-    from plyfile import PlyData
-
-    check_ply_size(path)
-    # Memory-mapped, read-only: a binary vertex block is read at the disk's speed (plyfile
-    # without a map reads it row by row, 30 times slower) and the file cannot be written.
-    data = PlyData.read(str(path), mmap="r")
-    if "vertex" not in data:
-        raise GeoStructureError(f"{path}: has no 'vertex' element.")
-    vertex = data["vertex"].data
-    names = vertex.dtype.names or ()
-    missing = [axis for axis in "xyz" if axis not in names]
-    if missing:
-        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property.")
+    data, vertex = ply_vertices(path)
+    names = vertex.dtype.names
     points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
     normals = None
     if all(n in names for n in ("nx", "ny", "nz")):
@@ -137,6 +126,23 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
             except OverflowError:
                 raise GeoStructureError(f"{path}: the mesh's coordinates are too large to sample its faces.") from None
     return Cloud.from_points(points, source=str(path), normals=normals)
+
+
+def ply_vertices(path: Path):
+    """A PLY file's data and its vertex records (x, y and z checked present), memory-mapped
+    read-only: a binary vertex block is read at the disk's speed (plyfile without a map reads
+    it row by row, 30 times slower), and the file cannot be written."""
+    from plyfile import PlyData
+
+    check_ply_size(path)
+    data = PlyData.read(str(path), mmap="r")
+    if "vertex" not in data:
+        raise GeoStructureError(f"{path}: has no 'vertex' element.")
+    vertex = data["vertex"].data
+    missing = [axis for axis in "xyz" if axis not in (vertex.dtype.names or ())]
+    if missing:
+        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property.")
+    return data, vertex
 
 
 def check_ply_size(path: Path) -> None:

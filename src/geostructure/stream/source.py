@@ -20,7 +20,7 @@ import numpy as np
 
 from ..cloud import Cloud
 from ..errors import GeoStructureError
-from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, check_las_header, check_ply_size, las_crs, read_cloud
+from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, check_las_header, las_crs, ply_vertices, read_cloud
 from ..io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
@@ -204,17 +204,8 @@ def _ply_has_faces(path: Path, mesh_samples) -> bool:
 
 
 def _ply_chunks(path: Path, rows: int):
-    from plyfile import PlyData
-
-    check_ply_size(path)
-    data = PlyData.read(str(path), mmap="r")
-    if "vertex" not in data:
-        raise GeoStructureError(f"{path}: has no 'vertex' element.")
-    vertex = data["vertex"].data
-    names = vertex.dtype.names or ()
-    missing = [axis for axis in "xyz" if axis not in names]
-    if missing:
-        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property.")
+    _, vertex = ply_vertices(path)
+    names = vertex.dtype.names
     has_normals = all(n in names for n in ("nx", "ny", "nz"))
     meta = {"cloud": Cloud(np.zeros((0, 3)), source=str(path))}
     for a in range(0, max(len(vertex), 1), rows):
