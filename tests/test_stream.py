@@ -4,6 +4,7 @@ a plane across four tiles is one region; the point outputs keep every coordinate
 bound far below the cloud's size holds, measured in a subprocess."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -170,3 +171,18 @@ def test_a_binary_ply_with_normals_streams_as_it_measures_in_memory(tmp_path):
     streamed = measure_stream([path], VOXEL.with_(zeta=0.02), chunk_points=7_000).planes
     assert_same_planes(memory, streamed)
     assert np.allclose(memory.facing, streamed.facing, atol=1e-6)  # the sums of normals, added in another order
+
+
+def test_a_killed_runs_spill_is_removed_by_the_next_run(tmp_path):
+    """A run killed outright leaves its spill behind; the next streamed run in that folder
+    removes it (its process is gone), and leaves a live run's alone."""
+    from geostructure.stream.source import SPILL_PREFIX, remove_stale_spills
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    stale = tmp_path / f"{SPILL_PREFIX}{dead.stdout.strip()}-abc"
+    live = tmp_path / f"{SPILL_PREFIX}{os.getpid()}-def"
+    for folder in (stale, live):
+        folder.mkdir()
+        (folder / "points.f8").write_bytes(b"\0" * 240)
+    assert remove_stale_spills(tmp_path) == [stale]
+    assert not stale.exists() and live.exists()

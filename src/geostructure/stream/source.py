@@ -99,6 +99,31 @@ class Spill:
             pass
 
 
+#: A spill folder's name: this prefix, the process's id, a dash, a random part.
+SPILL_PREFIX = "geostructure-stream-"
+
+
+def remove_stale_spills(folder=None) -> list[Path]:
+    """Remove the spill folders in ``folder`` (the temporary folder by default) whose process
+    is gone: a run killed outright (SIGKILL, a power cut) cannot remove its own, which holds
+    24 bytes or more a point of its survey. Returns what was removed."""
+    import shutil
+
+    removed = []
+    for path in Path(folder or tempfile.gettempdir()).glob(f"{SPILL_PREFIX}*-*"):
+        pid = path.name[len(SPILL_PREFIX) :].split("-")[0]
+        if not pid.isdigit() or not path.is_dir():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+        except OSError:  # another user's live process
+            continue
+    return removed
+
+
 def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progress=None, folder=None):
     """Read ``paths`` chunk by chunk (at most ``rows`` points at a time for LAS/LAZ and PLY
     vertices) into a :class:`Spill` in ``folder`` (a new temporary folder by default).
@@ -108,7 +133,8 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     paths = [Path(p) for p in paths]
     check_headers(paths)
     report = progress or (lambda stage, done, total: None)
-    folder = Path(tempfile.mkdtemp(prefix="geostructure-stream-", dir=folder))
+    remove_stale_spills(folder)
+    folder = Path(tempfile.mkdtemp(prefix=f"{SPILL_PREFIX}{os.getpid()}-", dir=folder))
     spill = Spill(folder, 0, np.full(3, np.inf), np.full(3, -np.inf), describe(paths))
     grids, first = [], None
     try:
