@@ -171,6 +171,27 @@ def test_planar_factor_of_safety_with_cohesion_follows_culmann():
     np.testing.assert_array_equal(planar_factor_of_safety(dips, phi, cohesion=0.0), planar_factor_of_safety(dips, phi))
 
 
+def test_the_planar_factor_of_safety_does_not_depend_on_the_ground_above_the_crest():
+    """With no tension crack the block is the triangle of the toe, the crest and the plane's
+    exit on the ground above; built here from coordinates with that ground rising at 15
+    degrees, its factor of safety is the level top's: the block's weight grows with the
+    length of its sliding plane, so cohesion counts for as much."""
+    c, phi, face, top, gamma, h = 25.0, 30.0, 70.0, 15.0, 26.0, 20.0
+    dips = np.array([35.0, 45.0, 55.0, 65.0])
+    crest = np.array([h / np.tan(np.radians(face)), h])
+    rising = []
+    for d in np.radians(dips):
+        # the plane from the toe along (cos d, sin d) meets the ground crest + s (cos top, sin top)
+        system = np.array([[np.cos(d), -np.cos(np.radians(top))], [np.sin(d), -np.sin(np.radians(top))]])
+        t, _ = np.linalg.solve(system, crest)
+        exit_point = t * np.array([np.cos(d), np.sin(d)])
+        weight = gamma * 0.5 * abs(crest[0] * exit_point[1] - crest[1] * exit_point[0])
+        rising.append((c * t + weight * np.cos(d) * np.tan(np.radians(phi))) / (weight * np.sin(d)))
+        assert t > h / np.sin(d)  # a longer plane than under a level top
+    level = planar_factor_of_safety(dips, phi, cohesion=c, height=h, slope_dip=face, unit_weight=gamma)
+    np.testing.assert_allclose(rising, level, rtol=1e-12)
+
+
 def test_turning_the_slope_and_every_plane_alike_changes_nothing():
     rng = np.random.default_rng(9)
     dip, dd = rng.uniform(0, 90, 400), rng.uniform(0, 360, 400)

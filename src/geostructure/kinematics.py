@@ -179,7 +179,9 @@ def planar_factor_of_safety(
     has a sliding plane of A = H / sin(dip) and a weight of
     W = unit_weight H^2 (cot(dip) - cot(slope_dip)) / 2 (kN), so that
     FS = (cohesion A + W cos(dip) tan(friction)) / (W sin(dip)). A plane at least as steep
-    as the face cuts no block: NaN.
+    as the face cuts no block: NaN. Ground rising above the crest would change nothing: with
+    no tension crack the block is a triangle on its sliding plane whose height is the
+    crest's distance from the plane, so its weight grows with A and c A / W stays.
 
     Examples
     --------
