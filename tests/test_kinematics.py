@@ -22,6 +22,7 @@ from geostructure.projection import enu_vectors
 from geostructure.runs import plane_sets, save_measurement
 from geostructure.slope_stability import add_kinematics
 from geostructure.synthetic import outcrop_scene
+from geostructure.wedge import wedge_blocks, wedge_factor_of_safety
 
 SLOPE = Slope(dip=60.0, dip_direction=135.0)
 
@@ -304,6 +305,26 @@ def test_the_planar_factor_of_safety_with_cohesion_from_the_command(outcrop_fold
     assert 4.0 < strength["height_m"] < 8.0  # the 12 x 6 m face at 65 degrees
     assert main(["kinematics", str(out), "--friction", "35", "--cohesion", "20", "--height", "30", "-q"]) == 0
     assert json.load(open(out / "kinematics.json"))["strength"]["height_m"] == 30.0
+    # the ground above the crest rising at 12 degrees: each wedge is the block under that ground
+    args = ["kinematics", str(out), "--friction", "35", "--slope", "65/180", "--cohesion", "20", "-q"]
+    assert main([*args, "--upper-slope", "12/195"]) == 0
+    strength = json.load(open(out / "kinematics.json"))["strength"]
+    assert (strength["upper_slope_dip"], strength["upper_slope_dip_direction"]) == (12.0, 195.0)
+    assert "upper slope" in strength["wedge_fs"]
+    uphill = list(csv.DictReader(open(out / "wedges.csv")))
+    planes = {int(r["region_id"]): r for r in csv.DictReader(open(out / "planes.csv"))}
+    row = next(r for r in uphill if r["wedge_fs"] not in ("", "nan"))
+    pair = [planes[int(row[f"region_id_{k}"])] for k in "ab"]
+    normals = [np.array([float(p[f"normal_{c}"]) for c in "xyz"])[None] for p in pair]
+    face = normal_from_orientation(180.0, 65.0)
+    blocks = wedge_blocks(*normals, face, strength["height_m"], normal_from_orientation(195.0, 12.0))
+    fs, _ = wedge_factor_of_safety(*normals, 35.0, cohesion_a=20.0, blocks=blocks)
+    assert float(row["wedge_fs"]) == pytest.approx(fs[0], rel=1e-6)
+    assert float(row["wedge_fs"]) != pytest.approx(
+        float(wet_wedges[(row["region_id_a"], row["region_id_b"])]["wedge_fs"])
+    )
+    assert main([*args, "--upper-slope", "70/180"]) == 2
+    assert "--upper-slope" in capsys.readouterr().err
     for option, value in (("--cohesion", "-5"), ("--unit-weight", "0"), ("--height", "nan")):
         assert main(["kinematics", str(out), "--friction", "35", option, value, "-q"]) == 2
         assert option in capsys.readouterr().err

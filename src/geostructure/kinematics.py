@@ -242,11 +242,12 @@ class Wedges:
 
 def wedges(
     dip, dip_direction, slope: Slope, friction: float, *, max_planes: int = 3000, cohesion: float = 0.0,
-    height: float | None = None, unit_weight: float = UNIT_WEIGHT,
+    height: float | None = None, unit_weight: float = UNIT_WEIGHT, upper_normal=(0.0, 0.0, 1.0),
 ) -> Wedges:  # fmt: skip
     """The critical wedges among all pairs of planes (see the module's description); with
     ``cohesion`` (kPa), their factor of safety is that of the tetrahedral block each pair cuts
-    under a face of ``height`` m with a level top (:mod:`.wedge`).
+    under a face of ``height`` m whose top has the upward ``upper_normal`` (level by
+    default; :mod:`.wedge`).
 
     Examples
     --------
@@ -272,7 +273,8 @@ def wedges(
     if cohesion:
         if height is None or not height > 0 or not unit_weight > 0:
             raise ParameterError("a wedge's factor of safety with cohesion needs the slope's height and a unit weight.")
-        blocks = wedge_blocks(normals[a], normals[b], normal_from_orientation(slope.dip_direction, slope.dip), height)
+        face = normal_from_orientation(slope.dip_direction, slope.dip)
+        blocks = wedge_blocks(normals[a], normals[b], face, height, upper_normal)
     fs, single = wedge_factor_of_safety(
         normals[a], normals[b], friction, cohesion_a=cohesion, blocks=blocks, unit_weight=unit_weight
     )

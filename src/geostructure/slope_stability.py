@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import ParameterError
 from .exposure import exposure
 from .io.atomic import write_figure, write_json, write_table_csv
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
@@ -25,7 +26,7 @@ from .kinematics import (
     planar_sliding,
     wedges,
 )
-from .orientation import Frame, orientation_from_normals
+from .orientation import Frame, normal_from_orientation, orientation_from_normals
 from .uncertainty import normal_standard_errors
 
 #: Pairs are tested among this many of the largest planes at most.
@@ -70,6 +71,7 @@ def add_kinematics(
     cohesion: float = 0.0,
     unit_weight: float = UNIT_WEIGHT,
     height: float | None = None,
+    upper_slope: tuple[float, float] | None = None,
 ):
     """Run the kinematic tests on a measured folder and add their files (see the module).
 
@@ -90,6 +92,10 @@ def add_kinematics(
     height : float, optional
         The slope's height (m) for the planar and wedge blocks with cohesion; the cloud's height
         along up when not given.
+    upper_slope : (dip, dip direction), optional
+        The ground above the crest (degrees), for the wedges with cohesion; level when not
+        given. It must dip less than the face. (A planar block's factor of safety does not
+        depend on it: see :func:`~.kinematics.planar_factor_of_safety`.)
 
     Returns
     -------
@@ -124,6 +130,13 @@ def add_kinematics(
         if cohesion:
             strength["height_m"] = float(height)
             strength.setdefault("height_source", "given")
+        if upper_slope is not None:
+            if not upper_slope[0] < slope.dip:
+                raise ParameterError(
+                    f"the upper slope ({upper_slope[0]:g} deg) must dip less than the face ({slope.dip:.1f} deg): "
+                    f"there is no crest otherwise."
+                )
+            strength["upper_slope_dip"], strength["upper_slope_dip_direction"] = map(float, upper_slope)
         summary, rows, wedge_rows, figure = kinematics_of(
             planes, read_sets(outputs.outdir), slope, friction, lateral_limit, strength
         )
@@ -190,6 +203,9 @@ def kinematics_of(
         cohesion=strength["cohesion_kpa"],
         height=strength.get("height_m"),
         unit_weight=strength["unit_weight_kn_m3"],
+        upper_normal=normal_from_orientation(strength["upper_slope_dip_direction"], strength["upper_slope_dip"])
+        if "upper_slope_dip" in strength
+        else (0.0, 0.0, 1.0),
     )
     direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
     base = np.zeros(len(planes), dtype=bool)
@@ -244,7 +260,9 @@ def kinematics_of(
         "lateral_limit_deg": lateral_limit,
         "strength": {
             **strength,
-            "wedge_fs": "with cohesion: the tetrahedral block under the face, level top (Hoek & Bray 1981)"
+            "wedge_fs": "with cohesion: the tetrahedral block under the face, "
+            + ("its top the upper slope" if "upper_slope_dip" in strength else "level top")
+            + " (Hoek & Bray 1981)"
             if strength["cohesion_kpa"]
             else "frictional",
         },

@@ -209,6 +209,12 @@ def add_kinematic_options(parser, *, flag: bool) -> None:
         metavar="M",
         help="the slope's height, m, for the planar and wedge blocks with cohesion (default: the cloud's height)",
     )
+    parser.add_argument(
+        "--upper-slope",
+        default=None,
+        metavar="DIP/DIPDIR",
+        help="the ground above the crest, for the wedges with cohesion (default: level)",
+    )
 
 
 def kinematic_settings(args) -> dict | None:
@@ -223,13 +229,12 @@ def kinematic_settings(args) -> dict | None:
         raise ParameterError(f"--lateral-limits must be 0 to 90 degrees, not {args.lateral_limits}.")
     slope = None
     if args.slope.strip().lower() != "auto":
-        try:
-            dip, dip_direction = (float(v) for v in args.slope.split("/"))
-        except ValueError:
-            raise ParameterError(
-                f"--slope takes DIP/DIPDIR in degrees (e.g. 75/180) or 'auto', not {args.slope!r}."
-            ) from None
-        slope = Slope(dip, dip_direction)
+        slope = Slope(*_dip_and_direction("--slope", args.slope, "75/180", " or 'auto'"))
+    upper = None
+    if args.upper_slope is not None:
+        upper = _dip_and_direction("--upper-slope", args.upper_slope, "12/195")
+        if not (math.isfinite(upper[0]) and 0.0 <= upper[0] < (slope.dip if slope is not None else 90.0)):
+            raise ParameterError(f"--upper-slope must dip 0 or more and less than the face, not {upper[0]:g} degrees.")
     for name, value, least in (("--cohesion", args.cohesion, 0.0), ("--unit-weight", args.unit_weight, None)):
         if not math.isfinite(value) or (value < least if least is not None else value <= 0):
             bound = "0 or more" if least is not None else "more than 0"
@@ -243,7 +248,18 @@ def kinematic_settings(args) -> dict | None:
         "cohesion": args.cohesion,
         "unit_weight": args.unit_weight,
         "height": args.height,
+        "upper_slope": upper,
     }
+
+
+def _dip_and_direction(option: str, text: str, example: str, alternative: str = "") -> tuple[float, float]:
+    try:
+        dip, dip_direction = (float(v) for v in text.split("/"))
+    except ValueError:
+        raise ParameterError(
+            f"{option} takes DIP/DIPDIR in degrees (e.g. {example}){alternative}, not {text!r}."
+        ) from None
+    return dip, dip_direction
 
 
 def wants_sets(args) -> bool:
