@@ -211,28 +211,21 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         counts["labelled_points"] = int((labels >= 0).sum())
 
     with _stage(seconds, "orientation", report):
-        raw = np.array([r.normal for r in regions]).reshape(-1, 3)
         outward = _outward(filtered, labels, len(regions))
-        normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
-        orientation = orientation_from_normals(normals, frame, outward)
-        n_voxels, scatter = normal_spread(voxels.normal, voxel_labels, normals)
-        uncertainty = normal_standard_errors(
-            filtered.local,
-            labels,
-            normals,
-            np.array([r.centroid for r in regions]).reshape(-1, 3),
-            np.array([r.u for r in regions]).reshape(-1, 3),
-            up=frame.matrix[2],
-        )
-        planes = Planes.from_regions(
+        planes = plane_table(
             regions,
-            normals,
-            orientation,
-            offset=cloud.offset,
-            n_voxels=n_voxels,
-            scatter=scatter,
-            uncertainty=uncertainty,
-            face=(None, None) if outward is None else face_side(outward, frame),
+            frame,
+            outward,
+            (voxels.normal, voxel_labels),
+            cloud.offset,
+            lambda normals: normal_standard_errors(
+                filtered.local,
+                labels,
+                normals,
+                np.array([r.centroid for r in regions]).reshape(-1, 3),
+                np.array([r.u for r in regions]).reshape(-1, 3),
+                up=frame.matrix[2],
+            ),
         )
     return Result(
         cloud=cloud,
@@ -325,6 +318,26 @@ def _relabel(point_region: np.ndarray, voxel_region: np.ndarray, merged_voxels: 
     lonely = np.flatnonzero(new[:n] < 0)
     new[lonely] = int(merged_voxels.max(initial=-1)) + 1 + np.arange(len(lonely))
     return new[point_region], new[voxel_region]
+
+
+def plane_table(regions, frame: Frame, outward, voxels, offset, standard_errors) -> Planes:
+    """The plane table of region planes: normals turned upward (``outward``, the planes'
+    summed stored normals or None, settles vertical ones) in ``frame``, their orientation,
+    their voxels' spread (``voxels``: the voxel normals and each voxel's plane) and
+    ``standard_errors(normals)`` (:func:`~.uncertainty.normal_standard_errors`'s dict)."""
+    raw = np.array([r.normal for r in regions]).reshape(-1, 3)
+    normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
+    n_voxels, scatter = normal_spread(*voxels, normals)
+    return Planes.from_regions(
+        regions,
+        normals,
+        orientation_from_normals(normals, frame, outward),
+        offset=offset,
+        n_voxels=n_voxels,
+        scatter=scatter,
+        uncertainty=standard_errors(normals),
+        face=(None, None) if outward is None else face_side(outward, frame),
+    )
 
 
 def normal_spread(voxel_normals, voxel_labels, plane_normals):

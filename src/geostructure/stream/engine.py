@@ -30,9 +30,9 @@ from ..auto import SAMPLE_POINTS, Occupancy, choose_from
 from ..errors import GeoStructureError
 from ..filter import neighbourhoods
 from ..merge import merge_coplanar
-from ..orientation import Frame, face_side, orientation_from_normals, upward
+from ..orientation import Frame
 from ..params import ParameterWarning, Params
-from ..pipeline import default_min_points, normal_spread
+from ..pipeline import default_min_points, plane_table
 from ..planes import Planes
 from ..rectangle import bound_plane, plane_from_scatter
 from ..regions import grow_regions
@@ -159,25 +159,15 @@ def measure_spill(
     seconds["planes"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    raw = np.array([r.normal for r in regions]).reshape(-1, 3)
-    normals = upward(frame.to_enu(raw), None if normal_sums is None else frame.to_enu(normal_sums)) @ frame.matrix
-    orientation = orientation_from_normals(normals, frame, normal_sums)
-    n_voxels, scatter = normal_spread(voxels.normal, plane_of_voxel, normals)
     centroids = np.array([r.centroid for r in regions]).reshape(-1, 3)
-    axes = plane_axes(normals, np.array([r.u for r in regions]).reshape(-1, 3))
-    ranges = _ranges_from_hulls(hulls, fits, centroids, axes)
-    sums = run.total(passes.chunk_block_sums, (spill.offset, labels_path, centroids, axes, ranges))
-    uncertainty = errors_from_sums(sums, axes, up=frame.matrix[2]) if sums is not None else _no_errors(0)
-    planes = Planes.from_regions(
-        regions,
-        normals,
-        orientation,
-        offset=spill.offset,
-        n_voxels=n_voxels,
-        scatter=scatter,
-        uncertainty=uncertainty,
-        face=(None, None) if normal_sums is None else face_side(normal_sums, frame),
-    )
+
+    def standard_errors(normals):
+        axes = plane_axes(normals, np.array([r.u for r in regions]).reshape(-1, 3))
+        ranges = _ranges_from_hulls(hulls, fits, centroids, axes)
+        sums = run.total(passes.chunk_block_sums, (spill.offset, labels_path, centroids, axes, ranges))
+        return errors_from_sums(sums, axes, up=frame.matrix[2]) if sums is not None else _no_errors(0)
+
+    planes = plane_table(regions, frame, normal_sums, (voxels.normal, plane_of_voxel), spill.offset, standard_errors)
     seconds["orientation"] = time.perf_counter() - t
     return StreamResult(
         cloud=spill.cloud(),
