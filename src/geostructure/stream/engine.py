@@ -140,7 +140,7 @@ def measure_spill(
     t = time.perf_counter()
     fits = _fits_from_moments(moments, rows, plane_of_voxel, len(candidates))
     label_context = passes.LabelContext(
-        spill.offset - 0.0,
+        spill.offset,
         keep,
         passes.VoxelTable.of(voxels.keys, edge, kept_lower),
         plane_of_voxel,

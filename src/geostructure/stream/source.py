@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -65,8 +65,6 @@ class Spill:
     crs: str | None = None
     las_grid: tuple | None = None
     has_normals: bool = False
-    las_inputs: bool = False
-    tile_rows: list = field(default_factory=list)  # (path, first row, rows) per input file
 
     @property
     def points_path(self) -> str:
@@ -164,11 +162,9 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                 else:
                     check_same_crs(first[0], meta["cloud"], first[1], path)
                 grids.append(meta.get("grid"))
-                spill.tile_rows.append((str(path), start, spill.n_points - start))
                 report("read", i + 1, len(paths))
         spill.has_normals = all_normals and spill.n_points > 0
         spill.crs = first[0].crs if first else None
-        spill.las_inputs = all(p.suffix.lower() in (".las", ".laz") for p in paths)
         same = all(g is not None for g in grids) and all(
             np.array_equal(g[0], grids[0][0]) and np.array_equal(g[1], grids[0][1]) for g in grids
         )
