@@ -3,16 +3,16 @@
 For each size, writes a synthetic quarry (benches: faces dipping 70 degrees and level
 berms, 1 cm noise, at a UTM offset) as LAZ tiles of at most 5M points, one tile at a time
 so the benchmark itself never holds the survey (not timed, not committed), then runs
-``geostructure measure TILES/ -o OUT -q --max-memory 8G`` in a process of its own: the
-automatic engine streams every size here, with the automatic parameters and every output
-(regions.ply and regions.laz of all the points included). Prints seconds, points per
+``geostructure measure TILES/ -o OUT -q --engine stream --max-memory 8G`` in a process of
+its own: streamed, with the automatic parameters and every output (regions.ply and
+regions.laz of all the points included). Prints seconds, points per
 second, the peak resident memory of the process, and the faces and berms found.
 
     python bench/bench_stream.py                            # 10M, 50M and 200M points
     python bench/bench_stream.py --sizes 10000000           # one size
 
-``--max-memory 8G`` is the one option given: without it the bound is half the machine's
-memory, and a cloud that fits runs in memory with the facet detector instead.
+``--engine stream --max-memory 8G`` are the options given: without them a cloud that fits
+in half the machine's memory runs in memory, with the facet detector.
 """
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ def main() -> None:
     args = parser.parse_args()
     print(
         f"{os.cpu_count()} cores; a synthetic quarry in LAZ tiles of {TILE_POINTS:,} points; "
-        f"geostructure measure TILES -o OUT -q --max-memory {args.max_memory}, in its own process"
+        f"geostructure measure TILES -o OUT -q --engine stream --max-memory {args.max_memory}, in its own process"
     )
     base = Path(tempfile.mkdtemp(dir=args.dir))
     try:
