@@ -186,3 +186,31 @@ def test_a_killed_runs_spill_is_removed_by_the_next_run(tmp_path):
         (folder / "points.f8").write_bytes(b"\0" * 240)
     assert remove_stale_spills(tmp_path) == [stale]
     assert not stale.exists() and live.exists()
+
+
+@pytest.mark.slow
+def test_an_interrupted_streamed_run_leaves_no_output_and_no_spill(tmp_path):
+    """Ctrl-C in the middle of the passes: the output folder holds nothing of the run (its
+    lock file at most, as after any interrupted run), the spill is removed, and the command
+    ends without a traceback."""
+    import signal
+    import time
+
+    points = observatory_scene(1_500_000, seed=7).cloud.points + UTM
+    write_laz(tmp_path / "survey.laz", points)
+    spill, out = tmp_path / "spill", tmp_path / "out"
+    spill.mkdir()
+    command = [sys.executable, "-m", "geostructure", "measure", str(tmp_path / "survey.laz"), "-o", str(out)]
+    process = subprocess.Popen(
+        [*command, "--engine", "stream", "--spill-dir", str(spill), "-q"], stderr=subprocess.PIPE, text=True
+    )
+    deadline = time.monotonic() + 60
+    while not any(spill.glob("*/keep.u1")) and time.monotonic() < deadline:  # into the passes
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode != 0
+    assert "Traceback" not in err and err.strip()
+    left = [p.name for p in out.iterdir()] if out.exists() else []
+    assert left in ([], [".geostructure-lock"])
+    assert list(spill.iterdir()) == []
