@@ -274,14 +274,13 @@ class _Run:
             writer.begin(n_kept, lower + self.offset, upper + self.offset, self.spill.cloud())
         hulls, normal_sums = {}, None
         with open(labels_path, "wb") as spill_out:
-            for chunk, (keep, labels, part_hulls, sums) in zip(self.chunks, self.map(passes.chunk_labels, context)):
+            for keep, kept, labels, part_hulls, sums in self.map(passes.chunk_labels, context):
                 every = np.full(len(keep), passes.DROPPED, dtype="<i4")
                 every[keep] = labels
                 every.tofile(spill_out)
                 hulls = passes.merge_hulls(hulls, part_hulls)
                 if sums is not None:
                     normal_sums = sums if normal_sums is None else normal_sums + sums
-                kept = chunk.points()[keep]
                 for writer in writers:
                     writer.write(kept, labels)
         for writer in writers:

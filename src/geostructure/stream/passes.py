@@ -197,9 +197,11 @@ class LabelContext:
 
 
 def chunk_labels(chunk: Chunk, context: LabelContext):
-    """The chunk's filter decision (N,), its kept points' planes (-1 for none), each plane's
-    hull vertices in its own (u, v) among the chunk's points, and sums of stored normals."""
-    local = local_points(chunk, context.offset)
+    """The chunk's filter decision (N,), its kept points (absolute, as read, for the point
+    outputs) and their planes (-1 for none), each plane's hull vertices in its own (u, v)
+    among the chunk's points, and sums of stored normals."""
+    points = chunk.points()
+    local = points - context.offset
     keep = context.keep.keep(local, chunk)
     kept = local[keep]
     voxel = context.voxels.find(kept)
@@ -216,7 +218,7 @@ def chunk_labels(chunk: Chunk, context: LabelContext):
         normals = chunk.normals()[keep]
         n = len(context.centroid)
         normal_sums = np.stack([np.bincount(labels[mine], normals[mine, a], n) for a in range(3)], axis=1)
-    return keep, labels, hulls, normal_sums
+    return keep, points[keep], labels, hulls, normal_sums
 
 
 def merge_hulls(total: dict, part: dict) -> dict:
