@@ -101,6 +101,31 @@ def test_direct_toppling_on_each_side_of_each_boundary():
     assert steep_base.critical and steep_base.sliding_base.tolist() == [False, False, True]
 
 
+def test_oblique_toppling_in_dips_secondary_zone_on_each_side_of_each_boundary():
+    # Steeper than 90 - slope dip, outside the lateral limits of the slope's opposite, and not
+    # daylighting through the face (SLOPE dips 60/135).
+    eps = 0.5
+    base = ([20.0], [135.0])
+    for trend, plunge, oblique in [
+        (315.0 + 20.0 + eps, 60.0, True),  # just outside the primary zone's lateral limit
+        (315.0 + 20.0 - eps, 60.0, False),  # just inside: the primary zone's
+        (45.0, 90.0 - SLOPE.dip + eps, True),  # along the strike, just steep enough
+        (45.0, 90.0 - SLOPE.dip - eps, False),
+        (135.0, SLOPE.dip + eps, True),  # out of the face but steeper than it: no daylight
+        (135.0, SLOPE.dip - eps, False),  # daylights: a wedge's line, not a column's
+    ]:
+        dip, dd = planes_through(trend, plunge)
+        t = direct_toppling(dip + base[0], dd + base[1], SLOPE, 30.0)
+        assert (len(t.oblique_a) == 1) is oblique and t.oblique_critical is oblique, (trend, plunge)
+        assert len(t.a) + len(t.oblique_a) <= 1
+    # Oblique base planes: gentler than the slope, outside its lateral limits, poles not
+    # daylighting. 20/45 strikes down the slope; 10/315 dips gently into it; 50/315 is too steep
+    # (its pole, 40/135, daylights); 20/135 is a primary base plane; 65/45 is steeper than the slope.
+    t = direct_toppling([20.0, 10.0, 50.0, 20.0, 65.0], [45.0, 315.0, 315.0, 135.0, 45.0], SLOPE, 30.0)
+    assert t.oblique_base.tolist() == [True, True, False, False, False]
+    assert t.base.tolist() == [False, False, False, True, False]
+
+
 def test_wedge_lines_and_the_daylight_and_friction_limits():
     # Two planes symmetric about the slope's dip direction meet on a line trending along it,
     # plunging atan(tan(dip) cos(half the angle between their dip directions)).
@@ -215,6 +240,8 @@ def test_turning_the_slope_and_every_plane_alike_changes_nothing():
             direct_toppling(dip[:80], (dd[:80] + turn) % 360, turned, 30.0),
         )
         assert topple.a.tolist() == topple_turned.a.tolist() and (topple.base == topple_turned.base).all()
+        assert topple.oblique_a.tolist() == topple_turned.oblique_a.tolist()
+        assert (topple.oblique_base == topple_turned.oblique_base).all()
 
 
 @pytest.fixture(scope="module")

@@ -24,7 +24,10 @@ All angles are degrees; orientations are dip and dip direction (of planes), tren
   the slope's opposite, and steeper than 90 - slope dip (the block leans out of the face), and
   base planes exist on which such blocks stand: planes dipping out of the slope within the
   lateral limits, gentler than the slope; a base plane steeper than the friction angle lets
-  the blocks slide as they topple.
+  the blocks slide as they topple. Dips' secondary zone (``oblique``): lines as steep, outside
+  those lateral limits, that do not daylight; near vertical, a column can topple off its
+  line's trend. Base planes there (``oblique_base``) dip gentler than the slope, outside its
+  lateral limits, and their poles do not daylight.
 - **Factor of safety**, dry: planar FS = tan(friction) / tan(dip), and with cohesion that of
   the block under a face of given height (Hoek & Bray 1981; :func:`planar_factor_of_safety`); a wedge's
   from limit equilibrium along its line, FS = (N_a + N_b) tan(friction) / sin(plunge) for a
@@ -123,7 +126,8 @@ def flexural_toppling(dip, dip_direction, slope: Slope, friction: float, lateral
 class DirectToppling:
     """Pairs ``a`` < ``b`` whose intersection line (``trend``, ``plunge``) lies in the direct
     toppling zone, and per plane whether it is a ``base`` plane for such blocks and whether
-    blocks on it would slide too (``sliding_base``)."""
+    blocks on it would slide too (``sliding_base``). The ``oblique_*`` fields are the same for
+    Dips' secondary zone (oblique toppling; see the module's description)."""
 
     a: np.ndarray
     b: np.ndarray
@@ -131,17 +135,28 @@ class DirectToppling:
     plunge: np.ndarray
     base: np.ndarray
     sliding_base: np.ndarray
+    oblique_a: np.ndarray
+    oblique_b: np.ndarray
+    oblique_trend: np.ndarray
+    oblique_plunge: np.ndarray
+    oblique_base: np.ndarray
 
     @property
     def critical(self) -> bool:
         """Blocks can form and have something to topple over: lines in the zone and a base plane."""
         return bool(len(self.a)) and bool(self.base.any())
 
+    @property
+    def oblique_critical(self) -> bool:
+        """Steep columns in the secondary zone, and a base plane of either zone to stand on."""
+        return bool(len(self.oblique_a)) and bool((self.base | self.oblique_base).any())
+
 
 def direct_toppling(
     dip, dip_direction, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT, *, max_planes: int = 3000
 ) -> DirectToppling:
-    """Direct toppling's intersections and base planes (see the module's description).
+    """Direct toppling's intersections and base planes, in Dips' primary and secondary zones
+    (see the module's description).
 
     Examples
     --------
@@ -149,6 +164,9 @@ def direct_toppling(
     >>> t = direct_toppling([85, 85, 20], [330, 30, 180], slope, friction=30.0)  # two steep joints, a flat base
     >>> t.a.tolist(), t.b.tolist(), round(float(t.plunge[0])), t.base.tolist(), t.critical  # the line plunges north
     ([0], [1], 84, [False, False, True], True)
+    >>> t = direct_toppling([85, 85, 20], [60, 120, 180], slope, friction=30.0)  # their line plunges east
+    >>> t.critical, t.oblique_a.tolist(), round(float(t.oblique_trend[0])), t.oblique_critical
+    (False, [0], 90, True)
     """
     friction = check_friction(friction)
     dip = np.asarray(dip, dtype=np.float64)
@@ -161,10 +179,18 @@ def direct_toppling(
     normals = normal_from_orientation(dd, dip).reshape(-1, 3)
     a, b = plane_pairs(normals)
     trend, plunge = intersection_lines(normals[a], normals[b])
+    steep = np.isfinite(plunge) & (plunge > 90.0 - slope.dip)  # the block leans out of the face
     into = angular_difference(trend, slope.dip_direction + 180.0) <= lateral_limit
-    zone = np.isfinite(plunge) & into & (plunge > 90.0 - slope.dip)
-    base = (angular_difference(dd, slope.dip_direction) <= lateral_limit) & (dip < slope.dip)
-    return DirectToppling(a[zone], b[zone], trend[zone], plunge[zone], base, base & (dip > friction))
+    zone = steep & into
+    oblique = steep & ~into & ~_daylights(trend, plunge, slope)
+    gentle = dip < slope.dip
+    out_of_slope = angular_difference(dd, slope.dip_direction) <= lateral_limit
+    base = out_of_slope & gentle
+    oblique_base = gentle & ~out_of_slope & ~_daylights(dd + 180.0, 90.0 - dip, slope)
+    return DirectToppling(
+        a[zone], b[zone], trend[zone], plunge[zone], base, base & (dip > friction),
+        a[oblique], b[oblique], trend[oblique], plunge[oblique], oblique_base,
+    )  # fmt: skip
 
 
 def planar_factor_of_safety(

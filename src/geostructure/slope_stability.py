@@ -168,6 +168,7 @@ KINEMATICS_COLUMNS = (
     "flexural_toppling",
     "planar_fs",
     "toppling_base",
+    "oblique_toppling_base",
 )
 WEDGE_COLUMNS = ("region_id_a", "region_id_b", "trend", "plunge", "wedge_fs", "slides_on")
 
@@ -210,6 +211,8 @@ def kinematics_of(
     direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
     base = np.zeros(len(planes), dtype=bool)
     base[tested] = direct.base
+    oblique_base = np.zeros(len(planes), dtype=bool)
+    oblique_base[tested] = direct.oblique_base
     pairs = w.pairs_tested
     ids = planes.region_id
     rows = [
@@ -222,6 +225,7 @@ def kinematics_of(
             "flexural_toppling": bool(toppling[i]),
             "planar_fs": float(fs[i]) if planar[i] else float("nan"),
             "toppling_base": bool(base[i]),
+            "oblique_toppling_base": bool(oblique_base[i]),
         }
         for i in range(len(planes))
     ]
@@ -284,12 +288,19 @@ def kinematics_of(
             "percent_of_pairs": 100.0 * len(direct.a) / pairs if pairs else float("nan"),
             "base_planes": int(direct.base.sum()),
             "sliding_base_planes": int(direct.sliding_base.sum()),
+            "oblique": {  # Dips' secondary zone: steep columns outside the lateral limits
+                "critical": direct.oblique_critical,
+                "intersections_in_zone": int(len(direct.oblique_a)),
+                "percent_of_pairs": 100.0 * len(direct.oblique_a) / pairs if pairs else float("nan"),
+                "base_planes": int(direct.oblique_base.sum()),
+            },
         },
         "sets": _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit),
     }
     figure = kinematics_figure(
         dip, dd, slope=slope, friction=friction, lateral_limit=lateral_limit, planar=planar, toppling=toppling,
         wedge_lines=(w.trend, w.plunge), toppling_lines=(direct.trend, direct.plunge),
+        oblique_lines=(direct.oblique_trend, direct.oblique_plunge),
     )  # fmt: skip
     return summary, rows, wedge_rows, figure
 
@@ -310,16 +321,21 @@ def _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, fric
         s = int(row["set"])
         members = set_labels == s
         weights = np.nan_to_num(area[members])
-        partners = [int(sets[b if a == i else a]["set"]) for a, b in zip(w.a, w.b) if i in (a, b)]
-        columns = [int(sets[b if a == i else a]["set"]) for a, b in zip(direct.a, direct.b) if i in (a, b)]
+
+        def partners(a, b):  # the sets whose means pair with this one's in (a, b)
+            return [int(sets[y if x == i else x]["set"]) for x, y in zip(a, b) if i in (x, y)]
+
         out.append(
             {
                 "set": s,
                 "mean_planar_sliding": bool(mean_planar[i]),
                 "mean_flexural_toppling": bool(mean_toppling[i]),
-                "mean_wedges_with_sets": partners,
-                "mean_toppling_blocks_with_sets": columns if direct.base.any() else [],
+                "mean_wedges_with_sets": partners(w.a, w.b),
+                "mean_toppling_blocks_with_sets": partners(direct.a, direct.b) if direct.base.any() else [],
                 "mean_toppling_base": bool(direct.base[i]),
+                "mean_oblique_toppling_blocks_with_sets": partners(direct.oblique_a, direct.oblique_b)
+                if direct.oblique_critical
+                else [],
                 "planar_percent_by_count": percent_critical(planar[members]),
                 "planar_percent_by_area": percent_critical(planar[members], weights),
                 "toppling_percent_by_count": percent_critical(toppling[members]),

@@ -129,6 +129,13 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         f"{direct['base_planes']} base planes ({direct['sliding_base_planes']} steeper than friction): "
         + ("critical." if direct["critical"] else "not critical.")
     )
+    oblique = direct.get("oblique")
+    if oblique and oblique["intersections_in_zone"]:
+        console.print(
+            f"Oblique toppling (Dips' secondary zone): {oblique['intersections_in_zone']} intersections, "
+            f"{oblique['base_planes']} oblique base planes: "
+            + ("critical." if oblique["critical"] else "not critical.")
+        )
 
 
 def print_evaluation(evaluation, console: Console | None = None) -> None:

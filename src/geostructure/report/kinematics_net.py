@@ -14,7 +14,8 @@ def _line_xy(trend, plunge):
 def envelope_curves(kinematics: dict) -> list[tuple[str, str, str, np.ndarray, np.ndarray]]:
     """(name, colour, dash, x, y) of each envelope: the slope's great circle, the planar
     daylight envelope and its lateral limits, the friction cones of poles and of lines, the
-    toppling envelope and its lateral limits.
+    toppling envelope and its lateral limits, and the circle of lines plunging 90 - slope dip
+    inside which direct toppling's intersections lie.
 
     Examples
     --------
@@ -40,6 +41,8 @@ def envelope_curves(kinematics: dict) -> list[tuple[str, str, str, np.ndarray, n
     if psi - friction > 0:
         arc = np.linspace(alpha - limit, alpha + limit, 41)
         curves.append(("toppling envelope", "darkorange", "solid", *_line_xy(arc, np.full_like(arc, psi - friction))))
+    if psi < 90.0:
+        curves.append(("direct toppling circle", "saddlebrown", "dashdot", *small_circle_xy(0.0, 90.0, psi)))
     return curves
 
 

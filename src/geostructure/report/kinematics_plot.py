@@ -18,11 +18,14 @@ def kinematics_figure(
     toppling,
     wedge_lines=((), ()),
     toppling_lines=((), ()),
+    oblique_lines=((), ()),
 ):
     """Poles (critical for planar sliding red, for flexural toppling orange), the slope's great
     circle (the wedges' daylight envelope), the planar daylight envelope and lateral limits,
     the friction cones of poles and of lines, the toppling envelope, and the critical wedges'
-    intersection lines (crosses), and the intersections in the direct toppling zone."""
+    intersection lines (crosses), and the intersections in the direct toppling zones (inside the
+    circle of lines plunging 90 - slope dip: within the lateral limits, and Dips' secondary
+    zone outside them)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(7.0, 8.0))
@@ -61,16 +64,25 @@ def kinematics_figure(
         arc = np.linspace(alpha_f - lateral_limit, alpha_f + lateral_limit, 41) % 360.0
         curve(np.full_like(arc, psi_f - friction), arc, "-", color="darkorange", linewidth=1.5,
               label="toppling envelope")  # fmt: skip
+    if psi_f < 90.0:  # direct toppling: lines steeper than 90 - slope dip lean out of the face
+        curve(np.full_like(ring, 90.0 - psi_f), ring, "-.", color="saddlebrown", linewidth=1.0,
+              label="direct toppling circle")  # fmt: skip
     other = ~(np.asarray(planar, bool) | np.asarray(toppling, bool))
     ax.pole(strike[other], dip[other], "o", color="0.55", markersize=4, label="poles")
     ax.pole(strike[toppling], dip[toppling], "o", color="darkorange", markersize=5, label="flexural toppling")
     ax.pole(strike[planar], dip[planar], "o", color="red", markersize=5, label="planar sliding")
     trend, plunge = (np.asarray(v, float) for v in wedge_lines)
     if len(trend):  # one artist for all of them (ax.line makes one per line)
-        curve(plunge, trend, "x", color="purple", markersize=3, alpha=0.5, label="critical wedges (intersections)")
+        curve(plunge, trend, "x", color="purple", markersize=3, alpha=0.5, zorder=1,
+              label="critical wedges (intersections)")  # fmt: skip
     trend, plunge = (np.asarray(v, float) for v in toppling_lines)
     if len(trend):
-        curve(plunge, trend, "+", color="saddlebrown", markersize=4, alpha=0.6, label="direct toppling intersections")
+        curve(plunge, trend, "+", color="saddlebrown", markersize=4, alpha=0.6, zorder=1,
+              label="direct toppling intersections")  # fmt: skip
+    trend, plunge = (np.asarray(v, float) for v in oblique_lines)
+    if len(trend):
+        curve(plunge, trend, "+", color="goldenrod", markersize=3, alpha=0.35, zorder=1,
+              label="oblique toppling intersections")  # fmt: skip
     ax.grid(True)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.04), fontsize=8, frameon=False, ncol=2)
     ax.set_title(f"Kinematics: slope {psi_f:.0f}/{alpha_f:03.0f}, friction {friction:g}°", y=1.08)
