@@ -33,7 +33,19 @@ def coordinate_hash(points: np.ndarray, seed: int = 0, *, lower=None, extent: fl
     lower = points.min(axis=0) if lower is None else np.asarray(lower, dtype=np.float64)
     extent = float((points.max(axis=0) - lower).max()) if extent is None else float(extent)
     step = 2.0 ** np.ceil(np.log2(extent / HASH_STEPS)) if extent > 0 else 1.0
-    keys = np.floor((points - lower) / step).astype(np.int64).view(np.uint64)
+    return key_hash(np.floor((points - lower) / step).astype(np.int64), seed)
+
+
+def key_hash(keys: np.ndarray, seed: int = 0) -> np.ndarray:
+    """A 64-bit hash (N,) of integer grid keys (N, 3): splitmix64's finaliser over the three.
+
+    Examples
+    --------
+    >>> h = key_hash(np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]]))
+    >>> bool(h[0] == h[2]), bool(h[0] != h[1])
+    (True, True)
+    """
+    keys = np.ascontiguousarray(keys, dtype=np.int64).view(np.uint64)
     with np.errstate(over="ignore"):
         h = np.full(len(keys), np.uint64(seed) * _MULTIPLIERS[2] + _MULTIPLIERS[0], dtype=np.uint64)
         for axis in range(3):
