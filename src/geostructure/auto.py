@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .bounds import column_max, column_min
 from .params import ParameterWarning, Params
 from .sampling import key_hash, order_free_sample
 from .voxel import accumulate_moments, fit_voxels, voxel_planes_from_moments
@@ -112,8 +113,8 @@ class Occupancy:
         self.n_points = len(points)
         self.fraction = min(1.0, sample / len(points))
         self.sub = points if self.fraction == 1.0 else points[order_free_sample(points, int(sample), seed)]
-        self.lower = points.min(axis=0)
-        self.extent = float(np.max(points.max(axis=0) - self.lower))
+        self.lower = column_min(points)
+        self.extent = float(np.max(column_max(points) - self.lower))
 
     @classmethod
     def of_sample(cls, sub: np.ndarray, n_points: int, lower, extent: float) -> "Occupancy":

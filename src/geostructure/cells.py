@@ -21,6 +21,7 @@ from itertools import product
 import numpy as np
 from scipy.sparse import csr_matrix
 
+from .bounds import column_max, column_min
 from .voxel import group_codes
 
 #: The 27 offsets of a block, the centre (0, 0, 0) at index 13; and the 13 that go "forward"
@@ -81,12 +82,13 @@ class CellGrid:
     centre: np.ndarray
 
     @classmethod
-    def of(cls, points: np.ndarray, edge: float) -> CellGrid:
-        """The grid of ``points`` (N, 3) at ``edge``, with the cells' moments."""
+    def of(cls, points: np.ndarray, edge: float, lower=None) -> CellGrid:
+        """The grid of ``points`` (N, 3) at ``edge``, with the cells' moments; anchored at
+        ``lower`` (the points' least corner unless given: a sample's grid on its cloud's)."""
         points = np.asarray(points, dtype=np.float64)
-        lower = points.min(axis=0)
+        lower = column_min(points) if lower is None else np.asarray(lower, dtype=np.float64)
         key = np.floor((points - lower) / edge).astype(np.int64) + 1
-        dims = key.max(axis=0) + 2
+        dims = column_max(key) + 2
         codes, point_cell = group_codes(
             (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2], math.prod(int(d) for d in dims)
         )
@@ -117,7 +119,7 @@ class CellGrid:
         floor(floor(x) / 2) = floor(x / 2), and halving is exact in binary floating point,
         so every point falls in the coarse cell it would fall in from scratch."""
         key = (self.cell_key - 1) // 2 + 1
-        dims = key.max(axis=0) + 2
+        dims = column_max(key) + 2
         codes, parent = group_codes(
             (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2], math.prod(int(d) for d in dims)
         )
@@ -281,14 +283,16 @@ def far_scatter(cells: CellPlanes) -> float:
     return float(np.degrees(np.median(angles))) if len(angles) else 0.0
 
 
-def sampled_far_scatter(grid: CellGrid, n_sample: int, seed: int = 0) -> float:
+def sampled_far_scatter(grid: CellGrid, n_sample: int, seed: int = 0, among=None) -> float:
     """:func:`far_scatter` estimated on ``n_sample`` cells drawn at random, their planes
     and those of the cells two steps along each axis fitted alone: the median of a random
     sample of the same angles, without the whole grid's planes. Drawn over cells, not
     over space, so no part of the cloud is left out (windows of it were tried: at 8M
-    observatory points six of them read 4.9 degrees where the whole cloud reads 11)."""
+    observatory points six of them read 4.9 degrees where the whole cloud reads 11).
+    ``among`` (indices) limits the draw to those cells."""
     rng = np.random.default_rng(seed)
-    cells = rng.choice(len(grid), min(n_sample, len(grid)), replace=False)
+    pool = np.arange(len(grid)) if among is None else np.asarray(among)
+    cells = np.sort(pool[rng.choice(len(pool), min(n_sample, len(pool)), replace=False)])  # sorted: faster finds
     steps = grid.steps()
     pairs = []
     for axis_offset in (CENTRE + 9, CENTRE + 3, CENTRE + 1):  # +x, +y, +z

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .bounds import column_max, column_min
 from .errors import ParameterError
 
 #: Largest coordinate accepted: beyond it float64 no longer resolves a millimetre (UTM northings
@@ -94,7 +95,7 @@ class Cloud:
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = as_points(points)
         finite = points[np.isfinite(points).all(axis=1)]  # readers report NaN/inf rows by count
-        offset = (finite.min(axis=0) + finite.max(axis=0)) / 2 if len(finite) else np.zeros(3)
+        offset = (column_min(finite) + column_max(finite)) / 2 if len(finite) else np.zeros(3)
         # Round the offset so it prints cleanly and survives float32 writers (E57, LAS scale).
         offset = np.round(offset, 0) + 0.0  # + 0.0 turns -0.0 into 0.0
         return cls(

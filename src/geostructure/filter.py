@@ -15,9 +15,11 @@ Two forms:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from .bounds import column_max, column_min
 from .voxel import accumulate_moments, covariance_from_moments
 
 METHODS = ("local", "global", "none")
@@ -81,7 +83,7 @@ def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, isolat
         A block holding fewer than this fraction of the median point's block count (and
         fewer than 10) is isolated: its points are dropped.
     """
-    moments, inverse = accumulate_moments(points, edge, points.min(axis=0))
+    moments, inverse = accumulate_moments(points, edge, column_min(points))
     blocks = neighbourhoods(moments)
     keep, distance = blocks.judge(points, inverse, blocks.typical_support(), threshold, isolation)
     return FilterResult(keep, distance, "local", threshold)
@@ -108,10 +110,24 @@ class Neighbourhoods:
         pick = self.support[order][np.searchsorted(ends, [low + 1, high + 1])]
         return float(pick.mean())
 
+    @cached_property
+    def entries(self) -> np.ndarray:
+        """The inverse covariances as (9, V): row 3 i + j holds entry (i, j) of every voxel."""
+        return self.inverse.reshape(-1, 9).T.copy()
+
     def judge(self, points, voxel, typical: float, threshold: float = 3.0, isolation: float = 0.1):
         """Keep (N,) and Mahalanobis distance (N,) of ``points`` whose voxels are ``voxel``."""
-        diff = points - self.mean[voxel]
-        d = np.sqrt(np.clip(np.einsum("ni,nij,nj->n", diff, self.inverse[voxel], diff), 0.0, None))
+        # The quadratic form from the six distinct entries, each gathered from a voxel table
+        # small enough to stay in cache: gathering a 3 x 3 matrix per point cost 2.3 s at 8M.
+        x, y, z = (points[:, i] - self.mean[:, i][voxel] for i in range(3))
+        a = self.entries
+        d2 = a[0][voxel] * x * x
+        d2 += a[4][voxel] * y * y
+        d2 += a[8][voxel] * z * z
+        d2 += 2.0 * a[1][voxel] * x * y
+        d2 += 2.0 * a[2][voxel] * x * z
+        d2 += 2.0 * a[5][voxel] * y * z
+        d = np.sqrt(np.clip(d2, 0.0, None))
         support = self.support[voxel]
         isolated = support < min(max(3.0, isolation * typical), MIN_COVARIANCE_POINTS)
         testable = support >= MIN_COVARIANCE_POINTS
@@ -132,7 +148,7 @@ def neighbourhoods(moments) -> Neighbourhoods:
 
 def _block_sums(keys, count, sums, products, edge):
     """Moments summed over each voxel's 3x3x3 block, shifted to the centre voxel's corner."""
-    base = keys.max(axis=0) + 3
+    base = column_max(keys) + 3
 
     def encode(k):
         k = k + 1

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bounds import column_max, column_min
+
 _MULTIPLIERS = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xC2B2AE3D27D4EB4F), np.uint64(0x165667B19E3779F9))
 
 
@@ -30,8 +32,8 @@ def coordinate_hash(points: np.ndarray, seed: int = 0, *, lower=None, extent: fl
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if not len(points):
         return np.zeros(0, dtype=np.uint64)
-    lower = points.min(axis=0) if lower is None else np.asarray(lower, dtype=np.float64)
-    extent = float((points.max(axis=0) - lower).max()) if extent is None else float(extent)
+    lower = column_min(points) if lower is None else np.asarray(lower, dtype=np.float64)
+    extent = float((column_max(points) - lower).max()) if extent is None else float(extent)
     step = 2.0 ** np.ceil(np.log2(extent / HASH_STEPS)) if extent > 0 else 1.0
     return key_hash(np.floor((points - lower) / step).astype(np.int64), seed)
 

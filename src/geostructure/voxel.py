@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bounds import column_max, column_min
 from .errors import ParameterError
 
 #: Index pairs of the 6 distinct entries of a symmetric 3x3 matrix.
@@ -60,7 +61,7 @@ class VoxelPlanes:
 
 def voxel_edge(points: np.ndarray, zeta: float) -> float:
     """The voxel edge: ``zeta`` times the largest extent of the cloud (the paper's point space)."""
-    extent = float(np.max(points.max(axis=0) - points.min(axis=0)))
+    extent = float(np.max(column_max(points) - column_min(points)))
     return zeta * extent
 
 
@@ -71,7 +72,7 @@ MAX_CELLS_PER_AXIS = 2**20
 def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarray:
     """Integer voxel index (i, j, k) of every point."""
     if len(points):
-        cells = float(np.max(points.max(axis=0) - np.asarray(origin, float))) / edge if edge > 0 else np.inf
+        cells = float(np.max(column_max(points) - np.asarray(origin, float))) / edge if edge > 0 else np.inf
         if not cells <= MAX_CELLS_PER_AXIS:
             raise ParameterError(
                 f"a voxel edge of {edge:.3g} is too small for a cloud this size (more than "
@@ -111,8 +112,8 @@ def group_codes(codes: np.ndarray, n_codes: int) -> tuple[np.ndarray, np.ndarray
 def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique rows of an (N, 3) integer key array and the inverse map, via one int64 code
     per row (a 1-D unique is several times faster than ``np.unique(axis=0)``)."""
-    low = keys.min(axis=0)
-    span = keys.max(axis=0) - low + 1
+    low = column_min(keys)
+    span = column_max(keys) - low + 1
     shifted = keys - low
     codes = (shifted[:, 0] * span[1] + shifted[:, 1]) * span[2] + shifted[:, 2]
     unique_codes, inverse = group_codes(codes, math.prod(int(d) for d in span))
@@ -209,7 +210,7 @@ def fit_voxels(points: np.ndarray, zeta: float, *, min_points: int = 5, max_curv
     edge = voxel_edge(points, zeta)
     if not edge > 0:
         raise ValueError("the cloud has no extent")
-    moments, inverse = accumulate_moments(points, edge, points.min(axis=0))
+    moments, inverse = accumulate_moments(points, edge, column_min(points))
     voxels, kept_index = voxel_planes_from_moments(moments, min_points, max_curvature)
     lookup = np.full(len(moments.keys), -1, dtype=np.int64)
     lookup[kept_index] = np.arange(len(kept_index))

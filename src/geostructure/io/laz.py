@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bounds import column_max
 from ..planes import plane_rows
 from .atomic import atomic_path
 from .gis import parse_crs
@@ -48,10 +49,10 @@ def las_grid(points: np.ndarray, offset, grid=None) -> tuple[np.ndarray, np.ndar
     points = np.asarray(points, dtype=np.float64)
     if grid is not None:
         scales, offsets = (np.asarray(g, dtype=np.float64) for g in grid)
-        if not len(points) or (np.abs(points - offsets).max(axis=0) / scales <= _INT32_REACH).all():
+        if not len(points) or (column_max(np.abs(points - offsets)) / scales <= _INT32_REACH).all():
             return scales, offsets
     offsets = np.asarray(offset, dtype=np.float64)
-    reach = np.abs(points - offsets).max(axis=0) if len(points) else np.zeros(3)
+    reach = column_max(np.abs(points - offsets)) if len(points) else np.zeros(3)
     scales = np.full(3, LAS_QUANTUM)
     while (reach / scales > _INT32_REACH).any():
         scales = np.where(reach / scales > _INT32_REACH, scales * 10, scales)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..bounds import column_max, column_min
 from ..filter import Neighbourhoods, mahalanobis_distance
 from ..rectangle import hull_2d
 from ..sampling import coordinate_hash
@@ -59,7 +60,8 @@ class VoxelTable:
         order = np.argsort(codes)
         table = cls(float(edge), np.asarray(origin, dtype=np.float64), codes[order], order)
         if len(keys):
-            low, span = keys.min(axis=0), keys.max(axis=0) - keys.min(axis=0) + 1
+            low = column_min(keys)
+            span = column_max(keys) - low + 1
             if int(np.prod(span)) <= DENSE_LOOKUP:
                 table.low, table.span = low, span
                 table.dense = np.full(int(np.prod(span)), -1, dtype=np.int32)
@@ -179,7 +181,7 @@ def kept_bounds(chunk: Chunk, context) -> tuple[int, np.ndarray, np.ndarray]:
     local = local[decided]
     if not len(local):
         return 0, np.full(3, np.inf), np.full(3, -np.inf)
-    return len(local), local.min(axis=0), local.max(axis=0)
+    return len(local), column_min(local), column_max(local)
 
 
 @dataclass

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
 from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, check_las_header, las_crs, ply_vertices, read_cloud
@@ -148,8 +149,8 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                         normals.astype("<f8", copy=False).tofile(out_n)
                     spill.n_points += len(points)
                     if len(points):
-                        spill.lower = np.minimum(spill.lower, points.min(axis=0))
-                        spill.upper = np.maximum(spill.upper, points.max(axis=0))
+                        spill.lower = np.minimum(spill.lower, column_min(points))
+                        spill.upper = np.maximum(spill.upper, column_max(points))
                 if spill.n_points - start < 3:
                     held = spill.n_points - start
                     raise GeoStructureError(
