@@ -94,7 +94,8 @@ class Cloud:
     ) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = as_points(points)
-        finite = points[np.isfinite(points).all(axis=1)]  # readers report NaN/inf rows by count
+        # Readers report NaN/inf rows by count; the copy is made only when there are some.
+        finite = points if np.isfinite(points).all() else points[np.isfinite(points).all(axis=1)]
         offset = (column_min(finite) + column_max(finite)) / 2 if len(finite) else np.zeros(3)
         # Round the offset so it prints cleanly and survives float32 writers (E57, LAS scale).
         offset = np.round(offset, 0) + 0.0  # + 0.0 turns -0.0 into 0.0
