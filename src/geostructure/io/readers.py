@@ -94,14 +94,15 @@ def check_points(points: np.ndarray, path) -> None:
 def check_coordinates(points: np.ndarray, path, first: int = 0) -> None:
     """Refuse NaN/inf coordinates and ones beyond :data:`MAX_COORDINATE`; ``first`` is the
     number of the first of ``points`` in the file (a chunk's), for the message."""
-    bad = ~np.isfinite(points).all(axis=1)
-    if bad.any():
+    # Whole-array reductions first (contiguous, fast); the per-row ones only to name a row.
+    if not np.isfinite(points).all():
+        bad = ~np.isfinite(points).all(axis=1)
         row = first + int(np.flatnonzero(bad)[0])
         raise GeoStructureError(
             f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {row})."
         )
-    far = np.abs(points).max(axis=1) > MAX_COORDINATE
-    if far.any():
+    if len(points) and float(np.abs(points).max()) > MAX_COORDINATE:
+        far = np.abs(points).max(axis=1) > MAX_COORDINATE
         row = first + int(np.flatnonzero(far)[0])
         raise GeoStructureError(
             f"{path}: point {row} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
