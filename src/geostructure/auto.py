@@ -18,9 +18,6 @@
    the noise, so regions stop there. The synthetic scenes accept any theta from 3 to 30;
    the paper's own cloud does not: with theta 18 (3 x its noise) its frame-fitted residual
    was 7.8 degrees, with 6 to 9 it is about 4, so theta is held to the paper's range.
-   On a cloud of more than :data:`NOISE_SAMPLE_POINTS` points, the voxels are fitted on a
-   sample of whole blocks of voxels (:class:`NoiseBlocks`), and the neighbour measures read
-   only in the blocks' inner voxels, whose neighbours are all in the sample.
 4. **k** stays at 8: the paper's optimum is 3 to 11, and the sweeps here show a plateau
    from 3 upward.
 """
@@ -35,8 +32,8 @@ from scipy.spatial import cKDTree
 
 from .bounds import column_max, column_min
 from .params import ParameterWarning, Params
-from .sampling import key_hash, order_free_sample
-from .voxel import accumulate_moments, fit_voxels, voxel_planes_from_moments
+from .sampling import order_free_sample
+from .voxel import accumulate_moments, fit_voxels
 
 #: Points wanted in the typical voxel.
 TARGET_POINTS = 30
@@ -50,12 +47,6 @@ ZETA_RANGE = (0.004, 0.1)
 #: the longest extent, which keeps the voxel tables of any survey to about a million (a
 #: finer voxel is the user's to give, with --zeta).
 ZETA_FLOOR = 1e-3
-#: Above this many points, the noise is read on a sample of whole blocks of voxels of about
-#: this many points: at 8M points the two fits of the whole cloud took 7.6 of auto's 10 s.
-NOISE_SAMPLE_POINTS = 1_000_000
-#: The sampled blocks' edge, in voxels; the inner voxels, two or more from a block's faces,
-#: have their six nearest voxels in the block (on a surface they lie within 1.5 edges).
-NOISE_BLOCK_VOXELS = 16
 THETA_RANGE = (3.0, 8.0)  # the paper's optimum; wider merged too much on its own cloud
 PSI_RANGE = (0.02, 0.6)
 
@@ -110,7 +101,6 @@ class Occupancy:
     elsewhere (a streamed cloud's, chunk by chunk)."""
 
     def __init__(self, points: np.ndarray, sample: int, seed: int):
-        self.n_points = len(points)
         self.fraction = min(1.0, sample / len(points))
         self.sub = points if self.fraction == 1.0 else points[order_free_sample(points, int(sample), seed)]
         self.lower = column_min(points)
@@ -119,56 +109,13 @@ class Occupancy:
     @classmethod
     def of_sample(cls, sub: np.ndarray, n_points: int, lower, extent: float) -> "Occupancy":
         probe = cls.__new__(cls)
-        probe.sub, probe.fraction, probe.n_points = sub, min(1.0, len(sub) / n_points), int(n_points)
+        probe.sub, probe.fraction = sub, min(1.0, len(sub) / n_points)
         probe.lower, probe.extent = np.asarray(lower, dtype=np.float64), float(extent)
         return probe
 
     def at(self, zeta: float) -> float:
         moments, inverse = accumulate_moments(self.sub, zeta * self.extent, self.lower)
         return float(np.median(moments.count[inverse])) / self.fraction
-
-    def noise_blocks(self, zeta: float) -> NoiseBlocks:
-        """The blocks of voxels at ``zeta`` the noise is read on (all of them for a small cloud)."""
-        return NoiseBlocks(zeta * self.extent, self.lower, min(1.0, NOISE_SAMPLE_POINTS / max(self.n_points, 1)))
-
-
-@dataclass(frozen=True)
-class NoiseBlocks:
-    """A sample of whole cubes of :data:`NOISE_BLOCK_VOXELS` voxels of ``edge``, on the grid
-    anchored at ``lower``, each drawn with probability ``fraction`` by a hash of its key: the
-    same blocks for the same points in any order, in memory or chunk by chunk.
-
-    Examples
-    --------
-    >>> points = np.random.default_rng(0).random((100_000, 3)) * [100, 100, 1]
-    >>> blocks = NoiseBlocks(edge=1.0, lower=np.zeros(3), fraction=0.25)
-    >>> kept = blocks.keep(points)
-    >>> bool(0.1 < kept.mean() < 0.4), bool((blocks.keep(points[::-1]) == kept[::-1]).all())
-    (True, True)
-    """
-
-    edge: float
-    lower: np.ndarray
-    fraction: float
-
-    @property
-    def sampled(self) -> bool:
-        return self.fraction < 1.0
-
-    def keep(self, points: np.ndarray, chunk=None) -> np.ndarray:
-        """Which of ``points`` (local coordinates) lie in a sampled block; ``chunk`` is unused
-        (the streamed passes' filter interface)."""
-        if not self.sampled:
-            return np.ones(len(points), dtype=bool)
-        block = np.floor((points - self.lower) / (self.edge * NOISE_BLOCK_VOXELS)).astype(np.int64)
-        return key_hash(block) < np.uint64(self.fraction * 2.0**64)
-
-    def inner(self, keys: np.ndarray) -> np.ndarray:
-        """Which voxels (integer keys on the same grid) lie two or more voxels inside their block."""
-        if not self.sampled:
-            return np.ones(len(keys), dtype=bool)
-        within = np.asarray(keys) % NOISE_BLOCK_VOXELS
-        return np.all((within >= 2) & (within < NOISE_BLOCK_VOXELS - 2), axis=1)
 
 
 def choose_zeta(
@@ -192,25 +139,18 @@ def choose_zeta(
     return float(grid[-1]), occupancy
 
 
-def surface_noise(
-    points: np.ndarray, zeta: float, neighbours: int = 6, voxels=None, measured=None
-) -> tuple[float, float]:
+def surface_noise(points: np.ndarray, zeta: float, neighbours: int = 6, voxels=None) -> tuple[float, float]:
     """Median angle (deg) between neighbouring voxel normals and median neighbour offset (voxel
-    edges); ``voxels`` (fitted at ``zeta`` with any planarity) saves fitting them again, and
-    ``measured`` (V,) limits the medians to those voxels' neighbourhoods."""
+    edges); ``voxels`` (fitted at ``zeta`` with any planarity) saves fitting them again."""
     if voxels is None:
         voxels = fit_voxels(points, zeta, max_curvature=1 / 3)
     if len(voxels) < neighbours + 1:
         return 5.0, 0.1
-    at = np.arange(len(voxels)) if measured is None else np.flatnonzero(measured)
-    if not len(at):
-        at = np.arange(len(voxels))
-    _, idx = cKDTree(voxels.centroid).query(voxels.centroid[at], k=neighbours + 1, workers=-1)
+    _, idx = cKDTree(voxels.centroid).query(voxels.centroid, k=neighbours + 1, workers=-1)
     idx = idx[:, 1:]
-    normal, centroid = voxels.normal[at], voxels.centroid[at]
-    cos = np.abs(np.einsum("ij,ikj->ik", normal, voxels.normal[idx]))
+    cos = np.abs(np.einsum("ij,ikj->ik", voxels.normal, voxels.normal[idx]))
     angle = np.degrees(np.arccos(np.clip(cos, 0, 1)))
-    offset = np.abs(np.einsum("ikj,ij->ik", voxels.centroid[idx] - centroid[:, None, :], normal))
+    offset = np.abs(np.einsum("ikj,ij->ik", voxels.centroid[idx] - voxels.centroid[:, None, :], voxels.normal))
     return float(np.median(angle)), float(np.median(offset) / voxels.edge)
 
 
@@ -236,30 +176,26 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     >>> 0.001 <= choice.params.zeta <= 0.1 and choice.params.k
     8
     """
-    probe = Occupancy(points, SAMPLE_POINTS, 0)
-
-    def fit(blocks: NoiseBlocks):
-        moments, _ = accumulate_moments(points[blocks.keep(points)], blocks.edge, blocks.lower)
-        return voxel_planes_from_moments(moments, 5, 1 / 3)[0]
-
-    return choose_from(probe, fit, base)
+    return choose_from(
+        Occupancy(points, SAMPLE_POINTS, 0),
+        lambda zeta: fit_voxels(points, zeta, max_curvature=1 / 3),
+        base,
+    )
 
 
 def choose_from(probe: Occupancy, fit, base: Params = Params()) -> AutoChoice:
-    """:func:`choose_params` from an occupancy probe of the cloud and ``fit(blocks)``, the
-    voxel planes (any planarity) of the points in :class:`NoiseBlocks` ``blocks``: how a
-    streamed cloud, never in memory at once, is given the same choice."""
+    """:func:`choose_params` from an occupancy probe of the cloud and ``fit(zeta)``, its
+    voxel planes at ``zeta`` with any planarity: how a streamed cloud, never in memory
+    at once, is given the same choice."""
     density_zeta, occupancy = choose_zeta(None, probe=probe)
-    blocks = probe.noise_blocks(density_zeta)
-    voxels = fit(blocks)
+    voxels = fit(density_zeta)
     sigma = float(np.median(voxels.residual)) if len(voxels) else 0.0  # no voxel plane: no noise to read
     extent = probe.extent
     zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), ZETA_FLOOR, ZETA_RANGE[1]))
     if zeta != density_zeta:  # noise made the voxels coarser: measure the noise at that size
         occupancy = probe.at(zeta)
-        blocks = probe.noise_blocks(zeta)
-        voxels = fit(blocks)
-    angle, offset = surface_noise(None, zeta, voxels=voxels, measured=blocks.inner(voxels.keys))
+        voxels = fit(zeta)
+    angle, offset = surface_noise(None, zeta, voxels=voxels)
     theta = float(np.clip(1.5 * angle, *THETA_RANGE))
     psi = float(np.clip(3.0 * offset, *PSI_RANGE))
     with warnings.catch_warnings():

@@ -233,11 +233,11 @@ class _Run:
         order = np.argsort(sample[0], kind="stable")
         probe = Occupancy.of_sample(sample[1][order], self.spill.n_points, self.lower, self.extent)
 
-        def fit(blocks):
+        def fit(zeta: float):
             if fits:  # a second fit: noise made the voxels coarser
                 self.total_work += len(self.chunks)
-            fits.append(blocks.edge)
-            moments = self.moments(blocks.edge, self.lower, blocks if blocks.sampled else None)
+            fits.append(zeta)
+            moments = self.moments(zeta * self.extent, self.lower)
             return voxel_planes_from_moments(moments, 5, 1 / 3)[0]
 
         choice = choose_from(probe, fit, self.params)
