@@ -248,8 +248,10 @@ def _block_sampled_r8(points: np.ndarray, sample: int, seed: int) -> float | Non
     / 4 points, from probes at least twice the median r_8 inside their block. Their 8 nearest
     neighbours are then the whole cloud's, unless farther than that (the sparsest tail, which
     does not move the median). None when too few probes are that far inside."""
-    lower = column_min(points)
-    edge = float((column_max(points) - lower).max()) / SPACING_BLOCKS_ACROSS
+    # Blocks start half a block below the cloud's corner, so that surfaces at its bounds (the
+    # ground, at the lowest points) lie mid-block, not along a face where no probe counts.
+    edge = float((column_max(points) - column_min(points)).max()) / SPACING_BLOCKS_ACROSS
+    lower = column_min(points) - edge / 2
     block = np.floor((points - lower) / edge).astype(np.int64)
     fraction = SPACING_TREE_POINTS / 4 / len(points)
     chosen = np.flatnonzero(key_hash(block, seed) < np.uint64(fraction * 2.0**64))
@@ -369,14 +371,16 @@ def sampled_edge(points: np.ndarray, edge: float, seed: int = 0) -> float:
     all there."""
     lower = column_min(points)
     block_edge = edge * 2**COARSENING_ROUNDS * SCATTER_BLOCK_CELLS  # a power of two: cells nest exactly
-    block = np.floor((points - lower) / block_edge).astype(np.int64)
+    # Half a block below the corner (a whole number of the coarsest cells): surfaces at the
+    # cloud's bounds (its ground) lie mid-block, not in the face layers no cell is drawn from.
+    block = np.floor((points - lower) / block_edge + 0.5).astype(np.int64)
     fraction = SCATTER_SAMPLE_POINTS / len(points)
     grid = CellGrid.of(points[key_hash(block, seed) < np.uint64(fraction * 2.0**64)], edge, lower)
     for level in range(COARSENING_ROUNDS):
         if len(grid) / fraction < 100:
             break
         across = SCATTER_BLOCK_CELLS * 2 ** (COARSENING_ROUNDS - level)  # this grid's cells a block
-        within = (grid.cell_key - 1) % across
+        within = (grid.cell_key - 1 + across // 2) % across
         inner = np.flatnonzero(np.all((within >= 1) & (within <= across - 4), axis=1))  # block to +3
         if sampled_far_scatter(grid, SCATTER_SAMPLE_CELLS, seed, among=inner) <= MAX_CELL_SCATTER:
             break
