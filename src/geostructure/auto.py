@@ -25,7 +25,7 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -33,7 +33,7 @@ from scipy.spatial import cKDTree
 from .bounds import column_max, column_min
 from .params import ParameterWarning, Params
 from .sampling import order_free_sample
-from .voxel import accumulate_moments, fit_voxels
+from .voxel import CloudMoments, accumulate_moments, fit_voxels, voxel_planes_from_moments
 
 #: Points wanted in the typical voxel.
 TARGET_POINTS = 30
@@ -59,6 +59,8 @@ class AutoChoice:
     points_per_voxel: float
     normal_noise_deg: float
     offset_noise: float  # voxel edges
+    #: the whole cloud's voxel moments at the chosen zeta (in memory; None when streamed)
+    moments: CloudMoments | None = field(default=None, repr=False, compare=False)
 
     def to_dict(self, overridden=()) -> dict:
         """The choice as ``run.json`` records it; ``overridden`` names factors the user gave.
@@ -176,11 +178,27 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     >>> 0.001 <= choice.params.zeta <= 0.1 and choice.params.k
     8
     """
-    return choose_from(
-        Occupancy(points, SAMPLE_POINTS, 0),
-        lambda zeta: fit_voxels(points, zeta, max_curvature=1 / 3),
-        base,
-    )
+    probe = Occupancy(points, SAMPLE_POINTS, 0)
+    last = []
+
+    def fit(zeta: float):  # fit_voxels' grid, its moments kept for the filter
+        moments, inverse = accumulate_moments(points, zeta * probe.extent, probe.lower)
+        last[:] = [CloudMoments(moments, inverse)]
+        return voxel_planes_from_moments(moments, 5, 1 / 3)[0]
+
+    choice = choose_from(probe, fit, base)
+    return replace(choice, moments=last[0] if last else None)
+
+
+def rounded_zeta(zeta: float) -> float:
+    """Zeta as chosen: five decimals, or three significant digits below 0.001.
+
+    Examples
+    --------
+    >>> rounded_zeta(0.0123456), rounded_zeta(0.000123456)
+    (0.01235, 0.000123)
+    """
+    return round(zeta, 5) if zeta >= 1e-3 else float(f"{zeta:.3g}")
 
 
 def choose_from(probe: Occupancy, fit, base: Params = Params()) -> AutoChoice:
@@ -188,10 +206,13 @@ def choose_from(probe: Occupancy, fit, base: Params = Params()) -> AutoChoice:
     voxel planes at ``zeta`` with any planarity: how a streamed cloud, never in memory
     at once, is given the same choice."""
     density_zeta, occupancy = choose_zeta(None, probe=probe)
+    # Fitted at the zeta the parameters will carry, so the last fit's grid is the filter's.
+    density_zeta = rounded_zeta(density_zeta)
     voxels = fit(density_zeta)
     sigma = float(np.median(voxels.residual)) if len(voxels) else 0.0  # no voxel plane: no noise to read
     extent = probe.extent
     zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), ZETA_FLOOR, ZETA_RANGE[1]))
+    zeta = rounded_zeta(zeta)
     if zeta != density_zeta:  # noise made the voxels coarser: measure the noise at that size
         occupancy = probe.at(zeta)
         voxels = fit(zeta)
@@ -200,7 +221,5 @@ def choose_from(probe: Occupancy, fit, base: Params = Params()) -> AutoChoice:
     psi = float(np.clip(3.0 * offset, *PSI_RANGE))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ParameterWarning)  # a sparse cloud may need zeta past 0.07
-        params = base.with_(
-            zeta=round(zeta, 5) if zeta >= 1e-3 else float(f"{zeta:.3g}"), theta=round(theta, 2), psi=round(psi, 3), k=8
-        )
+        params = base.with_(zeta=zeta, theta=round(theta, 2), psi=round(psi, 3), k=8)
     return AutoChoice(params, occupancy, angle, offset)

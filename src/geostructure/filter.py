@@ -69,7 +69,9 @@ def global_filter(points: np.ndarray, threshold: float = 3.0) -> FilterResult:
 MIN_COVARIANCE_POINTS = 10
 
 
-def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, isolation: float = 0.1) -> FilterResult:
+def local_filter(
+    points: np.ndarray, edge: float, threshold: float = 3.0, isolation: float = 0.1, moments=None
+) -> FilterResult:
     """Drop points more than ``threshold`` std from their neighbourhood, or with no neighbourhood.
 
     Parameters
@@ -82,8 +84,15 @@ def local_filter(points: np.ndarray, edge: float, threshold: float = 3.0, isolat
     isolation : float
         A block holding fewer than this fraction of the median point's block count (and
         fewer than 10) is isolated: its points are dropped.
+    moments : :class:`~.voxel.CloudMoments`, optional
+        The points' voxel moments, already summed (by the automatic choice); used when they
+        are on this grid, summed here otherwise.
     """
-    moments, inverse = accumulate_moments(points, edge, column_min(points))
+    origin = column_min(points)
+    if moments is not None and moments.on_grid(edge, origin):
+        moments, inverse = moments.moments, moments.inverse
+    else:
+        moments, inverse = accumulate_moments(points, edge, origin)
     blocks = neighbourhoods(moments)
     keep, distance = blocks.judge(points, inverse, blocks.typical_support(), threshold, isolation)
     return FilterResult(keep, distance, "local", threshold)
@@ -178,11 +187,12 @@ def _block_sums(keys, count, sums, products, edge):
 
 
 def filter_outliers(
-    points: np.ndarray, method: str = "local", *, edge: float | None = None, threshold: float = 3.0
+    points: np.ndarray, method: str = "local", *, edge: float | None = None, threshold: float = 3.0, moments=None
 ) -> FilterResult:
-    """Run the chosen filter; ``none`` keeps everything."""
+    """Run the chosen filter; ``none`` keeps everything; ``moments`` (the local filter's, on
+    its grid) saves summing them again."""
     if method == "global":
         return global_filter(points, threshold)
     if method == "local":
-        return local_filter(points, edge, threshold)
+        return local_filter(points, edge, threshold, moments=moments)
     return FilterResult(np.ones(len(points), bool), np.zeros(len(points)), "none", threshold)

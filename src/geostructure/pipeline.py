@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bounds import column_max, column_min
 from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
 from .facets import detect_facets, voxel_majority
@@ -108,8 +109,8 @@ def check_measurable(cloud: Cloud) -> None:
             f"measure needs a Cloud (Cloud.from_points(array) for an (N, 3) array, or "
             f"read_cloud(path)), not {type(cloud).__name__}."
         )
-    bad = ~np.isfinite(cloud.local).all(axis=1)
-    if bad.any():
+    if not np.isfinite(cloud.local).all():  # whole-array first (fast); per row only to name one
+        bad = ~np.isfinite(cloud.local).all(axis=1)
         raise InputError(
             f"{cloud.source}: {int(bad.sum())} point(s) have NaN or infinite coordinates "
             f"(the first is point {int(np.flatnonzero(bad)[0])})."
@@ -121,7 +122,7 @@ def check_measurable(cloud: Cloud) -> None:
             f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
             f"no survey uses; the data may be damaged."
         )
-    extent = np.ptp(cloud.local, axis=0)
+    extent = column_max(cloud.local) - column_min(cloud.local)
     if extent.max() <= 0:
         raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
     if (
@@ -133,7 +134,7 @@ def check_measurable(cloud: Cloud) -> None:
         raise GeoStructureError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
 
 
-def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None) -> Result:
+def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None, *, moments=None) -> Result:
     """Find the planar regions of a cloud and measure their strike, dip and dip direction.
 
     Parameters
@@ -144,6 +145,9 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         Which way east, north and up point in the cloud.
     progress : callable, optional
         ``progress(stage, done, total)``, called as the work goes on.
+    moments : :class:`~.voxel.CloudMoments`, optional
+        The cloud's voxel moments at ``params.zeta``, as :func:`~.auto.choose_params`
+        keeps them (``AutoChoice.moments``): the local filter then does not sum them again.
 
     Examples
     --------
@@ -159,7 +163,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
 
     with _stage(seconds, "filter", report):
         edge = voxel_edge(cloud.local, params.zeta)
-        filt = filter_outliers(cloud.local, params.filter, edge=edge, threshold=params.filter_sigma)
+        filt = filter_outliers(cloud.local, params.filter, edge=edge, threshold=params.filter_sigma, moments=moments)
         filtered = cloud.subset(filt.keep)
         counts["filtered"] = len(filtered)
     if len(filtered) < 3:

@@ -35,6 +35,20 @@ class VoxelMoments:
     origin: np.ndarray
 
 
+@dataclass(frozen=True)
+class CloudMoments:
+    """A whole cloud's voxel moments and each point's voxel (``inverse``, (N,)), kept by the
+    automatic choice at the zeta it chose so that the local filter, on the same grid, does
+    not sum them again (2.3 s at 8M points)."""
+
+    moments: VoxelMoments
+    inverse: np.ndarray
+
+    def on_grid(self, edge: float, origin) -> bool:
+        """Whether these are the moments of the grid of ``edge`` anchored at ``origin``."""
+        return self.moments.edge == edge and bool(np.array_equal(self.moments.origin, origin))
+
+
 @dataclass
 class VoxelPlanes:
     """The fitted voxel planes (only voxels with enough points and a planar fit).

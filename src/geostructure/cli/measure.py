@@ -157,9 +157,10 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
     with StageProgress(enabled=not args.quiet) as progress:
         t = time.perf_counter()
         progress("auto", 0, None)
-        params, auto = params_from(args, cloud)
+        params, auto, moments = params_from(args, cloud)
         auto_seconds = time.perf_counter() - t
-        result = measure(cloud, params, frame, progress)
+        result = measure(cloud, params, frame, progress, moments=moments)
+        del moments
         result.seconds = {**seconds, "auto": auto_seconds, **result.seconds}
         evaluation = evaluate(result.planes, truth) if truth is not None else None
         sets = rock = None
@@ -229,9 +230,9 @@ def run_demo(args) -> int:
     scene = observatory_scene(args.points, seed=args.seed)
     if crs is not None:  # a made-up scene placed where the user says, to try the GIS files
         scene.cloud = dataclasses.replace(scene.cloud, crs=crs)
-    params, auto = params_from(args, scene.cloud)
+    params, auto, moments = params_from(args, scene.cloud)
     with StageProgress(enabled=not args.quiet) as progress:
-        result = measure(scene.cloud, params, frame, progress)
+        result = measure(scene.cloud, params, frame, progress, moments=moments)
         match = match_scene(result, scene)
         progress("write", 0, None)
         paths = save_measurement(
@@ -274,7 +275,7 @@ def run_sweep(args) -> int:
             raise GeoStructureError("sweep needs INPUT and --truth TRUTH.csv, or --demo.")
         truth = read_truth(args.truth, frame)
         cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
-    base, _ = params_from(args, cloud)
+    base, _, _ = params_from(args, cloud)
     t = time.perf_counter()
     with StageProgress(enabled=not args.quiet) as progress:
         rows = sweep(cloud, truth, frame, factors, base, ranges=ranges, workers=args.workers, progress=progress)

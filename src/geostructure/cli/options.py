@@ -289,21 +289,23 @@ def base_params(args) -> Params:
     )
 
 
-def params_from(args, cloud=None) -> tuple[Params, dict | None]:
+def params_from(args, cloud=None) -> tuple[Params, dict | None, object]:
     """Parameters from the options; with --auto (and a cloud), chosen from the cloud first.
 
-    Returns the parameters and, for --auto, a record of the choice for run.json.
+    Returns the parameters, for --auto a record of the choice for run.json, and the cloud's
+    voxel moments the choice summed (:class:`~geostructure.voxel.CloudMoments`, for
+    ``measure(..., moments=)``; None without --auto).
     """
     given = given_factors(args)
     base = base_params(args)
     if not (args.auto and cloud is not None) or len(given) == len(FACTOR_OPTIONS):
-        return base, None
+        return base, None, None
     check_measurable(cloud)
     choice = choose_params(cloud.local, base)
     params = choice.params.with_(**given) if given else choice.params
     if not args.quiet:
         print(f"geostructure: {choice.describe()}" + (f"; given: {given}" if given else ""), file=sys.stderr)
-    return params, choice.to_dict(given)
+    return params, choice.to_dict(given), choice.moments
 
 
 def frame_from(args) -> Frame:

@@ -199,6 +199,7 @@ class _Run:
         # The passes: the filter's moments and decisions, the fit, the labels, the errors
         # (the automatic choice adds its own as it goes).
         self.total_work = len(self.chunks) * 5
+        self.auto_moments = None  # the automatic choice's last fit: the local filter's moments
 
     def _step(self) -> None:
         self.done += 1
@@ -238,6 +239,7 @@ class _Run:
                 self.total_work += len(self.chunks)
             fits.append(zeta)
             moments = self.moments(zeta * self.extent, self.lower)
+            self.auto_moments = moments  # the last fit is on the chosen zeta's grid
             return voxel_planes_from_moments(moments, 5, 1 / 3)[0]
 
         choice = choose_from(probe, fit, self.params)
@@ -249,7 +251,12 @@ class _Run:
         context = passes.FilterContext(method, params.filter_sigma)
         if method == "local":
             edge = params.zeta * self.extent
-            moments = self.moments(edge, self.lower)
+            reuse = self.auto_moments
+            if reuse is not None and reuse.edge == edge:  # no pass: the choice summed them
+                moments = reuse
+                self.total_work -= len(self.chunks)
+            else:
+                moments = self.moments(edge, self.lower)
             context.blocks = neighbourhoods(moments)
             context.typical = context.blocks.typical_support()
             context.table = passes.VoxelTable.of(moments.keys, edge, self.lower)
