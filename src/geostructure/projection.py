@@ -123,3 +123,31 @@ def pole_density(dip_direction, dip, gridsize: int = 81, sigma: float = 3.0, wei
     inside = gx**2 + gy**2 <= 1
     density[inside] = griddata((sx, sy), counts.ravel(), (gx[inside], gy[inside]), method="linear")
     return x, y, density
+
+
+#: Planes gentler than this (degrees) are left out of a rose diagram of strikes: a flat
+#: plane's strike is set by its noise, and a level ground's fragments would fill every petal.
+ROSE_MIN_DIP = 10.0
+
+
+def rose_counts(strike, dip, bin_width: float = 10.0, min_dip: float = ROSE_MIN_DIP):
+    """Bin edges (degrees), counts per bin, and the number of planes counted, for a rose
+    diagram of the strikes of the planes dipping ``min_dip`` or more. Each strike counts both
+    ways (a strike is a line, not a direction).
+
+    Examples
+    --------
+    >>> edges, counts, n = rose_counts([10.0, 95.0, 40.0], [60.0, 70.0, 2.0], bin_width=90.0)
+    >>> counts.tolist(), n  # the 2-degree plane is left out
+    ([1, 1, 1, 1], 2)
+    """
+    strike, dip = np.asarray(strike, dtype=np.float64), np.asarray(dip, dtype=np.float64)
+    used = strike[dip >= min_dip]
+    edges = np.arange(0.0, 360.0 + bin_width, bin_width)
+    counts, _ = np.histogram(np.concatenate([used, (used + 180.0) % 360.0]), edges)
+    return edges, counts, len(used)
+
+
+def rose_title(n_planes: int, min_dip: float = ROSE_MIN_DIP) -> str:
+    """The rose diagram's title: what it counts."""
+    return f"Strikes of {n_planes} planes dipping {min_dip:g}° or more (rose diagram)"

@@ -315,7 +315,7 @@ def stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> di
     sets = read_sets(source) if "set" in planes.extra else []
     labels = planes.extra.get("set")
     save(stereonet_figure(planes.strike, planes.dip, set_labels=labels, sets=sets)[0], outputs.staging / "stereonet")
-    save(rose_figure(planes.strike)[0], outputs.staging / "rose", formats=("png",))
+    save(rose_figure(planes.strike, planes.dip)[0], outputs.staging / "rose", formats=("png",))
     return {
         "report": outputs.final("report.html"),
         "stereonet_png": outputs.final("stereonet.png"),

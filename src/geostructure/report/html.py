@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path, plain
-from ..projection import great_circle_xy, pole_density, pole_xy, small_circle_xy
+from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title, small_circle_xy
 from ..reconstruct.georef import describe_georeference
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -231,10 +231,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
 def figure_rose(scene: ReportScene, bin_width: float = 10.0) -> dict:
     import plotly.graph_objects as go
 
-    strike = scene.planes.strike
-    both = np.concatenate([strike, (strike + 180) % 360])
-    edges = np.arange(0, 360 + bin_width, bin_width)
-    counts, _ = np.histogram(both, edges)
+    edges, counts, n_used = rose_counts(scene.planes.strike, scene.planes.dip, bin_width)
     fig = go.Figure(
         go.Barpolar(
             r=counts,
@@ -251,7 +248,7 @@ def figure_rose(scene: ReportScene, bin_width: float = 10.0) -> dict:
         showlegend=False,
         height=340,
         margin=dict(l=30, r=30, t=40, b=20),
-        title=dict(text="Strikes (rose diagram)", font=dict(size=13)),
+        title=dict(text=rose_title(n_used), font=dict(size=13)),
     )
     return figure_json(fig)
 

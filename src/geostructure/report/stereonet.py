@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import write_figure
-from ..projection import quiet_mplstereonet
+from ..projection import quiet_mplstereonet, rose_counts, rose_title
 from .view3d import NO_SET_COLOR, set_color
 
 
@@ -46,19 +46,18 @@ def stereonet_figure(strike, dip, *, title: str = "", set_labels=None, sets=()):
     return fig, ax
 
 
-def rose_figure(strike, *, bin_width: float = 10.0):
-    """Rose diagram of strikes, drawn both ways (a strike is a line, not a direction)."""
+def rose_figure(strike, dip, *, bin_width: float = 10.0):
+    """Rose diagram of the strikes of the planes steep enough to have one
+    (:func:`~geostructure.projection.rose_counts`), drawn both ways."""
     from matplotlib.figure import Figure
 
-    both = np.concatenate([np.asarray(strike, float), (np.asarray(strike, float) + 180) % 360])
-    edges = np.arange(0, 360 + bin_width, bin_width)
-    counts, _ = np.histogram(both, edges)
+    edges, counts, n_used = rose_counts(strike, dip, bin_width)
     fig = Figure(figsize=(5, 5))
     ax = fig.add_subplot(111, projection="polar")
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
     ax.bar(np.radians(edges[:-1] + bin_width / 2), counts, width=np.radians(bin_width), edgecolor="k", alpha=0.7)
-    ax.set_title("Strikes (rose diagram)", y=1.08)
+    ax.set_title(rose_title(n_used), y=1.08)
     return fig, ax
 
 
