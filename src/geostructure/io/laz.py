@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import column_max
+from ..bounds import column_max, column_min
 from ..planes import plane_rows
 from .atomic import atomic_path
 from .gis import parse_crs
@@ -47,12 +47,19 @@ def las_grid(points: np.ndarray, offset, grid=None) -> tuple[np.ndarray, np.ndar
     ([0.0001, 0.0001, 0.0001], [500000.0, 4600000.0, 10.0])
     """
     points = np.asarray(points, dtype=np.float64)
+    # The farthest point from the offset, from the bounds alone (fl(p - o) rises with p, so
+    # this is max |p - o| exactly), without two temporaries the size of the cloud.
+    lower, upper = (column_min(points), column_max(points)) if len(points) else (np.zeros(3), np.zeros(3))
+
+    def reach_from(offsets):
+        return np.maximum(upper - offsets, offsets - lower) if len(points) else np.zeros(3)
+
     if grid is not None:
         scales, offsets = (np.asarray(g, dtype=np.float64) for g in grid)
-        if not len(points) or (column_max(np.abs(points - offsets)) / scales <= _INT32_REACH).all():
+        if not len(points) or (reach_from(offsets) / scales <= _INT32_REACH).all():
             return scales, offsets
     offsets = np.asarray(offset, dtype=np.float64)
-    reach = column_max(np.abs(points - offsets)) if len(points) else np.zeros(3)
+    reach = reach_from(offsets)
     scales = np.full(3, LAS_QUANTUM)
     while (reach / scales > _INT32_REACH).any():
         scales = np.where(reach / scales > _INT32_REACH, scales * 10, scales)
