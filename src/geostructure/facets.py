@@ -45,7 +45,7 @@ from .cells import (
     sampled_far_scatter,
     with_sparse_cells_filled,
 )
-from .sampling import key_hash, order_free_sample
+from .sampling import order_free_sample, sampled_blocks
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")
@@ -258,14 +258,11 @@ def _block_sampled_r8(points: np.ndarray, sample: int, seed: int) -> float | Non
     # ground, at the lowest points) lie mid-block, not along a face where no probe counts.
     edge = float((column_max(points) - column_min(points)).max()) / SPACING_BLOCKS_ACROSS
     lower = column_min(points) - edge / 2
-    block = np.floor((points - lower) / edge).astype(np.int64)
-    fraction = SPACING_TREE_POINTS / 4 / len(points)
-    chosen = np.flatnonzero(key_hash(block, seed) < np.uint64(fraction * 2.0**64))
-    sub = points[chosen]
+    sub = points[sampled_blocks(points, lower, edge, SPACING_TREE_POINTS / 4 / len(points), seed)]
     probe = order_free_sample(sub, min(4 * sample, len(sub)), seed)
     tree = cKDTree(sub, balanced_tree=False, compact_nodes=False)
     r8 = tree.query(sub[probe], k=9, workers=-1)[0][:, -1]
-    within = sub[probe] - (lower + block[chosen[probe]] * edge)
+    within = sub[probe] - (lower + np.floor((sub[probe] - lower) / edge) * edge)
     room = np.minimum(within.min(axis=1), (edge - within).min(axis=1))
     inside = room >= 2.0 * np.median(r8)  # chosen by position alone: no bias to dense or sparse
     return float(np.median(r8[inside])) if inside.sum() >= sample // 4 else None
@@ -379,9 +376,8 @@ def sampled_edge(points: np.ndarray, edge: float, seed: int = 0) -> float:
     block_edge = edge * 2**COARSENING_ROUNDS * SCATTER_BLOCK_CELLS  # a power of two: cells nest exactly
     # Half a block below the corner (a whole number of the coarsest cells): surfaces at the
     # cloud's bounds (its ground) lie mid-block, not in the face layers no cell is drawn from.
-    block = np.floor((points - lower) / block_edge + 0.5).astype(np.int64)
     fraction = SCATTER_SAMPLE_POINTS / len(points)
-    grid = CellGrid.of(points[key_hash(block, seed) < np.uint64(fraction * 2.0**64)], edge, lower)
+    grid = CellGrid.of(points[sampled_blocks(points, lower, block_edge, fraction, seed, shift=0.5)], edge, lower)
     for level in range(COARSENING_ROUNDS):
         if len(grid) / fraction < 100:
             break

@@ -58,6 +58,22 @@ def key_hash(keys: np.ndarray, seed: int = 0) -> np.ndarray:
     return h
 
 
+def sampled_blocks(points: np.ndarray, lower, edge: float, fraction: float, seed: int = 0, shift: float = 0.0):
+    """Which of ``points`` lie in the cubes of ``edge`` (anchored at ``lower``, moved back by
+    ``shift`` of a cube) drawn by their key's hash with probability ``fraction``: a spatial
+    sample of whole blocks, the same for the same points in any order.
+
+    Examples
+    --------
+    >>> points = np.random.default_rng(0).random((20_000, 3)) * [100, 100, 1]
+    >>> kept = sampled_blocks(points, np.zeros(3), 5.0, 0.25)
+    >>> bool(0.1 < kept.mean() < 0.4), bool((sampled_blocks(points[::-1], np.zeros(3), 5.0, 0.25) == kept[::-1]).all())
+    (True, True)
+    """
+    block = np.floor((points - lower) / edge + shift).astype(np.int64)
+    return key_hash(block, seed) < np.uint64(min(fraction, 1.0 - 2.0**-53) * 2.0**64)
+
+
 def order_free_sample(points: np.ndarray, n: int, seed: int = 0) -> np.ndarray:
     """Indices of ``n`` points chosen by their coordinates' hash, in the order of the hash:
     the same points, in the same order, however the cloud's rows are arranged.
