@@ -200,7 +200,6 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
     adjacency = csr_matrix(
         (np.ones(len(columns_of)), columns_of, np.arange(0, len(columns_of) + 1, 27)), shape=(n_cells, n_cells + 1)
     )
-    values, normal, mean, defined = block_fit(adjacency @ grid.moments)
     count = grid.moments[:n_cells, 0]
     return CellPlanes(
         edge=grid.edge,
@@ -208,13 +207,22 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
         corner=grid.lower + (grid.cell_key - 1) * grid.edge,
         count=count,
         centroid=grid.moments[:n_cells, 1:4] / count[:, None] + grid.centre,
-        normal=normal,
-        block_centroid=grid.centre + mean,
-        variation=values[:, 0] / np.maximum(values.sum(axis=1), 1e-300),
-        residual=np.sqrt(values[:, 0]),
-        defined=defined,
         neighbour=neighbour,
+        **block_planes(grid, adjacency @ grid.moments),
     )
+
+
+def block_planes(grid: CellGrid, block: np.ndarray) -> dict:
+    """The :class:`CellPlanes` fields of blocks' planes from their summed moments (B, 10):
+    ``normal``, ``block_centroid``, ``variation``, ``residual`` and ``defined``."""
+    values, normal, mean, defined = block_fit(block)
+    return {
+        "normal": normal,
+        "block_centroid": grid.centre + mean,
+        "variation": values[:, 0] / np.maximum(values.sum(axis=1), 1e-300),
+        "residual": np.sqrt(values[:, 0]),
+        "defined": defined,
+    }
 
 
 def smallest_eigenpair(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -342,19 +350,12 @@ def with_sparse_cells_filled(cells: CellPlanes, grid: CellGrid) -> CellPlanes:
     # Only the sparse cells' parents' blocks: at 8M points fitting the whole coarse grid took
     # 0.5 s for the few per cent of cells that need it.
     parents, source = np.unique(parent[sparse], return_inverse=True)
-    values, normal, mean, defined = block_fit(block_moments(coarse, parents))
-    take = defined[source]
+    wider = block_planes(coarse, block_moments(coarse, parents))
+    take = wider["defined"][source]
     if not take.any():
         return cells
     source, take = source[take], sparse[take]
-    wider = {
-        "normal": normal,
-        "block_centroid": coarse.centre + mean,
-        "variation": values[:, 0] / np.maximum(values.sum(axis=1), 1e-300),
-        "residual": np.sqrt(values[:, 0]),
-        "defined": defined,
-    }
     filled = {name: getattr(cells, name).copy() for name in wider}
-    for name, values_of in filled.items():
-        values_of[take] = wider[name][source]
+    for name, values in filled.items():
+        values[take] = wider[name][source]
     return replace(cells, **filled)
