@@ -48,17 +48,10 @@ def test_spacing_on_a_lidar_like_face_at_utm_offset():
     scene = lidar_outcrop(8.0, 5.0)
     _, sets, rock, truth = measured(scene)
     assert len(sets) == 3 and sorted(truth) == [0, 1, 2]
-    ratio = rock.spacing / scene.set_spacing[truth]
-    assert (ratio > 0.6).all() and (ratio < 1.4).all()
-    within = np.allclose(rock.spacing, scene.set_spacing[truth], rtol=0.15) and np.allclose(
-        rock.p32_from_p10, scene.set_p32[truth], rtol=0.20
-    )
-    if not within:
-        # Known (2026-12-02): on this face one set's joints are split in two a few cm apart,
-        # and its spacing swings from 0.68 to 0.96 of the truth as the point spacing the
-        # detector reads moves by 0.2%. It passed before only for the sample it happened
-        # to draw. Open in issue "Rock mass".
-        pytest.xfail(f"spacing / truth = {np.round(ratio, 2).tolist()}: a set's joints split (known)")
+    # Each set's joints match its generated planes one to one (a facet ten degrees off its
+    # joint, or one near where two joints of a set cross, once split a joint: 0.68 of the truth)
+    np.testing.assert_allclose(rock.spacing, scene.set_spacing[truth], rtol=0.15)
+    np.testing.assert_allclose(rock.p32_from_p10, scene.set_p32[truth], rtol=0.20)
 
 
 def test_spacing_of_parallel_joints_on_a_clean_face():

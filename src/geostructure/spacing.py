@@ -41,6 +41,9 @@ MIN_EXTRAPOLATION_ANGLE = 0.75
 #: ... and when its normal is within this angle (degrees) of the joint's: the normal of a
 #: facet of 30 points can be a few degrees off.
 SAME_JOINT_ANGLE = 8.0
+#: A facet whose points lie on a joint's plane joins it when its normal is within this
+#: angle (degrees) of the joint's, however far the angle of its own fit.
+ON_PLANE_ANGLE = 20.0
 #: Crossings of one line nearer than this (m, normal distance) are one joint split in two.
 CROSSING_TOLERANCE = 0.005
 #: Scanlines meet a set too obliquely below this cosine between line and mean normal.
@@ -84,11 +87,14 @@ def _pooled_plane(moments: PlaneMoments, members) -> tuple[np.ndarray, np.ndarra
 def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, offset: float | None = None):
     """Group the facets of one set into joints, largest facet first.
 
-    Each facet, in order of decreasing size, joins the largest joint whose plane passes
+    Each facet, in order of decreasing size, joins the joint whose plane passes
     within ``offset`` plus tan(tilt) times its distance from the joint's nearest facet of
     its centroid, tilt being the angle between the joint's normal and the facet's, within
-    :data:`MIN_EXTRAPOLATION_ANGLE` to :data:`EXTRAPOLATION_ANGLE`, and whose normal is within ``angle`` (degrees) of its
-    own; otherwise it starts a joint. A joint's plane is fitted to all its facets' points
+    :data:`MIN_EXTRAPOLATION_ANGLE` to :data:`EXTRAPOLATION_ANGLE`, and whose normal is
+    within ``angle`` (degrees) of its own, the one whose normal agrees best when several
+    do. Failing that, it joins a joint whose plane its points lie on (RMS distance at most
+    ``offset``, normal within :data:`ON_PLANE_ANGLE`): a small facet's fit on rough rock
+    can be ten degrees off. Otherwise it starts a joint. A joint's plane is fitted to all its facets' points
     at once (their moments pooled): several facets metres apart fix a plane far better than
     any one of them, whose normal may be a degree off. Grouping by growing joints rather than
     by linkage keeps two joints of a set apart where they cross. Returns each facet's joint
@@ -114,21 +120,36 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, 
     cos_angle, max_tilt = np.cos(np.radians(angle)), np.radians(EXTRAPOLATION_ANGLE)
     min_tilt = np.radians(MIN_EXTRAPOLATION_ANGLE)
     slope = np.tan(max_tilt)
+    cos_on_plane = np.cos(np.radians(ON_PLANE_ANGLE))
     for i in np.argsort(-moments.count, kind="stable"):
         best = -1
         if members:
             jn, jp = np.array(plane_normal), np.array(plane_point)
             off_plane = np.abs(np.einsum("ij,ij->i", jn, centroids[i] - jp))
-            candidates = np.flatnonzero((np.abs(jn @ normals[i]) >= cos_angle) & (off_plane <= offset + slope * 50.0))
+            agree = np.abs(jn @ normals[i])
+            candidates = np.flatnonzero((agree >= cos_angle) & (off_plane <= offset + slope * 50.0))
+            tilts = np.full(len(jn), np.inf)
             for k in candidates:
                 reach = np.linalg.norm(centroids[members[k]] - centroids[i], axis=1).min()
                 # Extrapolating over ``reach`` allows for the tilt the two planes can be off
                 # by, no more than they are: a facet parallel to a joint and 12 cm off it
                 # is another joint however far away it lies.
-                tilt = float(np.clip(np.arccos(min(abs(jn[k] @ normals[i]), 1.0)), min_tilt, max_tilt))
+                tilt = float(np.clip(np.arccos(min(agree[k], 1.0)), min_tilt, max_tilt))
                 if off_plane[k] <= offset + np.tan(tilt) * reach:
-                    best = int(k)
-                    break
+                    tilts[k] = np.arccos(min(agree[k], 1.0))
+            if np.isfinite(tilts).any():
+                # Where two joints of a set cross, a facet near the line lies on both
+                # planes: it belongs to the one its normal agrees with.
+                best = int(np.argmin(tilts))
+            else:
+                # A small facet on rough rock can be ten degrees off its joint: when its
+                # points lie on a joint's plane (their RMS distance from it within
+                # ``offset``), it is on that joint whatever its own normal says.
+                spread = np.einsum("ki,ij,kj->k", jn, moments.scatter[i], jn) / max(moments.count[i], 1e-12)
+                rms = np.sqrt(off_plane**2 + spread)
+                on = np.flatnonzero((agree >= cos_on_plane) & (rms <= offset))
+                if len(on):
+                    best = int(on[np.argmin(rms[on])])
         if best < 0:
             members.append([int(i)])
             plane_normal.append(normals[i])
