@@ -110,7 +110,7 @@ def fisher_statistics(normals, frame: Frame = Frame()) -> dict:
     n = len(x)
     if n == 0:
         raise ParameterError("fisher_statistics needs at least one normal.")
-    mean = _principal_axis(x, np.ones(n))
+    mean = _principal_axes(_outer(x), np.ones((1, n)))[0]
     mean = mean if frame.to_enu(mean)[2] >= 0 else -mean
     aligned = x * np.where(x @ mean < 0, -1.0, 1.0)[:, None]
     r = float(np.linalg.norm(aligned.sum(axis=0)))
@@ -198,11 +198,13 @@ def find_sets(
         bic[k] = -2.0 * fits[k]["loglik"] * n_eff / len(x) + (3 * k + k) * np.log(max(n_eff, 2.0))
     if not fits:
         return _empty(len(x))
-    admissible = {k: v for k, v in bic.items() if _separated(fits[k]["means"], MIN_SEPARATION)}
+    admissible = sorted((k for k in bic if _separated(fits[k]["means"], MIN_SEPARATION)), key=bic.get)
     if centroids is not None and weights is not None:
         joints = _joint_counter(x, np.asarray(centroids, dtype=np.float64).reshape(len(x), 3), area)
-        admissible = {k: v for k, v in admissible.items() if min(joints(_assign(x, fits[k]), k)) >= MIN_SET_JOINTS}
-    best = min(admissible or bic, key=(admissible or bic).get) if n_sets is None else candidates[0]
+        # Tried from the smallest BIC up, the first that passes is the choice: counting the
+        # joints of the others would not change it.
+        admissible = next(([k] for k in admissible if min(joints(_assign(x, fits[k]), k)) >= MIN_SET_JOINTS), [])
+    best = (admissible[0] if admissible else min(bic, key=bic.get)) if n_sets is None else candidates[0]
     labels = _assign(x, fits[best])
     return _summarise(x, area, labels, frame, "bic" if n_sets is None else "given", bic)
 
@@ -241,28 +243,45 @@ def _unit(normals) -> np.ndarray:
     return x / length
 
 
-def _principal_axis(x: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Principal eigenvector of the weighted orientation tensor sum(w x x^T)."""
-    values, vectors = np.linalg.eigh((x * w[:, None]).T @ x)
-    return vectors[:, -1]
+def _outer(x: np.ndarray) -> np.ndarray:
+    """(P, 9): each axis's x x^T, flattened, for :func:`_principal_axes`."""
+    return (x[:, :, None] * x[:, None, :]).reshape(len(x), 9)
 
 
-def _log_bipolar_fisher(x: np.ndarray, mean: np.ndarray, kappa: float) -> np.ndarray:
-    """log f(x) for f = kappa / (4 pi sinh kappa) cosh(kappa mean.x), overflow-free."""
-    c = np.abs(x @ mean)
+def _principal_axes(outer: np.ndarray, rw: np.ndarray) -> np.ndarray:
+    """(K, 3): principal eigenvector of each component's weighted orientation tensor
+    sum(w x x^T), ``rw`` (K, P) holding the weights and ``outer`` the axes' :func:`_outer`;
+    one batched eigh for all K."""
+    return np.linalg.eigh((rw @ outer).reshape(-1, 3, 3))[1][:, :, -1]
+
+
+def _log_bipolar_fisher(x: np.ndarray, means: np.ndarray, kappas: np.ndarray) -> np.ndarray:
+    """(K, P): log f(x) for each component, f = kappa / (4 pi sinh kappa) cosh(kappa mean.x),
+    overflow-free."""
+    c = np.abs(np.asarray(means) @ x.T)
+    kappas = np.asarray(kappas, dtype=np.float64)[:, None]
     # log cosh(k c) - log sinh(k) = k (c - 1) + log(1 + e^{-2kc}) - log(1 - e^{-2k})
     return (
-        np.log(kappa / (4.0 * np.pi))
-        + kappa * (c - 1.0)
-        + np.log1p(np.exp(-2.0 * kappa * c))
-        - np.log1p(-np.exp(-2.0 * kappa))
+        np.log(kappas / (4.0 * np.pi))
+        + kappas * (c - 1.0)
+        + np.log1p(np.exp(-2.0 * kappas * c))
+        - np.log1p(-np.exp(-2.0 * kappas))
     )
 
 
-def _kappa(r_bar: float) -> float:
-    """Concentration from the mean resultant length (Banerjee et al. 2005), bounded."""
-    r_bar = min(max(r_bar, 1e-6), 1.0 - 1e-9)
-    return float(np.clip(r_bar * (3.0 - r_bar**2) / (1.0 - r_bar**2), 1e-3, MAX_KAPPA))
+def _kappas(r_bar: np.ndarray) -> np.ndarray:
+    """Concentrations from the mean resultant lengths (Banerjee et al. 2005), bounded."""
+    r_bar = np.clip(r_bar, 1e-6, 1.0 - 1e-9)
+    return np.clip(r_bar * (3.0 - r_bar**2) / (1.0 - r_bar**2), 1e-3, MAX_KAPPA)
+
+
+def _component_log_p(x: np.ndarray, means, kappas, mix) -> np.ndarray:
+    """(K + 1, P): log of each component's weighted density, the uniform one last.
+
+    Components are rows: the reductions over them run along the first axis, which numpy
+    does row by row, several times faster on short axes than along the second."""
+    uniform = np.full((1, len(x)), -np.log(4 * np.pi))
+    return np.vstack([_log_bipolar_fisher(x, means, kappas), uniform]) + np.log(np.maximum(mix, 1e-300))[:, None]
 
 
 def _fit_mixture(x: np.ndarray, w: np.ndarray, k: int, rng, iterations: int = 200) -> dict:
@@ -276,23 +295,21 @@ def _fit_mixture(x: np.ndarray, w: np.ndarray, k: int, rng, iterations: int = 20
     means = np.array(means)
     kappas = np.full(k, 20.0)
     mix = np.full(k + 1, 1.0 / (k + 1))
-    loglik = -np.inf
+    loglik, outer = -np.inf, _outer(x)
     for _ in range(iterations):
-        log_p = np.column_stack(
-            [_log_bipolar_fisher(x, means[j], kappas[j]) for j in range(k)] + [np.full(len(x), -np.log(4 * np.pi))]
-        ) + np.log(np.maximum(mix, 1e-300))
-        top = log_p.max(axis=1, keepdims=True)
-        total = top[:, 0] + np.log(np.exp(log_p - top).sum(axis=1))
-        resp = np.exp(log_p - total[:, None])
-        new = float((w * total).sum())
-        rw = resp * w[:, None]
-        mix = rw.sum(axis=0) / rw.sum()
-        for j in range(k):
-            if rw[:, j].sum() <= 1e-9:
-                continue
-            means[j] = _principal_axis(x, rw[:, j])
-            aligned = np.abs(x @ means[j])
-            kappas[j] = _kappa(float((rw[:, j] * aligned).sum() / rw[:, j].sum()))
+        log_p = _component_log_p(x, means, kappas, mix)
+        top = log_p.max(axis=0)
+        total = top + np.log(np.exp(log_p - top).sum(axis=0))
+        rw = np.exp(log_p - total) * w  # responsibilities times weights, (K + 1, P)
+        new = float(w @ total)
+        held = rw.sum(axis=1)
+        mix = held / held.sum()
+        live = held[:k] > 1e-9  # a component that holds nothing keeps its mean and kappa
+        if live.any():
+            fitted = _principal_axes(outer, rw[:k][live])
+            aligned = np.abs(fitted @ x.T)
+            means[live] = fitted
+            kappas[live] = _kappas((rw[:k][live] * aligned).sum(axis=1) / held[:k][live])
         if new - loglik < 1e-6 * abs(new):
             loglik = new
             break
@@ -303,11 +320,7 @@ def _fit_mixture(x: np.ndarray, w: np.ndarray, k: int, rng, iterations: int = 20
 def _assign(x: np.ndarray, fit: dict) -> np.ndarray:
     """Each pole's most likely component; the uniform one (no set) gives -1."""
     k = len(fit["means"])
-    log_p = np.column_stack(
-        [_log_bipolar_fisher(x, fit["means"][j], fit["kappas"][j]) for j in range(k)]
-        + [np.full(len(x), -np.log(4 * np.pi))]
-    ) + np.log(np.maximum(fit["mix"], 1e-300))
-    best = np.argmax(log_p, axis=1)
+    best = np.argmax(_component_log_p(x, fit["means"], fit["kappas"], fit["mix"]), axis=0)
     return np.where(best == k, -1, best)
 
 
