@@ -14,7 +14,7 @@ import pytest
 from helpers import assert_one_sentence, run_cli
 from test_tiles import UTM, planes_of, tile_index, write_laz
 
-from geostructure import measure
+from geostructure import auto, measure
 from geostructure.auto import choose_params
 from geostructure.io.tiles import read_tiles
 from geostructure.params import Params
@@ -212,3 +212,15 @@ def test_an_interrupted_streamed_run_leaves_no_output_and_no_spill(tiled, tmp_pa
     left = [p.name for p in out.iterdir()] if out.exists() else []
     assert left in ([], [".geostructure-lock"])
     assert list(spill.iterdir()) == []
+
+
+def test_the_noise_read_on_drawn_voxels_is_the_same_streamed(tiled, monkeypatch):
+    """Above twice ``auto.NOISE_SAMPLE_POINTS`` points the noise sigma is read on whole voxels
+    drawn by hash: streamed chunk by chunk, the same voxels are drawn and the same choice made,
+    and it is close to the one read on every voxel."""
+    paths, _, every_voxel = tiled
+    monkeypatch.setattr(auto, "NOISE_SAMPLE_POINTS", 10_000)  # the 120k-point cloud draws
+    drawn = choose_params(read_tiles(paths).local, VOXEL).params
+    streamed = measure_stream(paths, VOXEL, auto={}, chunk_points=9_000)
+    assert streamed.params == drawn
+    assert drawn.zeta == pytest.approx(every_voxel.zeta, rel=0.05)

@@ -6,7 +6,11 @@
    is counted on a subsample and scaled up. A voxel must also be large against the noise,
    or its normal is mostly noise: the median voxel-plane residual sigma, measured at the
    density zeta, must be at most ``MAX_NOISE_RATIO`` of the edge, so zeta is raised to
-   sigma / (MAX_NOISE_RATIO x extent) where needed.
+   sigma / (MAX_NOISE_RATIO x extent) where needed. Above twice ``NOISE_SAMPLE_POINTS``
+   points, sigma is read on a sample of whole voxels drawn by the hash of their keys
+   (:func:`noise_sample`): each drawn voxel is the whole cloud's voxel, so their median
+   residual is a sample of the same values, and the cloud is fitted whole only once, at
+   the zeta chosen.
 2. **Noise from local plane fits.** At that zeta, each planar voxel's neighbours (its 6
    nearest voxel planes) give two noise measures. One is the angle between their normals:
    on a surface it is noise and roughness, at an edge it is the edge. The other is the
@@ -32,7 +36,7 @@ from scipy.spatial import cKDTree
 
 from .bounds import column_max, column_min
 from .params import ParameterWarning, Params
-from .sampling import order_free_sample
+from .sampling import order_free_sample, sampled_blocks
 from .voxel import CloudMoments, accumulate_moments, fit_voxels, voxel_planes_from_moments
 
 #: Points wanted in the typical voxel.
@@ -47,6 +51,10 @@ ZETA_RANGE = (0.004, 0.1)
 #: the longest extent, which keeps the voxel tables of any survey to about a million (a
 #: finer voxel is the user's to give, with --zeta).
 ZETA_FLOOR = 1e-3
+#: Above twice this many points, the noise sigma is read on whole voxels drawn by hash that
+#: hold about this many points (:func:`noise_sample`): at 8M points, a fit of the whole
+#: cloud at a zeta that the noise then made coarser took 2.3 s, the drawn voxels 0.7 s.
+NOISE_SAMPLE_POINTS = 1_000_000
 THETA_RANGE = (3.0, 8.0)  # the paper's optimum; wider merged too much on its own cloud
 PSI_RANGE = (0.02, 0.6)
 
@@ -186,8 +194,25 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
         last[:] = [CloudMoments(moments, inverse)]
         return voxel_planes_from_moments(moments, 5, 1 / 3)[0]
 
-    choice = choose_from(probe, fit, base)
+    def noise_fit(zeta: float):  # whole voxels drawn by hash: sigma only
+        edge = zeta * probe.extent
+        drawn = points[noise_sample(points, probe.lower, edge, len(points))]
+        return voxel_planes_from_moments(accumulate_moments(drawn, edge, probe.lower)[0], 5, 1 / 3)[0]
+
+    choice = choose_from(probe, fit, base, noise_fit if samples_noise(len(points)) else None)
     return replace(choice, moments=last[0] if last else None)
+
+
+def samples_noise(n_points: int) -> bool:
+    """Whether a cloud of ``n_points`` has its noise read on drawn voxels (:func:`noise_sample`)."""
+    return n_points > 2 * NOISE_SAMPLE_POINTS
+
+
+def noise_sample(points: np.ndarray, lower, edge: float, n_points: int) -> np.ndarray:
+    """Which of ``points`` (of a cloud of ``n_points``) lie in the voxels of ``edge``
+    (anchored at ``lower``) drawn by their key's hash to hold about
+    :data:`NOISE_SAMPLE_POINTS`: the same voxels whole, in any order and chunk by chunk."""
+    return sampled_blocks(points, lower, edge, NOISE_SAMPLE_POINTS / n_points, seed=1)
 
 
 def rounded_zeta(zeta: float) -> float:
@@ -201,20 +226,23 @@ def rounded_zeta(zeta: float) -> float:
     return round(zeta, 5) if zeta >= 1e-3 else float(f"{zeta:.3g}")
 
 
-def choose_from(probe: Occupancy, fit, base: Params = Params()) -> AutoChoice:
+def choose_from(probe: Occupancy, fit, base: Params = Params(), noise_fit=None) -> AutoChoice:
     """:func:`choose_params` from an occupancy probe of the cloud and ``fit(zeta)``, its
     voxel planes at ``zeta`` with any planarity: how a streamed cloud, never in memory
-    at once, is given the same choice."""
+    at once, is given the same choice. ``noise_fit(zeta)``, when given, is the planes of a
+    sample of whole voxels (:func:`noise_sample`), the noise sigma read on them; ``fit`` is
+    then called once, at the zeta chosen."""
     density_zeta, occupancy = choose_zeta(None, probe=probe)
     # Fitted at the zeta the parameters will carry, so the last fit's grid is the filter's.
     density_zeta = rounded_zeta(density_zeta)
-    voxels = fit(density_zeta)
+    voxels = (noise_fit or fit)(density_zeta)
     sigma = float(np.median(voxels.residual)) if len(voxels) else 0.0  # no voxel plane: no noise to read
     extent = probe.extent
     zeta = float(np.clip(max(density_zeta, sigma / (MAX_NOISE_RATIO * extent)), ZETA_FLOOR, ZETA_RANGE[1]))
     zeta = rounded_zeta(zeta)
     if zeta != density_zeta:  # noise made the voxels coarser: measure the noise at that size
         occupancy = probe.at(zeta)
+    if zeta != density_zeta or noise_fit is not None:
         voxels = fit(zeta)
     angle, offset = surface_noise(None, zeta, voxels=voxels)
     theta = float(np.clip(1.5 * angle, *THETA_RANGE))

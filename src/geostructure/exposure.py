@@ -87,7 +87,8 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0) -> Exposure:
     # (pi r8^2 holds 8 points): few cells of a sampled surface are then empty by chance,
     # whether its points lie on a grid (SfM) or at random (a scan's overlap).
     probe = points[order_free_sample(points, min(len(points), 2000), seed + 1)]
-    r8 = float(np.median(cKDTree(points).query(probe, k=9)[0][:, 8]))
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # half the build time; queried once
+    r8 = float(np.median(tree.query(probe, k=9, workers=-1)[0][:, 8]))
     cell = np.sqrt(CELL_POINTS * np.pi * max(r8, 1e-6) ** 2 / 8.0)
     uv = (points - origin) @ axes.T
     lower = uv.min(axis=0)

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..auto import SAMPLE_POINTS, Occupancy, choose_from
+from ..auto import SAMPLE_POINTS, Occupancy, choose_from, samples_noise
 from ..errors import GeoStructureError
 from ..filter import neighbourhoods
 from ..merge import merge_coplanar
@@ -242,7 +242,12 @@ class _Run:
             self.auto_moments = moments  # the last fit is on the chosen zeta's grid
             return voxel_planes_from_moments(moments, 5, 1 / 3)[0]
 
-        choice = choose_from(probe, fit, self.params)
+        def noise_fit(zeta: float):  # the voxels auto.noise_sample draws, as in memory
+            fits.append(zeta)
+            drawn = passes.VoxelDraw(self.lower, zeta * self.extent, self.spill.n_points)
+            return voxel_planes_from_moments(self.moments(zeta * self.extent, self.lower, drawn), 5, 1 / 3)[0]
+
+        choice = choose_from(probe, fit, self.params, noise_fit if samples_noise(self.spill.n_points) else None)
         params = choice.params.with_(**auto) if auto else choice.params
         return params, choice.to_dict(auto)
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..auto import noise_sample
 from ..bounds import column_max, column_min
 from ..filter import Neighbourhoods, mahalanobis_distance
 from ..rectangle import hull_2d
@@ -115,6 +116,19 @@ class FilterContext:
         if self.written:
             return np.fromfile(self.path, dtype=np.bool_, count=len(chunk), offset=chunk.start)
         return self.decide(local)
+
+
+@dataclass
+class VoxelDraw:
+    """The whole voxels :func:`~..auto.noise_sample` draws, as a ``keep`` for
+    :func:`chunk_moments`: each chunk's points in them."""
+
+    lower: np.ndarray
+    edge: float
+    n_points: int
+
+    def keep(self, local: np.ndarray, chunk: Chunk) -> np.ndarray:
+        return noise_sample(local, self.lower, self.edge, self.n_points)
 
 
 def local_points(chunk: Chunk, offset) -> np.ndarray:
