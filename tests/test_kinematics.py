@@ -290,7 +290,7 @@ def test_the_kinematics_command(outcrop_folder, capsys):
     assert (out / "kinematics.png").stat().st_size > 20_000
     assert main(["report", str(out), "-q"]) == 0  # the folder verifies as one set
     html = (out / "report.html").read_text()
-    assert "planar daylight envelope" in html and "Poles and kinematic envelopes: slope 65/180" in html
+    assert "planar daylight envelope" in html and "Poles and kinematic envelopes<br>slope 65/180" in html
     assert main(["kinematics", str(out), "--friction", "40", "--slope", "65/180", "-q"]) == 0
     assert "friction 40" in (out / "report.html").read_text()  # a report there is drawn again
     assert main(["kinematics", str(out), "--friction", "35", "--slope", "steep", "-q"]) == 2

@@ -36,6 +36,18 @@ def open_report(driver, path, timeout=90):
         time.sleep(0.1)
 
 
+#: The side panels whose title the mode bar (shown while the pointer is over them) would cover.
+OVERLAPPING_TITLES = """
+return ["stereonet", "rose"].filter((id) => {
+  const panel = document.getElementById(id);
+  const [title, bar] = [panel.querySelector(".gtitle"), panel.querySelector(".modebar")];
+  if (!title || !bar) return true;
+  const [t, b] = [title.getBoundingClientRect(), bar.getBoundingClientRect()];
+  return t.top < b.bottom && b.top < t.bottom && t.left < b.right && b.left < t.right;
+});
+"""
+
+
 def test_report_opens_lists_every_plane_and_shows_the_clicked_one(browser, tmp_path, scene, scene_result):
     from selenium.webdriver.common.by import By
 
@@ -65,6 +77,9 @@ def test_report_opens_lists_every_plane_and_shows_the_clicked_one(browser, tmp_p
     assert "selected" in target.get_attribute("class")
     highlighted = browser.execute_script("return document.getElementById('scene3d').data[4].x.length")
     assert highlighted == 4  # the plane's rectangle is drawn as the highlight
+
+    overlaps = browser.execute_script(OVERLAPPING_TITLES)
+    assert overlaps == [], f"the mode bar covers the titles of {overlaps}"
 
     browser.find_element(By.CSS_SELECTOR, 'input[data-layer="voxels"]').click()
     assert browser.execute_script("return document.getElementById('scene3d').data[2].visible") is True

@@ -118,3 +118,11 @@ def test_a_line_steeper_than_the_upper_slope_allows_cuts_no_block():
     assert not blocks.formed.any()
     fs, _ = wedge_factor_of_safety(a, b, 20.0, 30.0, cohesion_a=10.0, blocks=blocks)
     assert np.isnan(fs).all()
+
+
+def test_cohesion_without_the_block_is_refused_as_a_parameter_error():
+    from geostructure.errors import ParameterError
+
+    a, b = normal_from_orientation([105, 235], [45, 70])
+    with pytest.raises(ParameterError, match="needs its block"):
+        wedge_factor_of_safety(a[None], b[None], 20.0, 30.0, cohesion_a=25.0)

@@ -150,4 +150,9 @@ def rose_counts(strike, dip, bin_width: float = 10.0, min_dip: float = ROSE_MIN_
 
 def rose_title(n_planes: int, min_dip: float = ROSE_MIN_DIP) -> str:
     """The rose diagram's title: what it counts."""
-    return f"Strikes of {n_planes} planes dipping {min_dip:g}° or more (rose diagram)"
+    return " ".join(rose_title_lines(n_planes, min_dip))
+
+
+def rose_title_lines(n_planes: int, min_dip: float = ROSE_MIN_DIP) -> list[str]:
+    """:func:`rose_title` in two lines, for a narrow panel."""
+    return [f"Strikes of {n_planes} planes", f"dipping {min_dip:g}° or more (rose diagram)"]

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import ParameterError
+
 #: Unit weight of rock (kN/m3) when none is given: granite, limestone and sandstone lie
 #: between about 23 and 28.
 UNIT_WEIGHT = 26.0
@@ -137,7 +139,7 @@ def wedge_factor_of_safety(
     cohesive = bool(cohesion_a or cohesion_b)
     if cohesive:
         if blocks is None:
-            raise ValueError("a wedge's factor of safety with cohesion needs its block (wedge_blocks).")
+            raise ParameterError("a wedge's factor of safety with cohesion needs its block (wedge_blocks).")
         weight = unit_weight * blocks.volume
         with np.errstate(divide="ignore", invalid="ignore"):
             hold_a, hold_b = cohesion_a * blocks.area_a / weight, cohesion_b * blocks.area_b / weight

@@ -15,15 +15,16 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path, plain
-from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title, small_circle_xy
+from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .spacing_plot import figure_spacing
-from .view3d import figure_3d, figure_json, hover_text, plane_colors, set_color
+from .view3d import figure_3d, figure_json, hover_text, panel_title, plane_colors, set_color
 
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
 MAX_GREAT_CIRCLES = 30
+NET_HEIGHT, ROSE_HEIGHT = 400, 360  # pixels
 
 COLUMNS = [
     ("region_id", "Plane", 0),
@@ -99,14 +100,15 @@ def render(scene: ReportScene, title: str) -> str:
     )
 
 
-def _net_title(scene: ReportScene) -> str:
+def _net_title(scene: ReportScene) -> list[str]:
     if not scene.kinematics:
-        return "Poles and great circles, lower hemisphere (equal area)"
+        return ["Poles and great circles", "lower hemisphere, equal area"]
     slope = scene.kinematics["slope"]
-    return (
-        f"Poles and kinematic envelopes: slope {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, "
-        f"friction {scene.kinematics['friction_deg']:g}° (lower hemisphere)"
-    )
+    return [
+        "Poles and kinematic envelopes",
+        f"slope {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, friction {scene.kinematics['friction_deg']:g}°, "
+        "lower hemisphere",
+    ]
 
 
 def figure_stereonet(scene: ReportScene) -> dict:
@@ -215,14 +217,15 @@ def figure_stereonet(scene: ReportScene) -> dict:
         )
     )
     axis = dict(visible=False, range=[-1.12, 1.12], fixedrange=True)
+    title, top = panel_title(_net_title(scene), NET_HEIGHT)
     fig.update_layout(
         xaxis=dict(axis, scaleanchor="y"),
         yaxis=axis,
         showlegend=False,
         plot_bgcolor="white",
-        margin=dict(l=10, r=10, t=30, b=10),
-        height=380,
-        title=dict(text=_net_title(scene), font=dict(size=13)),
+        margin=dict(l=10, r=10, t=top, b=10),
+        height=NET_HEIGHT,
+        title=title,
         annotations=[dict(x=0, y=1.08, text="N", showarrow=False, font=dict(size=14))],
     )
     return figure_json(fig)
@@ -243,12 +246,16 @@ def figure_rose(scene: ReportScene, bin_width: float = 10.0) -> dict:
             hovertemplate="%{theta}°: %{r}<extra></extra>",
         )
     )
+    title, top = panel_title(rose_title_lines(n_used), ROSE_HEIGHT)
     fig.update_layout(
-        polar=dict(angularaxis=dict(rotation=90, direction="clockwise")),
+        polar=dict(
+            angularaxis=dict(rotation=90, direction="clockwise"),
+            radialaxis=dict(nticks=4, tickfont=dict(size=9), angle=45, tickangle=45),
+        ),
         showlegend=False,
-        height=340,
-        margin=dict(l=30, r=30, t=40, b=20),
-        title=dict(text=rose_title(n_used), font=dict(size=13)),
+        height=ROSE_HEIGHT,
+        margin=dict(l=30, r=30, t=top, b=20),
+        title=title,
     )
     return figure_json(fig)
 

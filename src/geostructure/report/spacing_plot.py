@@ -8,7 +8,7 @@ from scipy import stats
 
 from ..spacing import spacing_statistics
 from .scene import ReportScene
-from .view3d import figure_json, set_color
+from .view3d import figure_json, panel_title, set_color
 
 
 def figure_spacing(scene: ReportScene) -> dict | None:
@@ -61,11 +61,13 @@ def figure_spacing(scene: ReportScene) -> dict | None:
                     hoverinfo="skip",
                 )
             )
+    height = 460
+    title, margin_top = panel_title(["Normal spacing per set", "scanlines; solid line: the better fit"], height)
     fig.update_layout(
         barmode="overlay",
-        height=460,
-        margin=dict(l=50, r=20, t=40, b=40),
-        title=dict(text="Normal spacing per set (scanlines; solid: better fit)", font=dict(size=13)),
+        height=height,
+        margin=dict(l=50, r=20, t=margin_top, b=40),
+        title=title,
         xaxis=dict(title="spacing (m)", range=[0, top]),
         yaxis=dict(title="density (1/m)"),
         legend=dict(font=dict(size=9), orientation="h", yanchor="top", y=-0.22, x=0),

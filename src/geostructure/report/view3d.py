@@ -284,6 +284,26 @@ def _axes(scene: ReportScene):
     return traces
 
 
+#: Pixels at the top of a side panel kept for plotly's mode bar: the panel's title is drawn
+#: under it, so that the bar, shown while the pointer is over the figure, never hides it.
+MODEBAR_PX = 28
+LINE_PX = 17
+
+
+def panel_title(lines: list[str], height: int) -> tuple[dict, int]:
+    """A side panel's title (one entry a line) under the mode bar, and the top margin it needs."""
+    title = dict(
+        text="<br>".join(lines),
+        font=dict(size=13),
+        x=0.02,
+        xanchor="left",
+        y=1.0 - MODEBAR_PX / height,
+        yref="container",
+        yanchor="top",
+    )
+    return title, MODEBAR_PX + LINE_PX * len(lines) + 8
+
+
 def figure_json(fig) -> dict:
     """The figure as plain JSON, numpy arrays as plotly's base64 typed arrays."""
     import plotly.io as pio
