@@ -201,7 +201,7 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
     missing = neighbour < 0
     neighbour[missing] = n_cells
     adjacency = csr_matrix(
-        (np.ones(neighbour.size), neighbour.ravel(), np.arange(0, neighbour.size + 1, 27, dtype=index)),
+        (np.ones(neighbour.size, dtype=np.int8), neighbour.ravel(), np.arange(0, neighbour.size + 1, 27, dtype=index)),
         shape=(n_cells, n_cells + 1),
     )
     block = adjacency @ grid.moments
