@@ -149,39 +149,49 @@ def point_planes(points: np.ndarray, k: int = NORMAL_NEIGHBOURS) -> PointPlanes:
     return PointPlanes(normal, variation, residual, neighbours, distances)
 
 
-def planar_components(points: np.ndarray, normals: np.ndarray, labels: np.ndarray, thresholds: FacetThresholds):
+def planar_components(
+    points: np.ndarray, normals: np.ndarray, labels: np.ndarray, thresholds: FacetThresholds, normal_of=None
+) -> np.ndarray:
     """Which grown facets are planes (True) and which drifted round a curved surface (False).
 
     Connected components have no reference normal, so on a smooth curved surface (a Poisson
     mesh's rounded edges, a dome) they grow round it. A facet is planar when its points lie
     within twice the coplanarity offset of its least-squares plane (RMS) and four in five of
-    local ``normals`` within twice the angle of the plane's normal.
+    local ``normals`` within twice the angle of the plane's normal. ``normals`` are the
+    points' own (N, 3), or, with ``normal_of`` (N,), a table the points index (their cells').
     """
     n = int(labels.max(initial=-1)) + 1
     if n == 0:
         return np.zeros(0, dtype=bool)
     # Unlabelled points go to a spare bin n, and every per-point value is gathered a column
-    # at a time from a small per-facet table: no masked copies of the cloud (2.9 s to about
-    # 1 s at 8M points).
+    # at a time from a small per-facet table into one of four buffers the cloud's size:
+    # no masked copies, and no fresh arrays, whose pages cost their first touch (at 8M
+    # points 2.9 s, then 1 s, then less).
     bins = np.where(labels >= 0, labels, n)
     count = np.bincount(bins, minlength=n + 1)[:n].astype(np.float64)
     # A label may hold no point (its cells lost them all): it is no plane, and must not
     # turn the covariances to NaN.
     held = np.maximum(count, 1.0)
-    d = []
+    d, work = np.empty((3, len(points))), np.empty(len(points))
     for a in range(3):
-        column = np.ascontiguousarray(points[:, a])
-        mean = np.append(np.bincount(bins, column, n + 1)[:n] / held, 0.0)
-        d.append(column - mean[bins])
+        np.copyto(d[a], points[:, a])
+        mean = np.append(np.bincount(bins, d[a], n + 1)[:n] / held, 0.0)
+        d[a] -= np.take(mean, bins, out=work)
     cov = np.empty((n, 3, 3))
     for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):  # symmetric: six sums, not nine
-        cov[:, a, b] = cov[:, b, a] = np.bincount(bins, d[a] * d[b], n + 1)[:n] / held
+        cov[:, a, b] = cov[:, b, a] = np.bincount(bins, np.multiply(d[a], d[b], out=work), n + 1)[:n] / held
     values, vectors = np.linalg.eigh(cov)
     residual = np.sqrt(np.maximum(values[:, 0], 0.0))
     normal = np.vstack([vectors[:, :, 0], np.zeros(3)]).T.copy()  # (3, n + 1), the spare bin zero
-    dot = normals[:, 0] * normal[0][bins] + normals[:, 1] * normal[1][bins] + normals[:, 2] * normal[2][bins]
-    aligned = np.abs(dot) >= np.cos(np.radians(2.0 * thresholds.max_angle))
-    share = np.bincount(bins, aligned.astype(np.float64), n + 1)[:n] / held
+    own = normals if normal_of is None else np.ascontiguousarray(normals.T)
+    dot, term = d[0], d[1]
+    dot[:] = 0.0
+    for a in range(3):
+        np.take(normal[a], bins, out=term)
+        term *= normals[:, a] if normal_of is None else np.take(own[a], normal_of, out=work)
+        dot += term
+    np.copyto(work, np.abs(dot, out=dot) >= np.cos(np.radians(2.0 * thresholds.max_angle)))
+    share = np.bincount(bins, work, n + 1)[:n] / held  # the aligned points' share
     return (count > 0) & (residual <= 2.0 * thresholds.max_offset) & (share >= 0.8)
 
 
@@ -410,7 +420,7 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
     if scatter > MAX_CELL_SCATTER:  # noisy at every scale tried (a rough SfM cloud): no facet is trusted
         return FacetDetection(np.full(len(points), -1), np.ones(len(points), bool), thresholds, edge, scatter)
     labels = label_points(points, cells, grow_cells(cells, thresholds, pairs), thresholds.max_offset)
-    planar = planar_components(points, cells.normal[cells.point_cell], labels, thresholds)
+    planar = planar_components(points, cells.normal, labels, thresholds, normal_of=cells.point_cell)
     curved = (labels >= 0) & ~planar[np.maximum(labels, 0)] if len(planar) else np.zeros(len(points), bool)
     renumber = np.full(len(planar) + 1, -1)
     renumber[np.flatnonzero(planar)] = np.arange(int(planar.sum()))
