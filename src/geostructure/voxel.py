@@ -85,6 +85,12 @@ MAX_CELLS_PER_AXIS = 2**20
 
 def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarray:
     """Integer voxel index (i, j, k) of every point."""
+    check_voxel_count(points, edge, origin)
+    return np.floor((points - origin) / edge).astype(np.int64)
+
+
+def check_voxel_count(points: np.ndarray, edge: float, origin: np.ndarray) -> None:
+    """Refuse an edge that makes more than :data:`MAX_CELLS_PER_AXIS` voxels along an axis."""
     if len(points):
         cells = float(np.max(column_max(points) - np.asarray(origin, float))) / edge if edge > 0 else np.inf
         if not cells <= MAX_CELLS_PER_AXIS:
@@ -92,7 +98,6 @@ def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarra
                 f"a voxel edge of {edge:.3g} is too small for a cloud this size (more than "
                 f"{MAX_CELLS_PER_AXIS:,} voxels along an axis); take a larger zeta."
             )
-    return np.floor((points - origin) / edge).astype(np.int64)
 
 
 #: Codes below this many per point are grouped by a table over the whole code space
@@ -117,19 +122,29 @@ def group_codes(codes: np.ndarray, n_codes: int) -> tuple[np.ndarray, np.ndarray
     if n_codes > DENSE_CODES_PER_POINT * max(len(codes), 1) + 1024:
         unique, inverse = np.unique(codes, return_inverse=True)
         return unique, inverse.ravel()
-    occupied = np.bincount(codes, minlength=n_codes) > 0
+    occupied = np.zeros(n_codes, dtype=bool)  # a byte a code, not a count's eight
+    occupied[codes] = True
     unique = np.flatnonzero(occupied)
-    rank = np.cumsum(occupied) - 1
+    rank = np.cumsum(occupied)
+    rank -= 1
     return unique, rank[codes]
 
 
 def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique rows of an (N, 3) integer key array and the inverse map, via one int64 code
     per row (a 1-D unique is several times faster than ``np.unique(axis=0)``)."""
-    low = column_min(keys)
-    span = column_max(keys) - low + 1
-    shifted = keys - low
-    codes = (shifted[:, 0] * span[1] + shifted[:, 1]) * span[2] + shifted[:, 2]
+    return unique_key_rows(np.asarray(keys).T)
+
+
+def unique_key_rows(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`unique_keys` of keys given as three rows (3, N), with one array for the codes."""
+    low = key.min(axis=1)
+    span = key.max(axis=1) - low + 1
+    codes = np.subtract(key[0], low[0])
+    for a in (1, 2):
+        codes *= span[a]
+        codes += key[a]
+        codes -= low[a]
     unique_codes, inverse = group_codes(codes, math.prod(int(d) for d in span))
     kz = unique_codes % span[2]
     ky = (unique_codes // span[2]) % span[1]
@@ -139,14 +154,20 @@ def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def accumulate_moments(points: np.ndarray, edge: float, origin: np.ndarray):
     """Moments of every occupied voxel, and each point's voxel index (inverse map)."""
-    keys = voxel_keys(points, edge, origin)
-    unique, inverse = unique_keys(keys)
     origin = np.asarray(origin, float)
-    rel = np.empty((3, len(points)))  # about each point's voxel corner: keys == unique[inverse]
+    check_voxel_count(points, edge, origin)
+    # Keys and coordinates about each point's voxel corner (keys == unique[inverse]), both
+    # as rows and column by column: no array the cloud's size is allocated twice.
+    key, rel = np.empty((3, len(points)), dtype=np.int64), np.empty((3, len(points)))
     for a in range(3):
-        np.multiply(keys[:, a], edge, out=rel[a])
+        np.subtract(points[:, a], origin[a], out=rel[a])
+        np.divide(rel[a], edge, out=rel[a])
+        key[a] = np.floor(rel[a], out=rel[a])
+        np.multiply(key[a], edge, out=rel[a])
         rel[a] += origin[a]
         np.subtract(points[:, a], rel[a], out=rel[a])
+    unique, inverse = unique_key_rows(key)
+    del key
     n = len(unique)
     count = np.bincount(inverse, minlength=n).astype(np.float64)
     sums, products = binned_sums(rel, inverse, n)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bounds import column_max, column_min
 from ..cloud import MAX_COORDINATE, Cloud
 from ..errors import GeoStructureError
 
@@ -94,14 +95,18 @@ def check_points(points: np.ndarray, path) -> None:
 def check_coordinates(points: np.ndarray, path, first: int = 0) -> None:
     """Refuse NaN/inf coordinates and ones beyond :data:`MAX_COORDINATE`; ``first`` is the
     number of the first of ``points`` in the file (a chunk's), for the message."""
-    # Whole-array reductions first (contiguous, fast); the per-row ones only to name a row.
-    if not np.isfinite(points).all():
+    # The bounds first (folded reductions, no copy of the cloud; NaN and inf reach them);
+    # the per-row tests only to name a row.
+    if not len(points):
+        return
+    lo, hi = column_min(points), column_max(points)
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
         bad = ~np.isfinite(points).all(axis=1)
         row = first + int(np.flatnonzero(bad)[0])
         raise GeoStructureError(
             f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {row})."
         )
-    if len(points) and float(np.abs(points).max()) > MAX_COORDINATE:
+    if max(float(np.abs(lo).max()), float(np.abs(hi).max())) > MAX_COORDINATE:
         far = np.abs(points).max(axis=1) > MAX_COORDINATE
         row = first + int(np.flatnonzero(far)[0])
         raise GeoStructureError(
