@@ -172,11 +172,13 @@ def planar_components(
     # A label may hold no point (its cells lost them all): it is no plane, and must not
     # turn the covariances to NaN.
     held = np.maximum(count, 1.0)
+    # np.take into a buffer with mode "clip": the indices are all in range, and with
+    # "raise" numpy buffers the output, a fresh array again.
     d, work = np.empty((3, len(points))), np.empty(len(points))
     for a in range(3):
         np.copyto(d[a], points[:, a])
         mean = np.append(np.bincount(bins, d[a], n + 1)[:n] / held, 0.0)
-        d[a] -= np.take(mean, bins, out=work)
+        d[a] -= np.take(mean, bins, out=work, mode="clip")
     cov = np.empty((n, 3, 3))
     for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):  # symmetric: six sums, not nine
         cov[:, a, b] = cov[:, b, a] = np.bincount(bins, np.multiply(d[a], d[b], out=work), n + 1)[:n] / held
@@ -187,8 +189,8 @@ def planar_components(
     dot, term = d[0], d[1]
     dot[:] = 0.0
     for a in range(3):
-        np.take(normal[a], bins, out=term)
-        term *= normals[:, a] if normal_of is None else np.take(own[a], normal_of, out=work)
+        np.take(normal[a], bins, out=term, mode="clip")
+        term *= normals[:, a] if normal_of is None else np.take(own[a], normal_of, out=work, mode="clip")
         dot += term
     np.copyto(work, np.abs(dot, out=dot) >= np.cos(np.radians(2.0 * thresholds.max_angle)))
     share = np.bincount(bins, work, n + 1)[:n] / held  # the aligned points' share

@@ -21,7 +21,7 @@ from .planes import Planes
 from .rectangle import region_plane
 from .regions import grow_regions
 from .uncertainty import normal_standard_errors
-from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
+from .voxel import VoxelPlanes, fit_voxels, label_order, subset_voxels, voxel_edge
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
 #: With the facet detector, the coplanar merge joins only regions of this many points or more:
@@ -366,7 +366,7 @@ def _region_planes(points, point_region, voxel_region, min_points, method, repor
     sizes = np.bincount(point_region[labelled], minlength=n_regions)
     candidates = np.flatnonzero((sizes >= min_points) & (n_voxels >= min_voxels))
     candidates = candidates[np.argsort(-sizes[candidates], kind="stable")]
-    order = np.argsort(point_region, kind="stable")
+    order = label_order(point_region)
     starts = np.searchsorted(point_region[order], np.arange(len(n_voxels) + 1))
     planes = []
     for i, region in enumerate(candidates):

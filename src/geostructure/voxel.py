@@ -130,6 +130,21 @@ def group_codes(codes: np.ndarray, n_codes: int) -> tuple[np.ndarray, np.ndarray
     return unique, rank[codes]
 
 
+def label_order(labels: np.ndarray) -> np.ndarray:
+    """``np.argsort(labels, kind="stable")`` for labels from -1 up: as 16-bit integers where
+    they fit, which numpy sorts by radix in one pass (ten times as fast at 0.7M points).
+
+    Examples
+    --------
+    >>> label_order(np.array([2, -1, 0, 2, 0])).tolist()
+    [1, 2, 4, 0, 3]
+    """
+    labels = np.asarray(labels)
+    if len(labels) and labels.min() >= -1 and labels.max() < 2**15:
+        return np.argsort(labels.astype(np.int16), kind="stable")
+    return np.argsort(labels, kind="stable")
+
+
 def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique rows of an (N, 3) integer key array and the inverse map, via one int64 code
     per row (a 1-D unique is several times faster than ``np.unique(axis=0)``)."""

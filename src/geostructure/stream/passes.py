@@ -21,7 +21,7 @@ from ..filter import Neighbourhoods, mahalanobis_distance
 from ..rectangle import hull_2d
 from ..sampling import coordinate_hash
 from ..uncertainty import BlockSums, block_sums, plane_coordinates
-from ..voxel import VoxelMoments, accumulate_moments, add_moments, voxel_keys
+from ..voxel import VoxelMoments, accumulate_moments, add_moments, label_order, voxel_keys
 from .source import Chunk
 
 #: Bits of one voxel index in a lookup code (three pack into an int64).
@@ -223,7 +223,7 @@ def chunk_labels(chunk: Chunk, context: LabelContext):
     voxel = context.voxels.find(kept)
     labels = np.where(voxel >= 0, context.plane_of_voxel[np.maximum(voxel, 0)], -1).astype(np.int32)
     mine = np.flatnonzero(labels >= 0)
-    order = mine[np.argsort(labels[mine], kind="stable")]
+    order = mine[label_order(labels[mine])]
     planes, starts = np.unique(labels[order], return_index=True)
     hulls = {}
     for plane, rows in zip(planes, np.split(order, starts[1:])):
