@@ -319,10 +319,15 @@ def grow_cells(cells: CellPlanes, thresholds: FacetThresholds, pairs=None) -> np
     n = len(cells)
     source, target = neighbour_pairs(cells) if pairs is None else pairs
     flat = cells.defined & (cells.variation <= thresholds.max_variation)
+    # Each test on the pairs that passed the one before: the gathered (pairs, 3) rows are
+    # the largest arrays here, and at 8M points most pairs fail the first tests.
     ok = flat[source] & flat[target]
-    ok &= np.abs(np.einsum("ij,ij->i", cells.normal[source], cells.normal[target])) >= np.cos(
+    source, target = source[ok], target[ok]
+    ok = np.abs(np.einsum("ij,ij->i", cells.normal[source], cells.normal[target])) >= np.cos(
         np.radians(thresholds.max_angle)
     )
+    source, target = source[ok], target[ok]
+    ok = np.ones(len(source), dtype=bool)
     for a, b in ((source, target), (target, source)):  # each cell's points on the other's plane
         gap = cells.centroid[b] - cells.block_centroid[a]
         ok &= np.abs(np.einsum("ij,ij->i", gap, cells.normal[a])) <= thresholds.max_offset
