@@ -200,8 +200,9 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             print_kinematics(kinematic_summary)
         if evaluation is not None:
             print_evaluation(evaluation)
+        took = sum(result.seconds.values())  # a small cloud's 0.04 s is not "0.0 s"
         print(
-            f"{len(result)} planes from {len(cloud):,} points in {sum(result.seconds.values()):.1f} s; "
+            f"{len(result)} planes from {len(cloud):,} points in {took:{'.2f' if took < 1 else '.1f'}} s; "
             f"wrote {', '.join(str(p) for p in paths.values())}"
         )
     return 0
