@@ -45,3 +45,25 @@ def test_region_plane_recovers_a_rotated_tilted_rectangle(method):
     assert abs(rp.normal @ (tilt @ [0, 0, 1])) == pytest.approx(1, abs=1e-12)
     corners = rp.corners
     assert np.linalg.norm(corners[1] - corners[0]) == pytest.approx(6, abs=1e-6)
+
+
+@pytest.mark.parametrize("shape", ["disc", "thin rotated strip", "triangle", "few distinct points"])
+def test_the_octagon_prefilter_keeps_every_hull_vertex(shape):
+    from scipy.spatial import ConvexHull
+
+    from geostructure.rectangle import OCTAGON_POINTS, hull_2d
+
+    rng = np.random.default_rng(7)
+    p = rng.uniform(-1, 1, (20 * OCTAGON_POINTS, 2))
+    if shape == "disc":
+        p = p[(p**2).sum(axis=1) < 1]
+    elif shape == "thin rotated strip":
+        c, s = np.cos(0.3), np.sin(0.3)
+        p = (p * [50.0, 0.01]) @ np.array([[c, -s], [s, c]]) + [6.6e5, 5.1e6]  # UTM-sized
+    elif shape == "triangle":
+        p = p[p[:, 1] < 1 - 2 * np.abs(p[:, 0])]
+    else:
+        p = p[rng.integers(0, 5, len(p))]  # five points, repeated
+    whole = p[ConvexHull(p).vertices]
+    assert len(p) > OCTAGON_POINTS
+    assert set(map(tuple, hull_2d(p))) == set(map(tuple, whole))

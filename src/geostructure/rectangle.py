@@ -76,12 +76,48 @@ def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, f
     return centroid, normal, np.vstack([u, np.cross(normal, u)]), residual
 
 
+#: Above this many points, :func:`hull_2d` first drops those inside the octagon of the
+#: extremes in eight directions (Akl & Toussaint 1978): no such point is a hull vertex, and
+#: on a large plane nearly all of them are, so Qhull reads a few thousand instead of millions.
+OCTAGON_POINTS = 2000
+
+
 def hull_2d(uv: np.ndarray) -> np.ndarray:
-    """Convex-hull vertices of 2-D points, in order (all points if they are degenerate)."""
+    """Convex-hull vertices of 2-D points, in order (all points if they are degenerate).
+
+    Examples
+    --------
+    >>> g = np.mgrid[0:1:100j, 0:1:100j].reshape(2, -1).T  # 10,000 points, a unit square
+    >>> sorted(map(tuple, hull_2d(g).round(6).tolist()))
+    [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)]
+    """
+    uv = np.asarray(uv, dtype=np.float64)
+    if len(uv) > OCTAGON_POINTS:
+        uv = uv[outside_octagon(uv)]
     try:
         return uv[ConvexHull(uv).vertices]
     except (QhullError, ValueError):
         return uv
+
+
+def outside_octagon(uv: np.ndarray) -> np.ndarray:
+    """Which of 2-D points ``uv`` lie on or outside the octagon of their extremes along u, v,
+    u + v and u - v (all of them where it is degenerate): the only candidates for the hull."""
+    u, v = uv[:, 0], uv[:, 1]
+    s, d = u + v, u - v
+    # Counter-clockwise: east, north-east, north, north-west, west, south-west, south, south-east.
+    corners = [u.argmax(), s.argmax(), v.argmax(), d.argmin(), u.argmin(), s.argmin(), v.argmin(), d.argmax()]
+    corners = [c for i, c in enumerate(corners) if c != corners[i - 1]]  # cyclic: no zero-length edge
+    if len(set(corners)) < 3:
+        return np.ones(len(uv), dtype=bool)
+    poly = uv[corners]
+    # A point within rounding of an edge is kept: the tolerance is far below any extent.
+    tolerance = 1e-12 * float(max(np.ptp(u), np.ptp(v))) ** 2
+    keep = np.zeros(len(uv), dtype=bool)
+    for a, b in zip(poly, np.roll(poly, -1, axis=0)):
+        keep |= (b[0] - a[0]) * (v - a[1]) - (b[1] - a[1]) * (u - a[0]) <= tolerance
+    keep[corners] = True
+    return keep
 
 
 def bounding_perimeter(uv: np.ndarray, angle: float) -> float:
