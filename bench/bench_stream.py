@@ -123,6 +123,8 @@ def main() -> None:
                     "-o",
                     str(out),
                     "-q",
+                    "--engine",
+                    "stream",
                     "--max-memory",
                     args.max_memory,
                 ]
