@@ -22,7 +22,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from .bounds import column_max, column_min
-from .voxel import binned_sums, group_codes
+from .voxel import binned_sums, floor_index, group_codes
 
 #: The 27 offsets of a block, the centre (0, 0, 0) at index 13; and the 13 that go "forward"
 #: (lexicographically after the centre), so that each pair of neighbouring cells is met once.
@@ -99,9 +99,7 @@ class CellGrid:
         key = np.empty((3, len(points)), dtype=np.int64)
         scaled = np.empty(len(points))
         for a in range(3):
-            np.subtract(points[:, a], lower[a], out=scaled)
-            np.divide(scaled, edge, out=scaled)
-            key[a] = np.floor(scaled, out=scaled)
+            floor_index(points[:, a], lower[a], edge, key[a], scaled)
         del scaled
         key += 1
         dims = key.max(axis=1, initial=1) + 2

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .bounds import column_max, column_min
+from .voxel import floor_index
 
 _MULTIPLIERS = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xC2B2AE3D27D4EB4F), np.uint64(0x165667B19E3779F9))
 
@@ -55,10 +56,7 @@ def grid_hash(points: np.ndarray, lower, step: float, seed: int = 0, shift: floa
     with np.errstate(over="ignore"):
         h = np.full(len(points), np.uint64(seed) * _MULTIPLIERS[2] + _MULTIPLIERS[0], dtype=np.uint64)
         for axis in range(3):
-            np.subtract(points[:, axis], lower[axis], out=scaled)
-            scaled /= step
-            scaled += shift
-            np.copyto(key.view(np.int64), np.floor(scaled, out=scaled), casting="unsafe")  # as astype
+            floor_index(points[:, axis], lower[axis], step, key.view(np.int64), scaled, shift)
             h ^= np.multiply(key, _MULTIPLIERS[axis], out=term)
             h ^= np.right_shift(h, np.uint64(31), out=term)
             h *= _MULTIPLIERS[1]

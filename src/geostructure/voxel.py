@@ -89,6 +89,18 @@ def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarra
     return np.floor((points - origin) / edge).astype(np.int64)
 
 
+def floor_index(column: np.ndarray, lower: float, edge: float, out: np.ndarray, scratch: np.ndarray, shift=0.0):
+    """``floor((column - lower) / edge + shift)`` into ``out`` (an integer row), as
+    ``astype(np.int64)`` gives it, through ``scratch`` (a float64 row of the same length):
+    one coordinate's grid index with no temporary the cloud's length."""
+    np.subtract(column, lower, out=scratch)
+    scratch /= edge
+    if shift:
+        scratch += shift
+    np.copyto(out, np.floor(scratch, out=scratch), casting="unsafe")
+    return out
+
+
 def check_voxel_count(points: np.ndarray, edge: float, origin: np.ndarray) -> None:
     """Refuse an edge that makes more than :data:`MAX_CELLS_PER_AXIS` voxels along an axis."""
     if len(points):
@@ -178,9 +190,7 @@ def accumulate_moments(points: np.ndarray, edge: float, origin: np.ndarray):
     # as rows and column by column: no array the cloud's size is allocated twice.
     key, rel = np.empty((3, len(points)), dtype=np.int64), np.empty((3, len(points)))
     for a in range(3):
-        np.subtract(points[:, a], origin[a], out=rel[a])
-        np.divide(rel[a], edge, out=rel[a])
-        key[a] = np.floor(rel[a], out=rel[a])
+        floor_index(points[:, a], origin[a], edge, key[a], rel[a])
         np.multiply(key[a], edge, out=rel[a])
         rel[a] += origin[a]
         np.subtract(points[:, a], rel[a], out=rel[a])
