@@ -115,3 +115,20 @@ def test_real_outcrop_gives_planes_at_a_zeta_its_density_supports():
     result = measure(cloud, Params(zeta=0.05))
     assert len(result) >= 1
     assert result.centroids[:, 1].min() > 5_000_000  # reported back in UTM
+
+
+def test_the_terminal_table_shows_the_planes_with_most_points_and_says_where_the_rest_are(scene_result):
+    from rich.console import Console
+
+    from geostructure.tables import print_planes
+
+    console = Console(width=120, record=True)
+    print_planes(scene_result, console=console, max_rows=3)
+    text = console.export_text()
+    sizes = np.sort(scene_result.planes.n_points)[::-1]
+    shown = [int(line.split("│")[2].replace(",", "")) for line in text.splitlines() if line.count("│") > 8]
+    assert shown == sizes[:3].tolist()
+    assert f"the 3 of {len(sizes)} planes with the most points; all in planes.csv" in text
+    console = Console(width=120, record=True)
+    print_planes(scene_result, console=console)  # all of them fit: no caption
+    assert "planes.csv" not in console.export_text() and len(sizes) < 40
