@@ -19,7 +19,6 @@ from dataclasses import dataclass, replace
 from itertools import product
 
 import numpy as np
-from scipy.sparse import csr_matrix
 
 from .bounds import column_max, column_min
 from .voxel import binned_sums, floor_index, group_codes
@@ -193,9 +192,9 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
     """Each occupied cell's block plane on ``grid``, with the cells' neighbour table."""
     codes, n_cells = grid.codes, len(grid)
     # The neighbours forward of each cell by search; those behind it by symmetry. 32-bit
-    # and in rows, so that the sparse product below takes the table itself as its column
-    # indices: every fresh megabyte costs time (its pages are zeroed on first touch), and
-    # the 64-bit table and its two copies were most of this function's time at 0.4M cells.
+    # and in rows, the block sums' gather index as it stands: every fresh megabyte costs
+    # time (its pages are zeroed on first touch), and the 64-bit table and its two copies
+    # were most of this function's time at 0.4M cells.
     index = np.int32 if n_cells < 2**31 - 1 else np.int64
     neighbour = np.full((n_cells, 27), -1, dtype=index)
     neighbour[:, CENTRE] = np.arange(n_cells)
@@ -208,16 +207,10 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
         neighbour[at[found], 26 - o] = found
 
     # A block's moments are the sum of its 27 cells' ("no neighbour" picks the row of
-    # zeros), as one sparse product (27 ones a row): a single pass in C instead of 27
-    # gathers of the whole table. "No neighbour" is the zeros' row for the product only.
+    # zeros), the table itself the gather's index.
     missing = neighbour < 0
     neighbour[missing] = n_cells
-    adjacency = csr_matrix(
-        (np.ones(neighbour.size, dtype=np.int8), neighbour.ravel(), np.arange(0, neighbour.size + 1, 27, dtype=index)),
-        shape=(n_cells, n_cells + 1),
-    )
-    block = adjacency @ grid.moments
-    del adjacency
+    block = neighbour_sums(grid.moments, neighbour)
     neighbour[missing] = -1
     del missing
     count = grid.moments[:n_cells, 0]
@@ -230,6 +223,35 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
         neighbour=neighbour,
         **block_planes(grid, block),
     )
+
+
+#: Cells summed at a time by :func:`neighbour_sums`: their rows (80 bytes each) stay in cache.
+SUM_CHUNK = 16384
+
+
+def neighbour_sums(values: np.ndarray, neighbour: np.ndarray) -> np.ndarray:
+    """Each row of ``neighbour`` (C, K) summed over the rows of ``values`` it indexes, in
+    column order: the K gathers a chunk of rows at a time into two buffers. A sparse
+    product with K ones a row computes the same sums (in the same order, bit for bit) but
+    casts its K * C ones to float64 first: at 0.4M cells 86 MB of fresh pages, a second on
+    a machine whose memory is slow to touch, against 0.1 s here.
+
+    Examples
+    --------
+    >>> values = np.array([[1.0, 10.0], [2.0, 20.0], [0.0, 0.0]])
+    >>> neighbour_sums(values, np.array([[0, 1], [1, 2]])).tolist()
+    [[3.0, 30.0], [2.0, 20.0]]
+    """
+    out = np.empty((len(neighbour), values.shape[1]))
+    gathered = np.empty((min(SUM_CHUNK, len(neighbour)), values.shape[1]))
+    for start in range(0, len(neighbour), SUM_CHUNK):
+        rows = neighbour[start : start + SUM_CHUNK]
+        total, part = out[start : start + len(rows)], gathered[: len(rows)]
+        np.take(values, rows[:, 0], axis=0, out=total, mode="clip")  # "raise" buffers a copy
+        for k in range(1, neighbour.shape[1]):
+            np.take(values, rows[:, k], axis=0, out=part, mode="clip")
+            total += part
+    return out
 
 
 def block_planes(grid: CellGrid, block: np.ndarray) -> dict:
