@@ -8,6 +8,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "geostructure"
 
 
@@ -111,3 +113,24 @@ def test_every_public_name_has_a_docstring_with_an_example():
         if name != "__version__" and ">>>" not in (getattr(geostructure, name).__doc__ or "")
     ]
     assert missing == []
+
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+@pytest.mark.parametrize("chosen, expected", [(None, "False"), ("1", "True")])
+def test_the_command_asks_numpy_for_small_pages_unless_the_user_chose(chosen, expected, numpy_first):
+    """The command's start turns numpy's huge pages off (slow to touch on VMs that return
+    freed memory to their host) but keeps a choice made with numpy's own switch."""
+    import os
+    import subprocess
+    import sys
+
+    probe = (
+        ("import numpy;" if numpy_first else "")  # before: numpy's setter; after: the switch it reads
+        + "import geostructure.__main__ as m; m.prefer_small_pages(); import numpy;"
+        + "print(numpy._core.multiarray._set_madvise_hugepage(False))"  # returns the setting it replaces
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if chosen is not None:
+        env["NUMPY_MADVISE_HUGEPAGE"] = chosen
+    done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == expected, done.stderr
