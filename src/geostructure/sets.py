@@ -193,7 +193,7 @@ def find_sets(
         if len(x) < k * MIN_SET_PLANES:
             continue
         # EM finds a local optimum: keep the best of a few starts.
-        fits[k] = max((_fit_mixture(x, w, k, rng) for _ in range(EM_STARTS)), key=lambda f: f["loglik"])
+        fits[k] = _fit_mixture(x, w, k, rng, starts=EM_STARTS)
         # Weighted, the log-likelihood counts the planes n / n_eff times over: scale it back.
         bic[k] = -2.0 * fits[k]["loglik"] * n_eff / len(x) + (3 * k + k) * np.log(max(n_eff, 2.0))
     if not fits:
@@ -249,17 +249,17 @@ def _outer(x: np.ndarray) -> np.ndarray:
 
 
 def _principal_axes(outer: np.ndarray, rw: np.ndarray) -> np.ndarray:
-    """(K, 3): principal eigenvector of each component's weighted orientation tensor
-    sum(w x x^T), ``rw`` (K, P) holding the weights and ``outer`` the axes' :func:`_outer`;
-    one batched eigh for all K."""
-    return np.linalg.eigh((rw @ outer).reshape(-1, 3, 3))[1][:, :, -1]
+    """(..., K, 3): principal eigenvector of each component's weighted orientation tensor
+    sum(w x x^T), ``rw`` (..., K, P) holding the weights and ``outer`` the axes'
+    :func:`_outer`; one batched eigh for all."""
+    return np.linalg.eigh((rw @ outer).reshape(*rw.shape[:-1], 3, 3))[1][..., -1]
 
 
 def _log_bipolar_fisher(x: np.ndarray, means: np.ndarray, kappas: np.ndarray) -> np.ndarray:
-    """(K, P): log f(x) for each component, f = kappa / (4 pi sinh kappa) cosh(kappa mean.x),
-    overflow-free."""
+    """(..., K, P): log f(x) for each component, f = kappa / (4 pi sinh kappa) cosh(kappa
+    mean.x), overflow-free; ``means`` (..., K, 3) and ``kappas`` (..., K)."""
     c = np.abs(np.asarray(means) @ x.T)
-    kappas = np.asarray(kappas, dtype=np.float64)[:, None]
+    kappas = np.asarray(kappas, dtype=np.float64)[..., None]
     # log cosh(k c) - log sinh(k) = k (c - 1) + log(1 + e^{-2kc}) - log(1 - e^{-2k})
     return (
         np.log(kappas / (4.0 * np.pi))
@@ -276,45 +276,56 @@ def _kappas(r_bar: np.ndarray) -> np.ndarray:
 
 
 def _component_log_p(x: np.ndarray, means, kappas, mix) -> np.ndarray:
-    """(K + 1, P): log of each component's weighted density, the uniform one last.
+    """(..., K + 1, P): log of each component's weighted density, the uniform one last.
 
-    Components are rows: the reductions over them run along the first axis, which numpy
-    does row by row, several times faster on short axes than along the second."""
-    uniform = np.full((1, len(x)), -np.log(4 * np.pi))
-    return np.vstack([_log_bipolar_fisher(x, means, kappas), uniform]) + np.log(np.maximum(mix, 1e-300))[:, None]
+    Components are the second last axis: the reductions over them run along an outer
+    axis, which numpy does row by row, several times faster on short axes than along the
+    last."""
+    fisher = _log_bipolar_fisher(x, means, kappas)
+    uniform = np.full((*fisher.shape[:-2], 1, len(x)), -np.log(4 * np.pi))
+    return np.concatenate([fisher, uniform], axis=-2) + np.log(np.maximum(mix, 1e-300))[..., None]
 
 
-def _fit_mixture(x: np.ndarray, w: np.ndarray, k: int, rng, iterations: int = 200) -> dict:
-    """EM for ``k`` bipolar Fisher components and a uniform one, from k-means++-like starts."""
+def _fit_mixture(x: np.ndarray, w: np.ndarray, k: int, rng, starts: int = 1, iterations: int = 200) -> dict:
+    """EM for ``k`` bipolar Fisher components and a uniform one from ``starts`` k-means++-like
+    starts, run side by side (an axis of their own, each stopping when it converges); the
+    fit of the highest likelihood, the first such on a tie."""
     # Starts: the heaviest pole, then each next the pole farthest (axially) from those chosen.
-    means = [x[int(np.argmax(w))]]
-    for _ in range(1, k):
-        closeness = np.max(np.abs(x @ np.array(means).T), axis=1)
-        p = w * (1.0 - closeness) ** 2 + 1e-12
-        means.append(x[rng.choice(len(x), p=p / p.sum())])
-    means = np.array(means)
-    kappas = np.full(k, 20.0)
-    mix = np.full(k + 1, 1.0 / (k + 1))
-    loglik, outer = -np.inf, _outer(x)
+    means = np.empty((starts, k, 3))
+    for s in range(starts):
+        chosen = [x[int(np.argmax(w))]]
+        for _ in range(1, k):
+            closeness = np.max(np.abs(x @ np.array(chosen).T), axis=1)
+            p = w * (1.0 - closeness) ** 2 + 1e-12
+            chosen.append(x[rng.choice(len(x), p=p / p.sum())])
+        means[s] = chosen
+    kappas = np.full((starts, k), 20.0)
+    mix = np.full((starts, k + 1), 1.0 / (k + 1))
+    loglik, outer = np.full(starts, -np.inf), _outer(x)
+    running = np.arange(starts)  # the starts not yet converged
     for _ in range(iterations):
-        log_p = _component_log_p(x, means, kappas, mix)
-        top = log_p.max(axis=0)
-        total = top + np.log(np.exp(log_p - top).sum(axis=0))
-        rw = np.exp(log_p - total) * w  # responsibilities times weights, (K + 1, P)
-        new = float(w @ total)
-        held = rw.sum(axis=1)
-        mix = held / held.sum()
-        live = held[:k] > 1e-9  # a component that holds nothing keeps its mean and kappa
-        if live.any():
-            fitted = _principal_axes(outer, rw[:k][live])
-            aligned = np.abs(fitted @ x.T)
-            means[live] = fitted
-            kappas[live] = _kappas((rw[:k][live] * aligned).sum(axis=1) / held[:k][live])
-        if new - loglik < 1e-6 * abs(new):
-            loglik = new
+        log_p = _component_log_p(x, means[running], kappas[running], mix[running])
+        top = log_p.max(axis=1)
+        total = top + np.log(np.exp(log_p - top[:, None]).sum(axis=1))
+        rw = np.exp(log_p - total[:, None]) * w  # responsibilities times weights, (A, K + 1, P)
+        new = np.array([float(w @ t) for t in total])  # one dot each: the same sum as alone
+        held = rw.sum(axis=2)
+        mix[running] = held / held.sum(axis=1, keepdims=True)
+        # Every component's axis and kappa, kept where it holds something (an empty one
+        # keeps its mean and kappa). A stack of products and eigh's are each start's own
+        # calls: the same numbers as the starts run one by one.
+        fitted = _principal_axes(outer, rw[:, :k])
+        r_bar = (rw[:, :k] * np.abs(fitted @ x.T)).sum(axis=2) / np.where(held[:, :k] > 0, held[:, :k], 1.0)
+        live = held[:, :k] > 1e-9
+        means[running] = np.where(live[..., None], fitted, means[running])
+        kappas[running] = np.where(live, _kappas(r_bar), kappas[running])
+        done = new - loglik[running] < 1e-6 * np.abs(new)
+        loglik[running] = new
+        running = running[~done]
+        if not len(running):
             break
-        loglik = new
-    return {"means": means, "kappas": kappas, "mix": mix, "loglik": loglik}
+    best = int(np.argmax(loglik))
+    return {"means": means[best], "kappas": kappas[best], "mix": mix[best], "loglik": float(loglik[best])}
 
 
 def _assign(x: np.ndarray, fit: dict) -> np.ndarray:
