@@ -109,7 +109,12 @@ def check_measurable(cloud: Cloud) -> None:
             f"measure needs a Cloud (Cloud.from_points(array) for an (N, 3) array, or "
             f"read_cloud(path)), not {type(cloud).__name__}."
         )
-    if not np.isfinite(cloud.local).all():  # whole-array first (fast); per row only to name one
+    # The bounds first (folded reductions, no copy of the cloud; NaN and inf reach them);
+    # the per-row tests only to name a row.
+    if len(cloud) == 0:
+        raise GeoStructureError(f"{cloud.source}: holds 0 point(s); a plane needs at least 3.")
+    lower, upper = column_min(cloud.local), column_max(cloud.local)
+    if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
         bad = ~np.isfinite(cloud.local).all(axis=1)
         raise InputError(
             f"{cloud.source}: {int(bad.sum())} point(s) have NaN or infinite coordinates "
@@ -117,12 +122,12 @@ def check_measurable(cloud: Cloud) -> None:
         )
     if len(cloud) < 3:
         raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
-    if np.abs(cloud.local).max() > MAX_COORDINATE:
+    if max(float(np.abs(lower).max()), float(np.abs(upper).max())) > MAX_COORDINATE:
         raise InputError(
             f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
             f"no survey uses; the data may be damaged."
         )
-    extent = column_max(cloud.local) - column_min(cloud.local)
+    extent = upper - lower
     if extent.max() <= 0:
         raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
     if (

@@ -79,27 +79,30 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
     except Exception as exc:  # a library's parse error: the user's file is at fault
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise GeoStructureError(f"{path}: cannot be read as {suffix[1:].upper()} ({detail}).") from None
-    check_points(cloud.points, path)
+    check_points(cloud.local, path, offset=cloud.offset)  # no absolute copy: 192 MB at 8M points
     return cloud
 
 
-def check_points(points: np.ndarray, path) -> None:
-    """Refuse coordinates no measurement can use: NaN/inf, too few, degenerate."""
+def check_points(points: np.ndarray, path, offset=None) -> None:
+    """Refuse coordinates no measurement can use: NaN/inf, too few, degenerate; ``points``
+    relative to ``offset`` when given."""
     if len(points) == 0:
         raise GeoStructureError(f"{path}: holds no points.")
-    check_coordinates(points, path)
+    check_coordinates(points, path, offset=offset)
     if len(points) < 3:
         raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
 
 
-def check_coordinates(points: np.ndarray, path, first: int = 0) -> None:
+def check_coordinates(points: np.ndarray, path, first: int = 0, offset=None) -> None:
     """Refuse NaN/inf coordinates and ones beyond :data:`MAX_COORDINATE`; ``first`` is the
-    number of the first of ``points`` in the file (a chunk's), for the message."""
+    number of the first of ``points`` in the file (a chunk's), for the message; ``points``
+    relative to ``offset`` (3,) when given."""
     # The bounds first (folded reductions, no copy of the cloud; NaN and inf reach them);
     # the per-row tests only to name a row.
     if not len(points):
         return
-    lo, hi = column_min(points), column_max(points)
+    shift = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64)
+    lo, hi = column_min(points) + shift, column_max(points) + shift
     if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
         bad = ~np.isfinite(points).all(axis=1)
         row = first + int(np.flatnonzero(bad)[0])
@@ -107,7 +110,7 @@ def check_coordinates(points: np.ndarray, path, first: int = 0) -> None:
             f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {row})."
         )
     if max(float(np.abs(lo).max()), float(np.abs(hi).max())) > MAX_COORDINATE:
-        far = np.abs(points).max(axis=1) > MAX_COORDINATE
+        far = np.abs(points + shift).max(axis=1) > MAX_COORDINATE
         row = first + int(np.flatnonzero(far)[0])
         raise GeoStructureError(
             f"{path}: point {row} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
