@@ -36,9 +36,10 @@ def write_regions_ply(result, path) -> Path:
     """
     from plyfile import PlyData, PlyElement
 
-    points = result.filtered.points
-    vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), (SCALAR + "region_id", "i4")])
-    vertex["x"], vertex["y"], vertex["z"] = points.T
+    filtered = result.filtered
+    vertex = np.empty(len(filtered), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), (SCALAR + "region_id", "i4")])
+    for axis, name in enumerate("xyz"):  # Cloud.points column by column, into the record itself
+        np.add(filtered.local[:, axis], filtered.offset[axis], out=vertex[name])
     vertex[SCALAR + "region_id"] = result.labels
     with atomic_path(path) as tmp:
         PlyData(
