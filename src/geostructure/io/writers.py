@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import __version__
 from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
-from .atomic import atomic_path, write_json, write_table_csv
+from .atomic import ChunkedWriter, atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
 from .laz import point_sets, write_regions_laz, write_voxel_planes_laz
@@ -34,19 +34,23 @@ def write_regions_ply(result, path) -> Path:
     The ``scalar_`` prefix is what CloudCompare's PLY reader asks, in its command-line mode
     (no dialog), to load a property as a scalar field (named ``region_id`` there).
     """
-    from plyfile import PlyData, PlyElement
-
     filtered = result.filtered
     vertex = np.empty(len(filtered), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), (SCALAR + "region_id", "i4")])
     for axis, name in enumerate("xyz"):  # Cloud.points column by column, into the record itself
         np.add(filtered.local[:, axis], filtered.offset[axis], out=vertex[name])
     vertex[SCALAR + "region_id"] = result.labels
-    with atomic_path(path) as tmp:
-        PlyData(
-            [PlyElement.describe(vertex, "vertex")],
-            text=False,
-            comments=["written by geostructure", f"source {_ascii(Path(result.cloud.source).name)}"],
-        ).write(str(tmp))
+    return write_vertex_ply(
+        path, vertex, ["written by geostructure", f"source {_ascii(Path(result.cloud.source).name)}"]
+    )
+
+
+def write_vertex_ply(path, vertex: np.ndarray, comments: list[str]) -> Path:
+    """A binary PLY of one ``vertex`` element (a structured array), atomically, its data
+    handed to the kernel in pieces (:class:`~.atomic.ChunkedWriter`)."""
+    from plyfile import PlyData, PlyElement
+
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        PlyData([PlyElement.describe(vertex, "vertex")], text=False, comments=comments).write(ChunkedWriter(fh))
     return Path(path)
 
 
@@ -54,8 +58,6 @@ def write_voxel_planes_ply(result, path) -> Path:
     """``voxel_planes.ply``: each fitted voxel's centroid (double) with its unit normal, point
     count and region id (-1 for none), as CloudCompare's scalar fields: the paper's "voxel planes" stage, as a cloud with
     normals that CloudCompare shows as such."""
-    from plyfile import PlyData, PlyElement
-
     voxels = result.voxels
     vertex = np.empty(
         len(voxels),
@@ -75,13 +77,7 @@ def write_voxel_planes_ply(result, path) -> Path:
     vertex["nx"], vertex["ny"], vertex["nz"] = voxels.normal.T
     vertex[SCALAR + "count"] = voxels.count
     vertex[SCALAR + "region_id"] = result.voxel_labels
-    with atomic_path(path) as tmp:
-        PlyData(
-            [PlyElement.describe(vertex, "vertex")],
-            text=False,
-            comments=["written by geostructure", f"voxel_edge {voxels.edge!r}"],
-        ).write(str(tmp))
-    return Path(path)
+    return write_vertex_ply(path, vertex, ["written by geostructure", f"voxel_edge {voxels.edge!r}"])
 
 
 def run_record(result, extra: dict | None = None) -> dict:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.atomic import ChunkedWriter
 from ..io.gis import parse_crs
 from ..io.laz import las_grid
 from ..io.results import SCALAR
@@ -36,7 +37,7 @@ class RegionsPly:
         rows = np.empty(len(points), dtype=self._dtype)
         rows["x"], rows["y"], rows["z"] = points.T
         rows[SCALAR + "region_id"] = labels
-        rows.tofile(self._file)
+        ChunkedWriter(self._file).write(rows)  # a chunk's rows in pieces: one large write is slow
 
     def end(self) -> None:
         self._file.close()
