@@ -132,3 +132,29 @@ def test_the_terminal_table_shows_the_planes_with_most_points_and_says_where_the
     console = Console(width=120, record=True)
     print_planes(scene_result, console=console)  # all of them fit: no caption
     assert "planes.csv" not in console.export_text() and len(sizes) < 40
+
+
+def test_benches_give_their_faces_and_berms_and_no_ribbons_along_the_edges():
+    """Two quarry benches (faces dipping 70 degrees meeting level berms, 1 cm noise, 2.4 cm
+    spacing): the four surfaces, and no strip of the cells that straddle an edge where a
+    face meets a berm (they fit planes between the two: 2 such strips without the rule)."""
+    from geostructure.auto import choose_params
+    from geostructure.cloud import Cloud
+    from geostructure.orientation import angle_between_normals
+
+    rng = np.random.default_rng(0)
+    n, height, berm, dip = 200_000, 10.0, 6.0, np.radians(70.0)
+    run = height / np.tan(dip)
+    which = rng.integers(0, 2, n)
+    on_face = rng.random(n) < np.hypot(run, height) / (np.hypot(run, height) + berm)
+    t, x = rng.random(n), 3.0 * rng.random(n)
+    y = which * (run + berm) + np.where(on_face, t * run, run + t * berm)
+    z = which * height + np.where(on_face, t * height, height)
+    face, level = np.array([0.0, -np.sin(dip), np.cos(dip)]), np.array([0.0, 0.0, 1.0])
+    normal = np.where(on_face[:, None], face, level)
+    cloud = Cloud.from_points(np.column_stack([x, y, z]) + 0.01 * rng.standard_normal(n)[:, None] * normal)
+    result = measure(cloud, choose_params(cloud.local).params)
+    assert len(result.planes) == 4, result.planes.n_points
+    errors = [angle_between_normals(result.planes.normal, np.tile(s, (4, 1))) for s in (face, level)]
+    assert sorted((np.minimum(*errors) < 0.5).tolist()) == [True] * 4
+    assert result.counts["ribbons"] >= 1  # the rule did the work: the strips were there

@@ -68,6 +68,14 @@ COARSENING_ROUNDS = 3
 #: The angle threshold is this many times the median angle between touching cells' planes
 #: (2.5 found 1 to 2% more facets than 2 or 3.5 on outcrop seeds 4 and 5).
 ANGLE_FACTOR = 2.5
+#: A facet narrower than this many cells of its grid (the short side of its rectangle) is a
+#: ribbon along an edge where two surfaces meet, not a plane: the cells that straddle the
+#: edge fit planes between the two, alike along the edge, and grow into a strip one cell
+#: wide whose normal is fixed only along it. On a 5M-point quarry (faces dipping 70 deg
+#: meeting level berms) 60 of the 61 planes after its 8 surfaces were such strips, 0.84 to
+#: 1.05 cells across and dipping 60 to 68 deg; on the rough outcrop (seed 0) one of its
+#: 1,556 facets is under two cells across, and none on the observatory.
+MIN_FACET_CELLS_ACROSS = 2.0
 #: Points sampled to measure the point spacing.
 SPACING_SAMPLE = 20_000
 #: Above this many points, the scatter that decides whether to coarsen the grid is read on

@@ -12,7 +12,7 @@ import numpy as np
 from .bounds import column_max, column_min
 from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
-from .facets import detect_facets, voxel_majority
+from .facets import MIN_FACET_CELLS_ACROSS, detect_facets, voxel_majority
 from .filter import FilterResult, filter_outliers
 from .merge import merge_coplanar
 from .orientation import Frame, Orientation, face_side, orientation_from_normals, upward
@@ -212,6 +212,8 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
             report,
             min_voxels=np.where(is_facet, 0, 3),
         )
+        if n_facets:
+            regions, kept, counts["ribbons"] = _without_ribbons(regions, kept, is_facet, facet_record["cell_edge"])
         # Old region id -> plane number (largest first); -1 (the table's last entry) stays -1.
         renumber = np.full(max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 2, -1)
         renumber[kept] = np.arange(len(kept))
@@ -378,6 +380,15 @@ def _region_planes(points, point_region, voxel_region, min_points, method, repor
         planes.append(region_plane(points[order[starts[region] : starts[region + 1]]], method))
         report("planes", i + 1, len(candidates))
     return planes, candidates
+
+
+def _without_ribbons(regions: list, kept: np.ndarray, is_facet: np.ndarray, cell_edge: float):
+    """The region planes less the facets narrower than :data:`~.facets.MIN_FACET_CELLS_ACROSS`
+    cells of their grid (the short side of their rectangle), and how many were dropped."""
+    across = np.array([min(r.width, r.height) for r in regions])
+    ribbon = is_facet[kept] & (across < MIN_FACET_CELLS_ACROSS * cell_edge) if len(regions) else np.zeros(0, bool)
+    keep = np.flatnonzero(~ribbon)
+    return [regions[i] for i in keep], kept[keep], int(ribbon.sum())
 
 
 def _outward(cloud: Cloud, labels: np.ndarray, n_planes: int) -> np.ndarray | None:
