@@ -153,8 +153,9 @@ def write_voxel_planes_laz(result, path) -> Path:
         "count": np.asarray(voxels.count, dtype=np.int32),
         "region_id": np.asarray(result.voxel_labels, dtype=np.int32),
     }
-    centroids = voxels.centroid + cloud.offset
-    return write_laz(path, centroids, fields, offset=cloud.offset, crs=cloud.crs, grid=cloud.las_grid)
+    return write_laz(
+        path, voxels.centroid, fields, offset=cloud.offset, crs=cloud.crs, grid=cloud.las_grid, origin=cloud.offset
+    )
 
 
 def add_point_sets(source, path, planes) -> Path:
