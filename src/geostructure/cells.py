@@ -343,11 +343,12 @@ def block_moments(grid: CellGrid, cells: np.ndarray) -> np.ndarray:
     """The summed moments (len(cells), 10) of the 3 x 3 x 3 blocks of the given cells (sorted
     indices, so the searches run in order), found by search rather than by the whole grid's
     neighbour table."""
-    block = np.zeros((len(cells), 10))
     codes = grid.codes[cells]
-    for step in grid.steps():
-        block += grid.moments[grid.find(codes + step)]  # -1: the row of zeros
-    return block
+    index = np.empty((len(cells), len(OFFSETS)), dtype=np.int64)
+    for k, step in enumerate(grid.steps()):
+        found = grid.find(codes + step)
+        index[:, k] = np.where(found >= 0, found, len(grid))  # "no cell": the row of zeros
+    return neighbour_sums(grid.moments, index)
 
 
 def sampled_far_scatter(grid: CellGrid, n_sample: int, seed: int = 0, among=None) -> float:
