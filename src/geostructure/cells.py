@@ -65,9 +65,11 @@ class CellPlanes:
         half at 8M points; local coordinates keep the difference to 1e-14 m)."""
         normal = np.ascontiguousarray(self.normal.T)
         height = np.einsum("ij,ij->i", self.normal, self.block_centroid)[cells]
+        term = np.empty(len(height))  # one buffer for the three products (fresh pages cost)
         for axis in range(3):
-            height -= normal[axis][cells] * points[:, axis]
-        return np.abs(height)
+            np.take(normal[axis], cells, out=term, mode="clip")  # "raise" buffers a copy
+            height -= np.multiply(term, points[:, axis], out=term)
+        return np.abs(height, out=height)
 
 
 @dataclass
