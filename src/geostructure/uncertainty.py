@@ -130,16 +130,24 @@ def block_sums(coords, ranges: np.ndarray, n: int) -> BlockSums:
     ``ranges`` (:func:`coordinate_ranges`) cut each plane's extent into."""
     lab, u, v, h = coords
     blocks = BLOCKS * BLOCKS
-    key = lab * blocks
+    key = lab.astype(np.int64) * blocks
+    # Each point's block through two buffers, the same arithmetic as
+    # clip(int(BLOCKS * (coord - lo) / width)): no fresh array the points' length a step.
+    scaled, width, index = np.empty(len(lab)), np.empty(len(lab)), np.empty(len(lab), dtype=np.int64)
     for coord, stride, column in ((u, BLOCKS, 0), (v, 1, 2)):
         lo, hi = ranges[:, column], ranges[:, column + 1]
-        width = np.maximum(hi - lo, 1e-12)[lab]
-        index = np.clip((BLOCKS * (coord - lo[lab]) / width).astype(np.int64), 0, BLOCKS - 1)
-        key = key + stride * index
+        np.take(np.maximum(hi - lo, 1e-12), lab, out=width, mode="clip")  # "raise" buffers a copy
+        np.subtract(coord, np.take(lo, lab, out=scaled, mode="clip"), out=scaled)
+        scaled *= BLOCKS
+        scaled /= width
+        np.copyto(index, scaled, casting="unsafe")  # as astype(np.int64): toward zero
+        np.clip(index, 0, BLOCKS - 1, out=index)
+        index *= stride
+        key += index
     size = n * blocks
     per_block = [np.bincount(key, minlength=size).astype(np.float64)]
     per_block += [np.bincount(key, x, size) for x in (u, v, h)]
-    squares = np.column_stack([np.bincount(lab, x * x, n) for x in (u, v, h)]).reshape(n, 3)
+    squares = np.column_stack([np.bincount(lab, np.multiply(x, x, out=scaled), n) for x in (u, v, h)]).reshape(n, 3)
     return BlockSums(
         np.stack(per_block, axis=1).reshape(n, blocks, 4), np.bincount(lab, minlength=n).astype(np.float64), squares
     )
