@@ -53,41 +53,6 @@ def atomic_path(path):
             os.unlink(tmp)
 
 
-#: The most bytes given to one ``write``: a single write of a few hundred megabytes took 40
-#: times as long as the same bytes in pieces of this size (224 MB: 1.9 s against 0.05 s).
-WRITE_CHUNK = 16 << 20
-
-
-class ChunkedWriter:
-    """A binary file that hands large buffers to the kernel in :data:`WRITE_CHUNK` pieces
-    (``write`` is all it has: what plyfile and the LAZ writer use).
-
-    Examples
-    --------
-    >>> import io
-    >>> sink = io.BytesIO()
-    >>> ChunkedWriter(sink, chunk=4).write(bytes(range(10)))
-    10
-    >>> sink.getvalue() == bytes(range(10))
-    True
-    """
-
-    def __init__(self, file, chunk: int = WRITE_CHUNK):
-        self._file, self._chunk = file, chunk
-
-    def write(self, data) -> int:
-        view = memoryview(data).cast("B")
-        for start in range(0, len(view), self._chunk):
-            self._file.write(view[start : start + self._chunk])
-        return len(view)
-
-
-def write_buffer(path, data) -> None:
-    """``data`` (bytes, or any buffer) to the file ``path`` in :data:`WRITE_CHUNK` pieces."""
-    with open(path, "wb") as fh:
-        ChunkedWriter(fh).write(data)
-
-
 def plain(value):
     """``value`` as plain JSON types: numpy scalars and arrays unwrapped, non-finite floats None.
 

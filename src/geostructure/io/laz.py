@@ -25,7 +25,7 @@ import numpy as np
 
 from ..bounds import column_max, column_min
 from ..planes import plane_rows
-from .atomic import atomic_path, write_buffer
+from .atomic import atomic_path
 from .gis import parse_crs
 
 #: The step of the coordinate grid for a cloud that was not read from LAS/LAZ.
@@ -120,7 +120,7 @@ def _write(las, path) -> Path:
     buffer = io.BytesIO()
     las.write(buffer, do_compress=str(path).endswith(".laz"))
     with atomic_path(path) as tmp:
-        write_buffer(tmp, buffer.getbuffer())
+        tmp.write_bytes(buffer.getbuffer())
     return Path(path)
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import __version__
 from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
-from .atomic import ChunkedWriter, atomic_path, write_json, write_table_csv
+from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
 from .laz import point_sets, write_regions_laz, write_voxel_planes_laz
@@ -45,12 +45,11 @@ def write_regions_ply(result, path) -> Path:
 
 
 def write_vertex_ply(path, vertex: np.ndarray, comments: list[str]) -> Path:
-    """A binary PLY of one ``vertex`` element (a structured array), atomically, its data
-    handed to the kernel in pieces (:class:`~.atomic.ChunkedWriter`)."""
+    """A binary PLY of one ``vertex`` element (a structured array), atomically."""
     from plyfile import PlyData, PlyElement
 
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        PlyData([PlyElement.describe(vertex, "vertex")], text=False, comments=comments).write(ChunkedWriter(fh))
+    with atomic_path(path) as tmp:
+        PlyData([PlyElement.describe(vertex, "vertex")], text=False, comments=comments).write(str(tmp))
     return Path(path)
 
 

@@ -29,7 +29,6 @@ import numpy as np
 from ..auto import SAMPLE_POINTS, Occupancy, choose_from, samples_noise
 from ..errors import GeoStructureError
 from ..filter import neighbourhoods
-from ..io.atomic import ChunkedWriter
 from ..merge import merge_coplanar
 from ..orientation import Frame
 from ..params import ParameterWarning, Params
@@ -290,7 +289,7 @@ class _Run:
             for keep, kept, labels, part_hulls, sums in self.map(passes.chunk_labels, context):
                 every = np.full(len(keep), passes.DROPPED, dtype="<i4")
                 every[keep] = labels
-                ChunkedWriter(spill_out).write(every)
+                every.tofile(spill_out)
                 hulls = passes.merge_hulls(hulls, part_hulls)
                 if sums is not None:
                     normal_sums = sums if normal_sums is None else normal_sums + sums

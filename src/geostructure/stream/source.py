@@ -21,7 +21,6 @@ import numpy as np
 from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
-from ..io.atomic import ChunkedWriter
 from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, check_las_header, las_crs, ply_vertices, read_cloud
 from ..io.tiles import check_headers, check_same_crs, describe
 
@@ -144,10 +143,10 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                 start = spill.n_points
                 for points, normals, meta in _file_chunks(path, rows, mesh_samples):
                     check_coordinates(points, path, spill.n_points - start)
-                    ChunkedWriter(out).write(np.ascontiguousarray(points, dtype="<f8"))
+                    points.astype("<f8", copy=False).tofile(out)
                     all_normals = all_normals and normals is not None
                     if all_normals:
-                        ChunkedWriter(out_n).write(np.ascontiguousarray(normals, dtype="<f8"))
+                        normals.astype("<f8", copy=False).tofile(out_n)
                     spill.n_points += len(points)
                     if len(points):
                         spill.lower = np.minimum(spill.lower, column_min(points))
