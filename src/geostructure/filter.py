@@ -128,15 +128,22 @@ class Neighbourhoods:
         """Keep (N,) and Mahalanobis distance (N,) of ``points`` whose voxels are ``voxel``."""
         # The quadratic form from the six distinct entries, each gathered from a voxel table
         # small enough to stay in cache: gathering a 3 x 3 matrix per point cost 2.3 s at 8M.
-        x, y, z = (points[:, i] - self.mean[:, i][voxel] for i in range(3))
-        a = self.entries
-        d2 = a[0][voxel] * x * x
-        d2 += a[4][voxel] * y * y
-        d2 += a[8][voxel] * z * z
-        d2 += 2.0 * a[1][voxel] * x * y
-        d2 += 2.0 * a[2][voxel] * x * z
-        d2 += 2.0 * a[5][voxel] * y * z
-        d = np.sqrt(np.clip(d2, 0.0, None))
+        # Every gather into one of five buffers (each fresh array the points' length costs
+        # its pages' first touch): the same products in the same order as written out.
+        n = len(points)
+        x, y, z = (np.take(self.mean[:, i], voxel, mode="wrap") for i in range(3))
+        for i, deviation in enumerate((x, y, z)):
+            np.subtract(points[:, i], deviation, out=deviation)
+        a, term, d2 = self.entries, np.empty(n), np.zeros(n)
+        for entry, first, second, factor in ((0, x, x, 1.0), (4, y, y, 1.0), (8, z, z, 1.0),
+                                             (1, x, y, 2.0), (2, x, z, 2.0), (5, y, z, 2.0)):  # fmt: skip
+            np.take(a[entry], voxel, out=term, mode="wrap")  # as a[entry][voxel]; "raise" buffers a copy
+            if factor != 1.0:
+                term *= factor
+            term *= first
+            term *= second
+            d2 += term
+        d = np.sqrt(np.clip(d2, 0.0, None, out=d2), out=d2)
         support = self.support[voxel]
         isolated = support < min(max(3.0, isolation * typical), MIN_COVARIANCE_POINTS)
         testable = support >= MIN_COVARIANCE_POINTS
