@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
-from ..io.atomic import atomic_path, write_json
+from ..io.atomic import write_json
 from ..io.outdir import prepare_outdir
+from ..io.writers import write_vertex_ply
 from .dense import DenseOptions, dense_cloud
 from .frames import VIDEO_SUFFIXES, FrameOptions, extract_frames
 from .georef import (
@@ -195,13 +196,9 @@ def level_from_cameras(model, scale: float = 1.0):
 
 def write_cloud_ply(points: np.ndarray, path) -> Path:
     """The georeferenced points, double precision, for measuring and for other tools."""
-    from plyfile import PlyData, PlyElement
-
     vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
     vertex["x"], vertex["y"], vertex["z"] = np.asarray(points, float).T
-    with atomic_path(path) as tmp:
-        PlyData([PlyElement.describe(vertex, "vertex")], comments=["written by geostructure run"]).write(str(tmp))
-    return Path(path)
+    return write_vertex_ply(path, vertex, ["written by geostructure run"])
 
 
 def _write_mesh(mesh, path: Path) -> None:
