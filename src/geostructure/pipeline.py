@@ -385,8 +385,8 @@ def _region_planes(points, point_region, voxel_region, min_points, method, repor
 def _without_ribbons(regions: list, kept: np.ndarray, is_facet: np.ndarray, cell_edge: float):
     """The region planes less the facets narrower than :data:`~.facets.MIN_FACET_CELLS_ACROSS`
     cells of their grid (the short side of their rectangle), and how many were dropped."""
-    across = np.array([min(r.width, r.height) for r in regions])
-    ribbon = is_facet[kept] & (across < MIN_FACET_CELLS_ACROSS * cell_edge) if len(regions) else np.zeros(0, bool)
+    across = np.array([min(r.width, r.height) for r in regions], dtype=np.float64)
+    ribbon = is_facet[kept] & (across < MIN_FACET_CELLS_ACROSS * cell_edge)
     keep = np.flatnonzero(~ribbon)
     return [regions[i] for i in keep], kept[keep], int(ribbon.sum())
 
