@@ -147,3 +147,21 @@ def test_cloudcompare_loads_region_id_from_the_laz(las_input, tmp_path, capsys):
     regions = laspy.read(str(out / "regions.laz"))
     assert np.abs(table[:, :3] - regions.xyz).max() < 1e-3
     np.testing.assert_array_equal(table[:, header.index("region_id")].astype(int), regions.region_id)
+
+
+def test_stored_integers_are_laspys_own_and_refuse_what_32_bits_cannot_hold():
+    """The writer makes the LAS integers itself (one buffer, no record grown by np.append):
+    they must be the very integers laspy's own setter gives, UTM coordinates included."""
+    from geostructure.io.laz import stored_integers
+
+    rng = np.random.default_rng(5)
+    local = rng.normal(0.0, 300.0, 20_000)
+    origin, offset, scale = 4_600_123.4567, 4_600_000.0, 1e-4
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [scale] * 3, [offset] * 3
+    las = laspy.LasData(header)
+    las.x = local + origin
+    ours = stored_integers(local, origin, offset, scale, np.empty(len(local)))
+    assert np.array_equal(ours.astype(np.int32), np.asarray(las.X))
+    with pytest.raises(OverflowError):
+        stored_integers(np.array([1e6]), 0.0, 0.0, 1e-4, np.empty(1))

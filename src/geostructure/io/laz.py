@@ -102,13 +102,34 @@ def write_laz(
         header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=np.asarray(values).dtype))
     if crs:
         header.add_crs(parse_crs(crs))
-    las = laspy.LasData(header)
-    absolute = np.empty(len(points))
-    for axis, name in enumerate("xyz"):
-        setattr(las, name, np.add(points[:, axis], origin[axis], out=absolute))  # laspy keeps the integers
+    # The record at its length from the start: laspy grows an empty one by np.append.
+    las = laspy.LasData(header, points=laspy.ScaleAwarePointRecord.zeros(len(points), header=header))
+    scratch = np.empty(len(points))
+    for axis, name in enumerate("XYZ"):
+        las.points.array[name] = stored_integers(points[:, axis], origin[axis], header.offsets[axis],
+                                                 header.scales[axis], scratch)  # fmt: skip
     for name, values in fields.items():
         setattr(las, name, values)
     return _write(las, path)
+
+
+def stored_integers(column, origin: float, offset: float, scale: float, scratch: np.ndarray) -> np.ndarray:
+    """The LAS integers of one axis, ``round((column + origin - offset) / scale)``, in
+    ``scratch``: laspy's own formula (so the same integers), without its three temporaries
+    the cloud's length a coordinate.
+
+    Examples
+    --------
+    >>> stored_integers(np.array([0.12344, 2.0]), 500000.0, 500000.0, 1e-4, np.empty(2)).tolist()
+    [1234.0, 20000.0]
+    """
+    np.add(column, origin, out=scratch)
+    scratch -= offset
+    scratch /= scale
+    np.rint(scratch, out=scratch)
+    if len(scratch) and not (-(2**31) <= scratch.min() and scratch.max() <= 2**31 - 1):
+        raise OverflowError("Values given do not fit after applying offset and scale")
+    return scratch
 
 
 def _write(las, path) -> Path:
