@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import partial
 from itertools import product
 
 import numpy as np
 
 from .bounds import column_max, column_min
 from .voxel import binned_sums, floor_index, group_codes
+from .threads import MIN_ROWS_PER_THREAD, run_blocks, run_tasks
 
 #: The 27 offsets of a block, the centre (0, 0, 0) at index 13; and the 13 that go "forward"
 #: (lexicographically after the centre), so that each pair of neighbouring cells is met once.
@@ -166,14 +168,20 @@ def block_fit(block: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     """Blocks' planes from their summed moments (B, 10): eigenvalues (B, 3) ascending, unit
     normal (B, 3), mean about the centre (B, 3), and whether each plane is defined (see
     :data:`MIN_BLOCK_POINTS`)."""
-    n_b = block[:, 0]
-    with np.errstate(invalid="ignore", divide="ignore"):  # an empty block: NaN, and undefined
-        mean = block[:, 1:4] / n_b[:, None]
-        cov = np.empty((len(block), 3, 3))
-        for c, (a, b) in enumerate(MOMENT_COLUMNS[4:], start=4):
-            cov[:, a, b] = cov[:, b, a] = block[:, c] / n_b - mean[:, a] * mean[:, b]
-    values, normal = smallest_eigenpair(np.nan_to_num(cov))
-    defined = (n_b >= MIN_BLOCK_POINTS) & (values[:, 1] >= MIN_SPREAD_RATIO * values[:, 2])
+    values, normal, mean = np.empty((len(block), 3)), np.empty((len(block), 3)), np.empty((len(block), 3))
+    defined = np.empty(len(block), dtype=bool)
+
+    def fit(rows: slice) -> None:  # each block of rows on its own: the same bits in any split
+        n_b = block[rows, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):  # an empty block: NaN, and undefined
+            np.divide(block[rows, 1:4], n_b[:, None], out=mean[rows])
+            cov = np.empty((len(n_b), 3, 3))
+            for c, (a, b) in enumerate(MOMENT_COLUMNS[4:], start=4):
+                cov[:, a, b] = cov[:, b, a] = block[rows, c] / n_b - mean[rows, a] * mean[rows, b]
+        values[rows], normal[rows] = smallest_eigenpair(np.nan_to_num(cov, copy=False))
+        defined[rows] = (n_b >= MIN_BLOCK_POINTS) & (values[rows, 1] >= MIN_SPREAD_RATIO * values[rows, 2])
+
+    run_blocks(fit, len(block))
     return values, normal, mean, defined
 
 
@@ -201,20 +209,18 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
     neighbour = np.full((n_cells, 27), -1, dtype=index)
     neighbour[:, CENTRE] = np.arange(n_cells)
     steps = grid.steps()
-    for o in FORWARD:
+
+    def search(o: int) -> None:  # each offset fills its own two columns: the threads never meet
         target = codes + steps[o]
         at = np.minimum(np.searchsorted(codes, target), n_cells - 1)
         found = np.flatnonzero(codes[at] == target)
         neighbour[found, o] = at[found]
         neighbour[at[found], 26 - o] = found
 
-    # A block's moments are the sum of its 27 cells' ("no neighbour" picks the row of
-    # zeros), the table itself the gather's index.
-    missing = neighbour < 0
-    neighbour[missing] = n_cells
+    run_tasks([partial(search, o) for o in FORWARD], workers=None if n_cells >= MIN_ROWS_PER_THREAD else 1)
+    # A block's moments are the sum of its 27 cells' (-1, "no neighbour", picks the last
+    # row, of zeros), the table itself the gather's index.
     block = neighbour_sums(grid.moments, neighbour)
-    neighbour[missing] = -1
-    del missing
     count = grid.moments[:n_cells, 0]
     return CellPlanes(
         edge=grid.edge,
@@ -232,8 +238,8 @@ SUM_CHUNK = 16384
 
 
 def neighbour_sums(values: np.ndarray, neighbour: np.ndarray) -> np.ndarray:
-    """Each row of ``neighbour`` (C, K) summed over the rows of ``values`` it indexes, in
-    column order: the K gathers a chunk of rows at a time into two buffers. A sparse
+    """Each row of ``neighbour`` (C, K) summed over the rows of ``values`` it indexes (-1 the
+    last row), in column order: the K gathers a chunk of rows at a time into two buffers. A sparse
     product with K ones a row computes the same sums (in the same order, bit for bit) but
     casts its K * C ones to float64 first: at 0.4M cells 86 MB of fresh pages, a second on
     a machine whose memory is slow to touch, against 0.1 s here.
@@ -245,14 +251,19 @@ def neighbour_sums(values: np.ndarray, neighbour: np.ndarray) -> np.ndarray:
     [[3.0, 30.0], [2.0, 20.0]]
     """
     out = np.empty((len(neighbour), values.shape[1]))
-    gathered = np.empty((min(SUM_CHUNK, len(neighbour)), values.shape[1]))
-    for start in range(0, len(neighbour), SUM_CHUNK):
-        rows = neighbour[start : start + SUM_CHUNK]
-        total, part = out[start : start + len(rows)], gathered[: len(rows)]
-        np.take(values, rows[:, 0], axis=0, out=total, mode="clip")  # "raise" buffers a copy
-        for k in range(1, neighbour.shape[1]):
-            np.take(values, rows[:, k], axis=0, out=part, mode="clip")
-            total += part
+
+    def sum_rows(block: slice) -> None:  # a thread's rows, a chunk at a time, its own buffer
+        first, last = block.indices(len(neighbour))[:2]
+        gathered = np.empty((min(SUM_CHUNK, last - first), values.shape[1]))
+        for start in range(first, last, SUM_CHUNK):
+            rows = neighbour[start : min(start + SUM_CHUNK, last)]
+            total, part = out[start : start + len(rows)], gathered[: len(rows)]
+            np.take(values, rows[:, 0], axis=0, out=total, mode="wrap")  # "raise" buffers a copy
+            for k in range(1, neighbour.shape[1]):
+                np.take(values, rows[:, k], axis=0, out=part, mode="wrap")
+                total += part
+
+    run_blocks(sum_rows, len(neighbour))
     return out
 
 
@@ -348,8 +359,7 @@ def block_moments(grid: CellGrid, cells: np.ndarray) -> np.ndarray:
     codes = grid.codes[cells]
     index = np.empty((len(cells), len(OFFSETS)), dtype=np.int64)
     for k, step in enumerate(grid.steps()):
-        found = grid.find(codes + step)
-        index[:, k] = np.where(found >= 0, found, len(grid))  # "no cell": the row of zeros
+        index[:, k] = grid.find(codes + step)  # -1, "no cell": the row of zeros
     return neighbour_sums(grid.moments, index)
 
 

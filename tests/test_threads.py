@@ -1,0 +1,41 @@
+"""Row-split work in threads (geostructure.threads): the same bits whatever the number of
+threads, and a block's error raised in the caller."""
+
+import numpy as np
+import pytest
+
+from geostructure import threads
+from geostructure.cells import CellGrid, grid_planes
+from geostructure.synthetic import outcrop_scene
+
+
+def test_cell_planes_are_the_same_bits_on_one_thread_and_on_four(monkeypatch):
+    points = outcrop_scene(width=8.0, height=5.0, point_spacing=0.02, seed=2).cloud.local
+    grid = CellGrid.of(points, 0.025)
+    assert len(grid) > 2 * threads.MIN_ROWS_PER_THREAD  # enough cells to be split
+    planes = {}
+    for cores in (1, 4):
+        monkeypatch.setattr(threads, "available_cores", lambda cores=cores: cores)
+        planes[cores] = grid_planes(grid)
+    for field in ("normal", "block_centroid", "variation", "residual", "defined", "neighbour"):
+        assert np.array_equal(getattr(planes[1], field), getattr(planes[4], field), equal_nan=True), field
+
+
+def test_rows_are_split_in_order_and_every_row_once():
+    blocks = threads.row_blocks(100_003, workers=3, min_rows=10)
+    covered = np.concatenate([np.arange(100_003)[b] for b in blocks])
+    assert len(blocks) == 3 and np.array_equal(covered, np.arange(100_003))
+    assert threads.row_blocks(5, workers=8, min_rows=10) == [slice(0, 5)]
+
+
+def test_an_error_in_one_block_reaches_the_caller_after_the_others_finish():
+    done = []
+
+    def work(rows):
+        if rows.start == 0:
+            raise ValueError("first block")
+        done.append(rows)
+
+    with pytest.raises(ValueError, match="first block"):
+        threads.run_blocks(work, 100, workers=2, min_rows=10)
+    assert done == [slice(50, 100)]
