@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
 from .bounds import column_max, column_min
 from .errors import ParameterError
+from .threads import MIN_ROWS_PER_THREAD, available_cores, run_blocks, run_tasks
 
 #: Index pairs of the 6 distinct entries of a symmetric 3x3 matrix.
 _I, _J = np.triu_indices(3)
@@ -92,12 +94,18 @@ def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarra
 def floor_index(column: np.ndarray, lower: float, edge: float, out: np.ndarray, scratch: np.ndarray, shift=0.0):
     """``floor((column - lower) / edge + shift)`` into ``out`` (an integer row), as
     ``astype(np.int64)`` gives it, through ``scratch`` (a float64 row of the same length):
-    one coordinate's grid index with no temporary the cloud's length."""
-    np.subtract(column, lower, out=scratch)
-    scratch /= edge
-    if shift:
-        scratch += shift
-    np.copyto(out, np.floor(scratch, out=scratch), casting="unsafe")
+    one coordinate's grid index with no temporary the cloud's length, its rows split over
+    the cores (:func:`~.threads.run_blocks`)."""
+
+    def index(rows: slice) -> None:
+        part = scratch[rows]
+        np.subtract(column[rows], lower, out=part)
+        part /= edge
+        if shift:
+            part += shift
+        np.copyto(out[rows], np.floor(part, out=part), casting="unsafe")
+
+    run_blocks(index, len(column), min_rows=4 * MIN_ROWS_PER_THREAD)
     return out
 
 
@@ -218,12 +226,21 @@ def binned_sums(rel: np.ndarray, inverse: np.ndarray, n: int) -> tuple[np.ndarra
     ([[3.0, 1.0, 2.0], [3.0, 0.0, 0.0]], [5.0, 9.0], [2.0, 0.0])
     """
     sums, products = np.empty((n, 3)), np.empty((n, 6))
-    for a in range(3):
-        sums[:, a] = np.bincount(inverse, rel[a], n)
-    product = np.empty(rel.shape[1])
-    for c, (i, j) in enumerate(zip(_I, _J)):
-        np.multiply(rel[i], rel[j], out=product)
-        products[:, c] = np.bincount(inverse, product, n)
+    columns = [(sums, a, a, None) for a in range(3)] + [(products, c, i, j) for c, (i, j) in enumerate(zip(_I, _J))]
+    # Each column's sum whole, in one thread (so the same bits in any split); a thread's
+    # columns share one product buffer.
+    workers = min(available_cores(), 3) if rel.shape[1] >= MIN_ROWS_PER_THREAD else 1
+
+    def sum_columns(share: list) -> None:
+        product = None
+        for out, c, i, j in share:
+            if j is None:
+                out[:, c] = np.bincount(inverse, rel[i], n)
+                continue
+            product = np.empty(rel.shape[1]) if product is None else product
+            out[:, c] = np.bincount(inverse, np.multiply(rel[i], rel[j], out=product), n)
+
+    run_tasks([partial(sum_columns, columns[k::workers]) for k in range(workers)], workers=workers)
     return sums, products
 
 
