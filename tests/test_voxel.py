@@ -50,3 +50,22 @@ def test_large_coordinates_keep_precision():
     far = fit_voxels(Cloud.from_points(pts + [500_000.0, 5_000_000.0, 300.0]).local, 0.1)
     assert len(near) == len(far)
     assert angle_between_normals(far.normal, near.normal).max() < 1e-3  # float32 would be off by metres
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_codes_grouped_by_their_columns_are_numpys_unique(seed):
+    """group_codes with a minor part (a grid key's z under its x-y column) must give
+    np.unique's sorted codes and inverse exactly, whichever of its ways it takes: one table,
+    the columns' ranges in a second table, or a sort of those when they are sparse too."""
+    from geostructure.voxel import group_codes
+
+    rng = np.random.default_rng(seed)
+    minor = int(rng.choice([7, 1000, 100_000]))
+    n_major = int(rng.choice([50, 5_000]))
+    n = int(rng.integers(1, 20_000))
+    major = rng.integers(0, n_major, n)
+    low = rng.integers(0, minor, n) if seed % 2 else rng.integers(0, 3, n) + (major * 13) % max(minor - 3, 1)
+    codes = major * minor + low
+    unique, inverse = group_codes(codes, n_major * minor, minor=minor)
+    expected, expected_inverse = np.unique(codes, return_inverse=True)
+    assert np.array_equal(unique, expected) and np.array_equal(inverse, expected_inverse.ravel())

@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from .bounds import column_max, column_min
-from .voxel import floor_index
+from .threads import MIN_ROWS_PER_THREAD, run_blocks
+from .voxel import floor_rows
 
 _MULTIPLIERS = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xC2B2AE3D27D4EB4F), np.uint64(0x165667B19E3779F9))
 
@@ -53,14 +54,19 @@ def grid_hash(points: np.ndarray, lower, step: float, seed: int = 0, shift: floa
     """
     points, lower = np.asarray(points, dtype=np.float64), np.asarray(lower, dtype=np.float64)
     scaled, key, term = np.empty(len(points)), np.empty(len(points), dtype=np.uint64), np.empty(len(points), np.uint64)
-    with np.errstate(over="ignore"):
-        h = np.full(len(points), np.uint64(seed) * _MULTIPLIERS[2] + _MULTIPLIERS[0], dtype=np.uint64)
-        for axis in range(3):
-            floor_index(points[:, axis], lower[axis], step, key.view(np.int64), scaled, shift)
-            h ^= np.multiply(key, _MULTIPLIERS[axis], out=term)
-            h ^= np.right_shift(h, np.uint64(31), out=term)
-            h *= _MULTIPLIERS[1]
-        h ^= np.right_shift(h, np.uint64(29), out=term)
+    h = np.full(len(points), np.uint64(seed) * _MULTIPLIERS[2] + _MULTIPLIERS[0], dtype=np.uint64)
+
+    def hash_rows(rows: slice) -> None:  # elementwise: any split of the rows, the same hashes
+        hr, kr, tr = h[rows], key[rows], term[rows]
+        with np.errstate(over="ignore"):
+            for axis in range(3):
+                floor_rows(points[rows, axis], lower[axis], step, kr.view(np.int64), scaled[rows], shift)
+                hr ^= np.multiply(kr, _MULTIPLIERS[axis], out=tr)
+                hr ^= np.right_shift(hr, np.uint64(31), out=tr)
+                hr *= _MULTIPLIERS[1]
+            hr ^= np.right_shift(hr, np.uint64(29), out=tr)
+
+    run_blocks(hash_rows, len(points), min_rows=4 * MIN_ROWS_PER_THREAD)
     return h
 
 
