@@ -39,3 +39,17 @@ def test_an_error_in_one_block_reaches_the_caller_after_the_others_finish():
     with pytest.raises(ValueError, match="first block"):
         threads.run_blocks(work, 100, workers=2, min_rows=10)
     assert done == [slice(50, 100)]
+
+
+def test_the_outlier_filter_is_the_same_bits_on_one_thread_and_on_four(monkeypatch):
+    from geostructure.filter import local_filter
+
+    points = outcrop_scene(width=8.0, height=5.0, point_spacing=0.02, seed=2).cloud.local
+    judged = {}
+    for cores in (1, 4):
+        monkeypatch.setattr(threads, "available_cores", lambda cores=cores: cores)
+        judged[cores] = local_filter(points, 0.02, 3.0)  # some 0.1M voxels: split too
+    assert len(points) > 2 * threads.MIN_ROWS_PER_THREAD
+    assert np.array_equal(judged[1].keep, judged[4].keep)
+    assert np.array_equal(judged[1].distance, judged[4].distance)
+    assert not judged[1].keep.all()  # a filter that judged something

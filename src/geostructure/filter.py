@@ -20,6 +20,7 @@ from functools import cached_property
 import numpy as np
 
 from .bounds import column_max, column_min
+from .threads import run_blocks
 from .voxel import accumulate_moments, covariance_from_moments
 
 METHODS = ("local", "global", "none")
@@ -130,20 +131,27 @@ class Neighbourhoods:
         # small enough to stay in cache: gathering a 3 x 3 matrix per point cost 2.3 s at 8M.
         # Every gather into one of five buffers (each fresh array the points' length costs
         # its pages' first touch): the same products in the same order as written out.
-        n = len(points)
-        x, y, z = (np.take(self.mean[:, i], voxel, mode="wrap") for i in range(3))
-        for i, deviation in enumerate((x, y, z)):
-            np.subtract(points[:, i], deviation, out=deviation)
-        a, term, d2 = self.entries, np.empty(n), np.zeros(n)
-        for entry, first, second, factor in ((0, x, x, 1.0), (4, y, y, 1.0), (8, z, z, 1.0),
-                                             (1, x, y, 2.0), (2, x, z, 2.0), (5, y, z, 2.0)):  # fmt: skip
-            np.take(a[entry], voxel, out=term, mode="wrap")  # as a[entry][voxel]; "raise" buffers a copy
-            if factor != 1.0:
-                term *= factor
-            term *= first
-            term *= second
-            d2 += term
-        d = np.sqrt(np.clip(d2, 0.0, None, out=d2), out=d2)
+        # Elementwise, so split by rows over the cores (the same bits in any split).
+        a, d = self.entries, np.empty(len(points))
+
+        def distance_rows(rows: slice) -> None:
+            cell, d2 = voxel[rows], d[rows]
+            x, y, z = (np.take(self.mean[:, i], cell, mode="wrap") for i in range(3))
+            for i, deviation in enumerate((x, y, z)):
+                np.subtract(points[rows, i], deviation, out=deviation)
+            term = np.empty(len(cell))
+            d2[:] = 0.0
+            for entry, first, second, factor in ((0, x, x, 1.0), (4, y, y, 1.0), (8, z, z, 1.0),
+                                                 (1, x, y, 2.0), (2, x, z, 2.0), (5, y, z, 2.0)):  # fmt: skip
+                np.take(a[entry], cell, out=term, mode="wrap")  # as a[entry][voxel]; "raise" buffers a copy
+                if factor != 1.0:
+                    term *= factor
+                term *= first
+                term *= second
+                d2 += term
+            np.sqrt(np.clip(d2, 0.0, None, out=d2), out=d2)
+
+        run_blocks(distance_rows, len(points))
         support = self.support[voxel]
         isolated = support < min(max(3.0, isolation * typical), MIN_COVARIANCE_POINTS)
         testable = support >= MIN_COVARIANCE_POINTS
@@ -177,19 +185,25 @@ def _block_sums(keys, count, sums, products, edge):
     total_s = np.zeros_like(sums)
     total_p = np.zeros_like(products)
     iu, ju = np.triu_indices(3)
-    for offset in np.array(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1])).reshape(3, -1).T:
-        pos = np.searchsorted(sorted_codes, encode(keys + offset))
-        pos = np.minimum(pos, len(sorted_codes) - 1)
-        hit = sorted_codes[pos] == encode(keys + offset)
-        src = order[pos[hit]]
-        n, s, p = count[src], sums[src], products[src]
-        # Neighbour moments are about the neighbour's corner; move them to this voxel's corner.
-        shift = offset * edge
-        p = p + s[:, iu] * shift[ju] + s[:, ju] * shift[iu] + n[:, None] * shift[iu] * shift[ju]
-        s = s + n[:, None] * shift
-        total_n[hit] += n
-        total_s[hit] += s
-        total_p[hit] += p
+    offsets = np.array(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1])).reshape(3, -1).T
+
+    def block_rows(rows: slice) -> None:  # each voxel's 27 terms in the same order in any split
+        own, t_n, t_s, t_p = keys[rows], total_n[rows], total_s[rows], total_p[rows]
+        for offset in offsets:
+            target = encode(own + offset)
+            pos = np.minimum(np.searchsorted(sorted_codes, target), len(sorted_codes) - 1)
+            hit = sorted_codes[pos] == target
+            src = order[pos[hit]]
+            n, s, p = count[src], sums[src], products[src]
+            # Neighbour moments are about the neighbour's corner; move them to this voxel's corner.
+            shift = offset * edge
+            p = p + s[:, iu] * shift[ju] + s[:, ju] * shift[iu] + n[:, None] * shift[iu] * shift[ju]
+            s = s + n[:, None] * shift
+            t_n[hit] += n
+            t_s[hit] += s
+            t_p[hit] += p
+
+    run_blocks(block_rows, len(keys))
     return total_n, total_s, total_p
 
 
