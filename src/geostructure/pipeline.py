@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from .orientation import Frame, Orientation, face_side, orientation_from_normals
 from .params import Params
 from .planes import Planes
 from .rectangle import region_plane
+from .threads import run_tasks
 from .regions import grow_regions
 from .uncertainty import normal_standard_errors
 from .voxel import VoxelPlanes, fit_voxels, label_order, subset_voxels, voxel_edge
@@ -29,6 +31,11 @@ STAGES = ("filter", "voxel", "regions", "planes", "orientation")
 #: separate facets a geologist maps (joined, their centroid would fall between them). A count
 #: of points, not voxels: the voxel edge follows the cloud's extent, the points its sampling.
 MERGE_MIN_POINTS = 5000
+
+#: Regions of this many points or more have their planes fitted side by side, a batch of
+#: :data:`PLANE_BATCH` between two progress reports.
+THREADED_PLANE_POINTS = 20_000
+PLANE_BATCH = 16
 
 
 @dataclass
@@ -375,9 +382,23 @@ def _region_planes(points, point_region, voxel_region, min_points, method, repor
     candidates = candidates[np.argsort(-sizes[candidates], kind="stable")]
     order = label_order(point_region)
     starts = np.searchsorted(point_region[order], np.arange(len(n_voxels) + 1))
-    planes = []
-    for i, region in enumerate(candidates):
-        planes.append(region_plane(points[order[starts[region] : starts[region + 1]]], method))
+    planes = [None] * len(candidates)
+
+    def fit(i: int) -> None:
+        region = candidates[i]
+        planes[i] = region_plane(points[order[starts[region] : starts[region + 1]]], method)
+
+    # The large regions (first: largest first) side by side, a batch between two progress
+    # reports: numpy lets the lock go in their sums and hulls. Small ones one by one: on
+    # them the work is Python's, and two threads only wait on each other (the outcrop's
+    # 1,556 regions took 0.47 s in threads, 0.38 s in turn).
+    n_large = int(np.count_nonzero(sizes[candidates] >= THREADED_PLANE_POINTS))
+    for first in range(0, n_large, PLANE_BATCH):
+        last = min(first + PLANE_BATCH, n_large)
+        run_tasks([partial(fit, i) for i in range(first, last)])
+        report("planes", last, len(candidates))
+    for i in range(n_large, len(candidates)):
+        fit(i)
         report("planes", i + 1, len(candidates))
     return planes, candidates
 

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .threads import run_blocks
+
 #: Blocks along each of a plane's two axes for the regression on block means.
 BLOCKS = 3
 
@@ -87,13 +89,20 @@ def plane_coordinates(points, labels, centroids, axes) -> tuple[np.ndarray, ...]
     # their first touch: at 7M labelled points the row-wise form touched 1 GB).
     u, v, h = (np.zeros(len(lab)) for _ in range(3))
     offset, gathered = np.empty(len(lab)), np.empty(len(lab))
-    for axis in range(3):
-        np.take(points[:, axis], mine, out=offset, mode="clip")  # "raise" buffers a copy
-        offset -= np.take(centroids[:, axis], lab, out=gathered, mode="clip")
-        for total, along in ((u, u_axis), (v, v_axis), (h, normals)):
-            np.take(np.asarray(along, dtype=np.float64)[:, axis], lab, out=gathered, mode="clip")
-            gathered *= offset
-            total += gathered
+    columns = [[np.ascontiguousarray(np.asarray(along, dtype=np.float64)[:, axis]) for along in (u_axis, v_axis, normals)]
+               for axis in range(3)]  # fmt: skip
+
+    def coordinate_rows(rows: slice) -> None:  # elementwise: split over the cores, the same bits
+        o, g, at, of = offset[rows], gathered[rows], mine[rows], lab[rows]
+        for axis in range(3):
+            np.take(points[:, axis], at, out=o, mode="clip")  # "raise" buffers a copy
+            o -= np.take(centroids[:, axis], of, out=g, mode="clip")
+            for total, along in zip((u[rows], v[rows], h[rows]), columns[axis]):
+                np.take(along, of, out=g, mode="clip")
+                g *= o
+                total += g
+
+    run_blocks(coordinate_rows, len(lab))
     return lab, u, v, h
 
 
