@@ -22,8 +22,8 @@ from itertools import product
 import numpy as np
 
 from .bounds import column_max, column_min
-from .voxel import binned_sums, floor_index, group_codes
 from .threads import MIN_ROWS_PER_THREAD, run_blocks, run_tasks
+from .voxel import binned_sums, floor_index, group_codes
 
 #: The 27 offsets of a block, the centre (0, 0, 0) at index 13; and the 13 that go "forward"
 #: (lexicographically after the centre), so that each pair of neighbouring cells is met once.

@@ -20,8 +20,8 @@ from .orientation import Frame, Orientation, face_side, orientation_from_normals
 from .params import Params
 from .planes import Planes
 from .rectangle import region_plane
-from .threads import run_tasks
 from .regions import grow_regions
+from .threads import run_tasks
 from .uncertainty import normal_standard_errors
 from .voxel import VoxelPlanes, fit_voxels, label_order, subset_voxels, voxel_edge
 
