@@ -338,25 +338,37 @@ def smallest_eigenpair(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def neighbour_pairs(cells: CellPlanes) -> tuple[np.ndarray, np.ndarray]:
     """Every pair of touching cells (26-connected) whose planes are defined, each pair once."""
-    source = np.repeat(np.arange(len(cells)), len(FORWARD))
-    target = cells.neighbour[:, FORWARD].ravel()
-    ok = (target >= 0) & cells.defined[source]
-    ok[ok] &= cells.defined[target[ok]]
-    return source[ok], target[ok]
+
+    def pairs_of(rows: slice) -> tuple[np.ndarray, np.ndarray]:  # in order, a block of cells
+        first, last = rows.indices(len(cells))[:2]
+        source = np.repeat(np.arange(first, last), len(FORWARD))
+        target = cells.neighbour[rows, FORWARD].ravel()
+        ok = (target >= 0) & cells.defined[source]
+        ok[ok] &= cells.defined[target[ok]]
+        return source[ok], target[ok]
+
+    pieces = run_blocks(pairs_of, len(cells))
+    if len(pieces) == 1:
+        return pieces[0]
+    return np.concatenate([s for s, _ in pieces]), np.concatenate([t for _, t in pieces])
 
 
 def far_scatter(cells: CellPlanes) -> float:
     """Median angle (degrees) between a cell's normal and that of the cell two steps along
     each axis: how much the local planes wander over about a block's width."""
-    angles = []
-    for axis_offset in (CENTRE + 9, CENTRE + 3, CENTRE + 1):  # +x, +y, +z
-        one = cells.neighbour[:, axis_offset]
-        two = np.where(one >= 0, cells.neighbour[np.maximum(one, 0), axis_offset], -1)
-        ok = (two >= 0) & cells.defined
-        ok[ok] &= cells.defined[two[ok]]
-        cosine = np.abs(np.einsum("ij,ij->i", cells.normal[ok], cells.normal[two[ok]]))
-        angles.append(np.arccos(np.clip(cosine, 0.0, 1.0)))
-    angles = np.concatenate(angles)
+
+    def angles_of(rows: slice) -> list[np.ndarray]:  # a block of cells, each axis's pairs
+        found = []
+        for axis_offset in (CENTRE + 9, CENTRE + 3, CENTRE + 1):  # +x, +y, +z
+            one = cells.neighbour[rows, axis_offset]
+            two = np.where(one >= 0, cells.neighbour[np.maximum(one, 0), axis_offset], -1)
+            ok = (two >= 0) & cells.defined[rows]
+            ok[ok] &= cells.defined[two[ok]]
+            cosine = np.abs(np.einsum("ij,ij->i", cells.normal[rows][ok], cells.normal[two[ok]]))
+            found.append(np.arccos(np.clip(cosine, 0.0, 1.0)))
+        return found
+
+    angles = np.concatenate([a for block in run_blocks(angles_of, len(cells)) for a in block])
     return float(np.degrees(np.median(angles))) if len(angles) else 0.0
 
 

@@ -46,6 +46,7 @@ from .cells import (
     with_sparse_cells_filled,
 )
 from .sampling import order_free_sample, sampled_blocks
+from .threads import run_blocks
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")
@@ -301,7 +302,7 @@ def facet_thresholds(cells: CellPlanes, spacing: float, pairs=None) -> FacetThre
     """
     defined = cells.defined
     source, target = neighbour_pairs(cells) if pairs is None else pairs
-    cosine = np.abs(np.einsum("ij,ij->i", cells.normal[source], cells.normal[target]))
+    cosine = np.abs(pair_dots(cells.normal, source, cells.normal, target))
     scatter = float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0))))) if len(source) else 0.0
     return FacetThresholds(
         max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
@@ -326,12 +327,17 @@ def pair_dots(a: np.ndarray, ia: np.ndarray, b: np.ndarray, ib: np.ndarray, less
     """
     out = np.zeros(len(ia))
     first, second = np.empty(len(ia)), np.empty(len(ia))
-    for k in range(a.shape[1]):
-        np.take(a[:, k], ia, out=first, mode="clip")  # "raise" buffers a copy
-        if less is not None:
-            first -= np.take(less[0][:, k], less[1], out=second, mode="clip")
-        first *= np.take(b[:, k], ib, out=second, mode="clip")
-        out += first
+
+    def dot_rows(rows: slice) -> None:  # elementwise: split over the cores, the same bits
+        o, f, g, i, j = out[rows], first[rows], second[rows], ia[rows], ib[rows]
+        for k in range(a.shape[1]):
+            np.take(a[:, k], i, out=f, mode="clip")  # "raise" buffers a copy
+            if less is not None:
+                f -= np.take(less[0][:, k], less[1][rows], out=g, mode="clip")
+            f *= np.take(b[:, k], j, out=g, mode="clip")
+            o += f
+
+    run_blocks(dot_rows, len(ia))
     return out
 
 
