@@ -192,7 +192,9 @@ class RockMass:
         }
 
 
-def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.0), standard_errors=None) -> RockMass:
+def rock_mass(
+    points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.0), standard_errors=None, *, face=None
+) -> RockMass:
     """Spacing, persistence and intensity from labelled points, planes and their sets.
 
     Parameters
@@ -212,6 +214,9 @@ def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.
     standard_errors : (P,) array, optional
         The planes' normal standard errors (degrees), from which the correlated tilt is read
         (:func:`~.uncertainty.correlated_tilt`).
+    face : :class:`~.exposure.Exposure`, optional
+        ``exposure(points, up)``, when it was made already (it needs the points alone, so
+        :func:`~.runs.sets_and_rock_mass` makes it while the sets are found).
 
     Examples
     --------
@@ -231,7 +236,7 @@ def rock_mass(points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     set_labels = np.asarray(set_labels)
     set_normals = np.asarray(set_normals, dtype=np.float64).reshape(-1, 3)
-    face = exposure(points, up)
+    face = exposure(points, up) if face is None else face
     persistence = plane_persistence(points, labels, normals, face, up)
     moments = PlaneMoments.of(points, labels, len(normals))
     centroids = moments.centroid

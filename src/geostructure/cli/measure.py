@@ -18,7 +18,7 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
-from ..runs import add_evaluation, add_report, plane_rock_mass, plane_sets, save_measurement
+from ..runs import add_evaluation, add_report, save_measurement, sets_and_rock_mass
 from ..slope_stability import add_kinematics
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
@@ -165,10 +165,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         evaluation = evaluate(result.planes, truth) if truth is not None else None
         sets = rock = None
         if wants_sets(args):
-            progress("sets", 0, None)
-            sets = plane_sets(result.planes, result.frame, args.n_sets)
-            progress("spacing and persistence", 0, None)
-            rock = plane_rock_mass(result.filtered.local, result.labels, result.planes, sets, result.frame)
+            sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
+                                            args.n_sets, lambda stage: progress(stage, 0, None))  # fmt: skip
         progress("write", 0, None)
         paths = save_measurement(
             result,
