@@ -8,6 +8,7 @@ whole set through :mod:`.outdir`, so it appears in the folder together or not at
 from __future__ import annotations
 
 import platform
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -186,14 +187,24 @@ def write_result(
         planes = result.planes
     else:
         planes = with_rock_mass(result.planes, sets, rock)
-    if "planes.gpkg" in write_plane_tables(planes, outputs, crs=result.cloud.crs, enu_origin=result.cloud.enu_origin):
-        files.update(geojson="planes.geojson", gpkg="planes.gpkg")
-    write_voxel_planes_ply(result, outputs.path(files["voxels"]))
-    if point_files:
-        write_regions_ply(result, outputs.path(files["regions"]))
-        labelled = None if sets is None else point_sets(result.labels, planes)
-        write_regions_laz(result, outputs.path(files["regions_laz"]), labelled)
-    write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
+    # The two point files in threads while the tables are written here: the PLY is mostly
+    # the kernel's copy into the page cache, the LAZ lazrs's compression, the tables Python's.
+    # Leaving the pool waits for both, so an error or an interrupt finds them finished.
+    with ThreadPoolExecutor(2) as pool:
+        point_writes = []
+        if point_files:
+            labelled = None if sets is None else point_sets(result.labels, planes)
+            point_writes = [
+                pool.submit(write_regions_ply, result, outputs.path(files["regions"])),
+                pool.submit(write_regions_laz, result, outputs.path(files["regions_laz"]), labelled),
+            ]
+        crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
+        if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin):
+            files.update(geojson="planes.geojson", gpkg="planes.gpkg")
+        write_voxel_planes_ply(result, outputs.path(files["voxels"]))
+        write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
+    for write in point_writes:
+        write.result()
     outputs.record = run_record(result, extra)
     if sets is not None:
         write_sets_csv(sets, outputs.path("sets.csv"), rock)
