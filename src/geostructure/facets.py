@@ -29,6 +29,7 @@ than per-point neighbours: ``docs/methods.md``, "Facets".
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -46,7 +47,8 @@ from .cells import (
     with_sparse_cells_filled,
 )
 from .sampling import order_free_sample, sampled_blocks
-from .threads import run_blocks
+from .threads import run_blocks, run_tasks
+from .voxel import binned_sums
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")
@@ -186,22 +188,36 @@ def planar_components(
     d, work = np.empty((3, len(points))), np.empty(len(points))
     for a in range(3):
         np.copyto(d[a], points[:, a])
-        mean = np.append(np.bincount(bins, d[a], n + 1)[:n] / held, 0.0)
-        d[a] -= np.take(mean, bins, out=work, mode="clip")
+    sums = run_tasks([partial(np.bincount, bins, d[a], n + 1) for a in range(3)])
+    means = [np.append(total[:n] / held, 0.0) for total in sums]
+
+    def centre_rows(rows: slice) -> None:  # elementwise: split over the cores, the same bits
+        for a in range(3):
+            d[a, rows] -= np.take(means[a], bins[rows], out=work[rows], mode="clip")
+
+    run_blocks(centre_rows, len(points))
+    # The six sums of products (symmetric: six, not nine), each whole in one thread.
+    products = binned_sums(d, bins, n + 1)[1][:n] / held[:, None]
     cov = np.empty((n, 3, 3))
-    for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):  # symmetric: six sums, not nine
-        cov[:, a, b] = cov[:, b, a] = np.bincount(bins, np.multiply(d[a], d[b], out=work), n + 1)[:n] / held
+    for c, (a, b) in enumerate(((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
+        cov[:, a, b] = cov[:, b, a] = products[:, c]
     values, vectors = np.linalg.eigh(cov)
     residual = np.sqrt(np.maximum(values[:, 0], 0.0))
     normal = np.vstack([vectors[:, :, 0], np.zeros(3)]).T.copy()  # (3, n + 1), the spare bin zero
     own = normals if normal_of is None else np.ascontiguousarray(normals.T)
     dot, term = d[0], d[1]
-    dot[:] = 0.0
-    for a in range(3):
-        np.take(normal[a], bins, out=term, mode="clip")
-        term *= normals[:, a] if normal_of is None else np.take(own[a], normal_of, out=work, mode="clip")
-        dot += term
-    np.copyto(work, np.abs(dot, out=dot) >= np.cos(np.radians(2.0 * thresholds.max_angle)))
+    cos_limit = np.cos(np.radians(2.0 * thresholds.max_angle))
+
+    def aligned_rows(rows: slice) -> None:
+        t, w, b = term[rows], work[rows], bins[rows]
+        dot[rows] = 0.0
+        for a in range(3):
+            np.take(normal[a], b, out=t, mode="clip")
+            t *= normals[rows, a] if normal_of is None else np.take(own[a], normal_of[rows], out=w, mode="clip")
+            dot[rows] += t
+        np.copyto(w, np.abs(dot[rows], out=dot[rows]) >= cos_limit)
+
+    run_blocks(aligned_rows, len(points))
     share = np.bincount(bins, work, n + 1)[:n] / held  # the aligned points' share
     return (count > 0) & (residual <= 2.0 * thresholds.max_offset) & (share >= 0.8)
 
