@@ -201,6 +201,17 @@ class Planes:
         """(P, 4, 3) rectangle corners in the input's own coordinates."""
         return self.local_corners + self.offset
 
+    def standard_errors(self) -> dict:
+        """The table's standard errors (degrees) and planarity as
+        :func:`~.uncertainty.normal_standard_errors` gives them: ``normal``, ``dip``,
+        ``dip_direction`` and ``planarity``."""
+        return {
+            "normal": self.normal_uncertainty_deg,
+            "dip": self.dip_uncertainty_deg,
+            "dip_direction": self.dip_direction_uncertainty_deg,
+            "planarity": self.planarity,
+        }
+
     def subset(self, index) -> Planes:
         """The planes at ``index`` (integers or a mask), with their columns."""
         taken = {name: getattr(self, name)[index] for name, _ in LAYOUT}

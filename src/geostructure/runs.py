@@ -110,7 +110,9 @@ def plane_sets(planes: Planes, frame: Frame = Frame(), n_sets: int | None = None
     return find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame, centroids=planes.local_centroid)
 
 
-def plane_rock_mass(points, labels, planes: Planes, sets: JointSets, frame: Frame = Frame(), *, face=None) -> RockMass:
+def plane_rock_mass(
+    points, labels, planes: Planes, sets: JointSets, frame: Frame = Frame(), *, face=None, errors=None
+) -> RockMass:
     """Spacing, persistence and intensity of the sets of a plane table (:func:`~.rockmass.rock_mass`).
 
     Parameters
@@ -126,23 +128,27 @@ def plane_rock_mass(points, labels, planes: Planes, sets: JointSets, frame: Fram
         The run's frame, whose up gives strike and dip.
     face : :class:`~.exposure.Exposure`, optional
         The points' exposure, when it was made already.
+    errors : dict, optional
+        The planes' block standard errors as measured (:meth:`~.planes.Planes.standard_errors`
+        of a fresh :func:`~geostructure.measure`'s table). Without them they are computed
+        again: a folder's table may carry a correlated tilt already, which must not be
+        added twice.
     """
     up = frame.matrix[2]
-    # The block standard errors, computed again here so that a folder's sets can be found
-    # again without adding the correlated tilt twice.
-    errors = normal_standard_errors(points, labels, planes.normal, planes.local_centroid, planes.rect_u, up)
+    if errors is None:
+        errors = normal_standard_errors(points, labels, planes.normal, planes.local_centroid, planes.rect_u, up)
     rock = rock_mass(points, labels, planes.normal, sets.labels, sets.mean_normal, up, errors["normal"], face=face)
     rock.plane_errors = with_correlated_tilt(errors, rock.correlated_tilt, planes.normal, up)
     return rock
 
 
 def sets_and_rock_mass(
-    points, labels, planes: Planes, frame: Frame = Frame(), n_sets: int | None = None, progress=None
+    points, labels, planes: Planes, frame: Frame = Frame(), n_sets: int | None = None, progress=None, *, errors=None
 ) -> tuple[JointSets, RockMass]:
-    """:func:`plane_sets`, then :func:`plane_rock_mass`; the exposure's grid, which needs the
-    points alone, is made in a thread meanwhile (its kd-tree and grid are numpy's and
-    scipy's work, the sets' EM mostly Python's: on the 0.7M-point outcrop the two overlap).
-    ``progress(stage)`` is told each stage as it starts.
+    """:func:`plane_sets`, then :func:`plane_rock_mass` (``errors`` as it takes them); the
+    exposure's grid, which needs the points alone, is made in a thread meanwhile (its
+    kd-tree and grid are numpy's and scipy's work, the sets' EM mostly Python's: on the
+    0.7M-point outcrop the two overlap). ``progress(stage)`` is told each stage as it starts.
 
     Examples
     --------
@@ -161,7 +167,7 @@ def sets_and_rock_mass(
         face = pool.submit(exposure, points, frame.matrix[2])
         sets = plane_sets(planes, frame, n_sets)
         report("spacing and persistence")
-        rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result())
+        rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors)
     return sets, rock
 
 

@@ -166,7 +166,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         sets = rock = None
         if wants_sets(args):
             sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
-                                            args.n_sets, lambda stage: progress(stage, 0, None))  # fmt: skip
+                                            args.n_sets, lambda stage: progress(stage, 0, None),
+                                            errors=result.planes.standard_errors())  # as measured: no tilt yet  # fmt: skip
         progress("write", 0, None)
         paths = save_measurement(
             result,
