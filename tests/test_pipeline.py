@@ -158,3 +158,17 @@ def test_benches_give_their_faces_and_berms_and_no_ribbons_along_the_edges():
     errors = [angle_between_normals(result.planes.normal, np.tile(s, (4, 1))) for s in (face, level)]
     assert sorted((np.minimum(*errors) < 0.5).tolist()) == [True] * 4
     assert result.counts["ribbons"] >= 1  # the rule did the work: the strips were there
+
+
+def test_the_sparse_ground_round_the_observatory_is_one_plane():
+    """The observatory's ground is sampled at an eighth of its walls' density; its sparse
+    stretches broke into six small flat facets (33 to 108 points) beside the ground's large
+    plane. Sampled that sparsely and lying on it, they are part of it: one ground plane."""
+    from geostructure.auto import choose_params
+
+    cloud = observatory_scene(300_000, seed=0).cloud
+    result = measure(cloud, choose_params(cloud.local).params)
+    ground = result.planes.dip < 3.0
+    assert ground.sum() == 1, result.planes.n_points[ground]
+    assert result.counts["absorbed"] >= 1  # the rule did the work
+    assert len(result.planes) == 7

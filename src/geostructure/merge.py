@@ -142,3 +142,53 @@ def _coplanar_pairs(normal, centroid, weight, cos_theta, offset_limit, block=512
         i += start
         found.append(np.c_[i, j][i < j])
     return np.concatenate(found) if found else np.zeros((0, 2), int)
+
+
+def absorbing_planes(regions: list, small: np.ndarray, theta: float, offset_limit: float) -> np.ndarray:
+    """For each region plane (:class:`~.rectangle.RegionPlane`), the large plane that takes
+    it in, or -1: ``small`` (bool, per plane) ones only, never into each other.
+
+    A sparse stretch of a surface (the ground between an observatory's walls, sampled at a
+    third of their density) breaks into small facets the growing cannot join to the
+    surface's large region, and :func:`merge_coplanar` leaves regions under its size alone
+    so that a rock joint's separate exposures stay separate facets. A small plane lies on
+    a large one when its normal is within ``theta`` degrees of the large one's, its centroid
+    and its rectangle's four corners within ``offset_limit`` of the large plane, and its
+    rectangle no farther beyond the large rectangle than its own diameter (the gap
+    :func:`merge_coplanar` allows): a piece of that surface. Of several, the one its
+    centroid lies nearest to.
+
+    Examples
+    --------
+    >>> from geostructure.rectangle import region_plane
+    >>> g, p = (np.mgrid[0:s:n, 0:s:n].reshape(2, -1).T for s, n in ((10, 41j), (1, 6j)))
+    >>> ground = region_plane(np.c_[g, np.zeros(len(g))])
+    >>> piece = region_plane(np.c_[p + 3, np.full(len(p), 0.01)])  # 1 cm above the ground
+    >>> wall = region_plane(np.c_[np.full(len(p), 3.0), p + [3, 0]])  # standing on it
+    >>> absorbing_planes([ground, piece, wall], np.array([False, True, True]), 5.0, 0.05).tolist()
+    [-1, 0, -1]
+    """
+    small = np.asarray(small, dtype=bool)
+    target = np.full(len(regions), -1)
+    large = np.flatnonzero(~small)
+    if not len(large) or not small.any():
+        return target
+    normal = np.array([regions[j].normal for j in large])
+    centroid = np.array([regions[j].centroid for j in large])
+    centre = np.array([regions[j].center for j in large])
+    u, v = np.array([regions[j].u for j in large]), np.array([regions[j].v for j in large])
+    half = np.array([[regions[j].width / 2, regions[j].height / 2] for j in large])
+    cos_theta = np.cos(np.radians(theta))
+    for i in np.flatnonzero(small):
+        piece = regions[i]
+        points = np.vstack([piece.centroid, piece.corners])  # (5, 3)
+        height = np.abs(np.einsum("lk,lpk->lp", normal, points[None, :, :] - centroid[:, None, :]))
+        along = piece.center - centre
+        reach = max(piece.width, piece.height) / 2 + np.hypot(piece.width, piece.height)  # a gap of its size
+        inside = (np.abs(np.einsum("lk,lk->l", u, along)) <= half[:, 0] + reach) & (
+            np.abs(np.einsum("lk,lk->l", v, along)) <= half[:, 1] + reach
+        )
+        fits = (np.abs(normal @ piece.normal) >= cos_theta) & (height.max(axis=1) <= offset_limit) & inside
+        if fits.any():
+            target[i] = large[np.flatnonzero(fits)[np.argmin(height[fits, 0])]]
+    return target
