@@ -18,6 +18,12 @@ from scipy.spatial import cKDTree
 
 from .voxel import VoxelPlanes
 
+#: With the facet detector, the coplanar merge joins only regions of this many points or more:
+#: a wall split by a bay is one plane, while the separate exposures of a rock joint stay the
+#: separate facets a geologist maps (joined, their centroid would fall between them). A count
+#: of points, not voxels: the voxel edge follows the cloud's extent, the points its sampling.
+MERGE_MIN_POINTS = 5000
+
 
 @dataclass
 class RegionSummary:

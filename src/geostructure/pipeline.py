@@ -6,40 +6,24 @@ from __future__ import annotations
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from functools import partial
 
 import numpy as np
 
 from .bounds import column_max, column_min
 from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
-from .facets import MIN_FACET_CELLS_ACROSS, detect_facets, voxel_majority
+from .facets import detect_facets, voxel_majority
 from .filter import FilterResult, filter_outliers
-from .merge import absorbing_planes, merge_coplanar
+from .merge import MERGE_MIN_POINTS, merge_coplanar
 from .orientation import Frame, Orientation, face_side, orientation_from_normals, upward
 from .params import Params
 from .planes import Planes
-from .rectangle import region_plane
+from .regionplanes import absorb_sparse_facets, region_planes, without_ribbons
 from .regions import grow_regions
-from .threads import run_tasks
 from .uncertainty import normal_standard_errors
-from .voxel import VoxelPlanes, fit_voxels, label_order, subset_voxels, voxel_edge
+from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
-#: With the facet detector, the coplanar merge joins only regions of this many points or more:
-#: a wall split by a bay is one plane, while the separate exposures of a rock joint stay the
-#: separate facets a geologist maps (joined, their centroid would fall between them). A count
-#: of points, not voxels: the voxel edge follows the cloud's extent, the points its sampling.
-MERGE_MIN_POINTS = 5000
-
-#: Facets sampled at under this fraction of the cloud's density (1 / spacing^2) may join a
-#: large plane they lie on (:func:`_absorb_small_facets`).
-SPARSE_FACET_DENSITY = 0.25
-
-#: Regions of this many points or more have their planes fitted side by side, a batch of
-#: :data:`PLANE_BATCH` between two progress reports.
-THREADED_PLANE_POINTS = 20_000
-PLANE_BATCH = 16
 
 
 @dataclass
@@ -214,7 +198,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
             params.min_points or default_min_points(len(filtered), "facets"),
             params.min_points or default_min_points(len(filtered), "voxel"),
         )
-        regions, kept = _region_planes(
+        regions, kept = region_planes(
             filtered.local,
             point_region,
             region_of_voxel,
@@ -225,12 +209,12 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         )
         alias = {}
         if n_facets:
-            regions, kept, counts["ribbons"] = _without_ribbons(regions, kept, is_facet, facet_record["cell_edge"])
+            regions, kept, counts["ribbons"] = without_ribbons(regions, kept, is_facet, facet_record["cell_edge"])
             if params.merge:
-                spacing = facet_record["facet_thresholds"]["spacing"]
-                regions, kept, alias = _absorb_small_facets(
-                    filtered.local, point_region, regions, kept, is_facet, params, voxels.edge, spacing
-                )
+                regions, kept, alias = absorb_sparse_facets(
+                    filtered.local, point_region, regions, kept, params.theta, params.psi * voxels.edge,
+                    facet_record["facet_thresholds"]["spacing"], params.rectangle,
+                )  # fmt: skip
                 counts["absorbed"] = len(alias)
         # Old region id -> plane number (largest first); -1 (the table's last entry) stays -1.
         renumber = np.full(max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 2, -1)
@@ -381,77 +365,6 @@ def normal_spread(voxel_normals, voxel_labels, plane_normals):
     count = np.bincount(lab, minlength=n)
     scatter = np.sqrt(np.bincount(lab, angle2, minlength=n) / np.maximum(count, 1))
     return count, scatter
-
-
-def _region_planes(points, point_region, voxel_region, min_points, method, report, *, min_voxels=3):
-    """Region planes (:class:`~.rectangle.RegionPlane`) of the regions with ``min_points``
-    points and ``min_voxels`` voxels (numbers, or arrays per region), largest first, with the
-    region ids they came from."""
-    n_regions = max(int(voxel_region.max(initial=-1)), int(point_region.max(initial=-1))) + 1
-    n_voxels = np.bincount(voxel_region[voxel_region >= 0], minlength=n_regions)
-    labelled = point_region >= 0
-    sizes = np.bincount(point_region[labelled], minlength=n_regions)
-    candidates = np.flatnonzero((sizes >= min_points) & (n_voxels >= min_voxels))
-    candidates = candidates[np.argsort(-sizes[candidates], kind="stable")]
-    order = label_order(point_region)
-    starts = np.searchsorted(point_region[order], np.arange(len(n_voxels) + 1))
-    planes = [None] * len(candidates)
-
-    def fit(i: int) -> None:
-        region = candidates[i]
-        planes[i] = region_plane(points[order[starts[region] : starts[region + 1]]], method)
-
-    # The large regions (first: largest first) side by side, a batch between two progress
-    # reports: numpy lets the lock go in their sums and hulls. Small ones one by one: on
-    # them the work is Python's, and two threads only wait on each other (the outcrop's
-    # 1,556 regions took 0.47 s in threads, 0.38 s in turn).
-    n_large = int(np.count_nonzero(sizes[candidates] >= THREADED_PLANE_POINTS))
-    for first in range(0, n_large, PLANE_BATCH):
-        last = min(first + PLANE_BATCH, n_large)
-        run_tasks([partial(fit, i) for i in range(first, last)])
-        report("planes", last, len(candidates))
-    for i in range(n_large, len(candidates)):
-        fit(i)
-        report("planes", i + 1, len(candidates))
-    return planes, candidates
-
-
-def _without_ribbons(regions: list, kept: np.ndarray, is_facet: np.ndarray, cell_edge: float):
-    """The region planes less the facets narrower than :data:`~.facets.MIN_FACET_CELLS_ACROSS`
-    cells of their grid (the short side of their rectangle), and how many were dropped."""
-    across = np.array([min(r.width, r.height) for r in regions], dtype=np.float64)
-    ribbon = is_facet[kept] & (across < MIN_FACET_CELLS_ACROSS * cell_edge)
-    keep = np.flatnonzero(~ribbon)
-    return [regions[i] for i in keep], kept[keep], int(ribbon.sum())
-
-
-def _absorb_small_facets(
-    points, point_region, regions: list, kept, is_facet, params: Params, edge: float, spacing: float
-):
-    """The region planes once the small, sparse facets lying on a large plane are part of it
-    (:func:`~.merge.absorbing_planes`; the takers fitted again to all their points), still
-    largest first, and each absorbed region's id -> its taker's.
-
-    Only facets sampled at under :data:`SPARSE_FACET_DENSITY` of the cloud's density (from
-    its point ``spacing``) are taken: stretches of a surface too sparse for the growing to
-    cross (the observatory's ground, at an eighth of the walls' density, gave six facets of
-    33 to 108 points). A rock joint's small exposures beside a large one are sampled as
-    densely as the rest and stay facets of their own: taken in, 13 of 1,555 on the 40 x 16 m
-    outcrop, they cost 9 of its 1,218 facets found."""
-    sizes = np.array([r.n_points for r in regions], dtype=np.int64)
-    density = sizes / np.maximum(np.array([r.area for r in regions], dtype=np.float64), 1e-12)
-    small = (sizes < MERGE_MIN_POINTS) & (density < SPARSE_FACET_DENSITY / spacing**2)
-    target = absorbing_planes(regions, small, params.theta, params.psi * edge)
-    absorbed = np.flatnonzero(target >= 0)
-    if not len(absorbed):
-        return regions, kept, {}
-    regions = list(regions)
-    for taker in np.unique(target[absorbed]):
-        members = np.append(kept[absorbed[target[absorbed] == taker]], kept[taker])
-        regions[taker] = region_plane(points[np.isin(point_region, members)], params.rectangle)
-    left = np.flatnonzero(target < 0)
-    left = left[np.argsort([-regions[i].n_points for i in left], kind="stable")]
-    return [regions[i] for i in left], kept[left], {int(kept[i]): int(kept[target[i]]) for i in absorbed}
 
 
 def _outward(cloud: Cloud, labels: np.ndarray, n_planes: int) -> np.ndarray | None:
