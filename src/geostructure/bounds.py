@@ -46,3 +46,32 @@ def column_max(a: np.ndarray) -> np.ndarray:
     True
     """
     return _reduce(a, np.maximum)
+
+
+def first_bad_coordinates(points: np.ndarray, limit: float, offset=None) -> tuple[str, int, int] | None:
+    """What is wrong with ``points`` (N, 3; relative to ``offset`` (3,) when given), from
+    their bounds first (no copy of the cloud; NaN and inf reach them), the rows read only to
+    name one: ``("not finite", count, first row)``, ``("too far", count, first row)`` for a
+    coordinate beyond ``limit``, or None. The checks of a file's points and of a cloud before
+    measuring word it each their own way.
+
+    Examples
+    --------
+    >>> first_bad_coordinates(np.array([[0.0, 1, 2], [3, np.nan, 5], [np.inf, 0, 0]]), 1e9)
+    ('not finite', 2, 1)
+    >>> first_bad_coordinates(np.array([[0.0, 1, 2], [3, 4, 2e9]]), 1e9)
+    ('too far', 1, 1)
+    >>> first_bad_coordinates(np.zeros((4, 3)), 1e9) is None
+    True
+    """
+    if not len(points):
+        return None
+    shift = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64)
+    lower, upper = column_min(points) + shift, column_max(points) + shift
+    if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
+        bad = ~np.isfinite(points).all(axis=1)
+        return "not finite", int(bad.sum()), int(np.flatnonzero(bad)[0])
+    if max(float(np.abs(lower).max()), float(np.abs(upper).max())) > limit:
+        far = np.abs(points + shift).max(axis=1) > limit
+        return "too far", int(far.sum()), int(np.flatnonzero(far)[0])
+    return None

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .bounds import column_max, column_min
+from .bounds import column_max, column_min, first_bad_coordinates
 from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
 from .facets import detect_facets, voxel_majority
@@ -104,25 +104,21 @@ def check_measurable(cloud: Cloud) -> None:
             f"measure needs a Cloud (Cloud.from_points(array) for an (N, 3) array, or "
             f"read_cloud(path)), not {type(cloud).__name__}."
         )
-    # The bounds first (folded reductions, no copy of the cloud; NaN and inf reach them);
-    # the per-row tests only to name a row.
     if len(cloud) == 0:
         raise GeoStructureError(f"{cloud.source}: holds 0 point(s); a plane needs at least 3.")
-    lower, upper = column_min(cloud.local), column_max(cloud.local)
-    if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
-        bad = ~np.isfinite(cloud.local).all(axis=1)
+    problem = first_bad_coordinates(cloud.local, MAX_COORDINATE)
+    if problem is not None and problem[0] == "not finite":
         raise InputError(
-            f"{cloud.source}: {int(bad.sum())} point(s) have NaN or infinite coordinates "
-            f"(the first is point {int(np.flatnonzero(bad)[0])})."
+            f"{cloud.source}: {problem[1]} point(s) have NaN or infinite coordinates (the first is point {problem[2]})."
         )
     if len(cloud) < 3:
         raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
-    if max(float(np.abs(lower).max()), float(np.abs(upper).max())) > MAX_COORDINATE:
+    if problem is not None:
         raise InputError(
             f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
             f"no survey uses; the data may be damaged."
         )
-    extent = upper - lower
+    extent = column_max(cloud.local) - column_min(cloud.local)
     if extent.max() <= 0:
         raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
     if (

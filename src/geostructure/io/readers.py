@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import column_max, column_min
+from ..bounds import first_bad_coordinates
 from ..cloud import MAX_COORDINATE, Cloud
 from ..errors import GeoStructureError
 
@@ -97,25 +97,18 @@ def check_coordinates(points: np.ndarray, path, first: int = 0, offset=None) -> 
     """Refuse NaN/inf coordinates and ones beyond :data:`MAX_COORDINATE`; ``first`` is the
     number of the first of ``points`` in the file (a chunk's), for the message; ``points``
     relative to ``offset`` (3,) when given."""
-    # The bounds first (folded reductions, no copy of the cloud; NaN and inf reach them);
-    # the per-row tests only to name a row.
-    if not len(points):
+    problem = first_bad_coordinates(points, MAX_COORDINATE, offset)
+    if problem is None:
         return
-    shift = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64)
-    lo, hi = column_min(points) + shift, column_max(points) + shift
-    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
-        bad = ~np.isfinite(points).all(axis=1)
-        row = first + int(np.flatnonzero(bad)[0])
+    kind, count, row = problem
+    if kind == "not finite":
         raise GeoStructureError(
-            f"{path}: {int(bad.sum())} point(s) have NaN or infinite coordinates (the first is point {row})."
+            f"{path}: {count} point(s) have NaN or infinite coordinates (the first is point {first + row})."
         )
-    if max(float(np.abs(lo).max()), float(np.abs(hi).max())) > MAX_COORDINATE:
-        far = np.abs(points + shift).max(axis=1) > MAX_COORDINATE
-        row = first + int(np.flatnonzero(far)[0])
-        raise GeoStructureError(
-            f"{path}: point {row} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
-            f"uses (float64 keeps no millimetres there); the file may be damaged."
-        )
+    raise GeoStructureError(
+        f"{path}: point {first + row} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
+        f"uses (float64 keeps no millimetres there); the file may be damaged."
+    )
 
 
 def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
