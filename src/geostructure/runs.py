@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import shutil
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -159,8 +160,6 @@ def sets_and_rock_mass(
     >>> len(sets), len(rock.spacing)
     (3, 3)
     """
-    from concurrent.futures import ThreadPoolExecutor
-
     report = progress or (lambda stage: None)
     report("sets")
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
