@@ -79,7 +79,25 @@ def _centred_fit(points: np.ndarray):
     residual = float(np.sqrt(max(values[0], 0.0)))
     normal, u = vectors[:, 0], vectors[:, 2]
     # (u, v, n) right-handed, so a Rodrigues turn by phi about n is a 2-D turn by +phi.
-    return centroid, normal, np.vstack([u, np.cross(normal, u)]), residual, centred
+    return centroid, normal, in_plane_axes(normal, u), residual, centred
+
+
+def in_plane_axes(normal: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """(2, 3): ``u`` and ``normal x u``, the cross product written out (``np.cross`` on two
+    3-vectors costs more than the rest of a small region's fit; the same products).
+
+    Examples
+    --------
+    >>> in_plane_axes(np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    """
+    (a0, a1, a2), (b0, b1, b2) = normal, u
+    return np.array([[b0, b1, b2], [a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]], dtype=np.float64)
+
+
+def _next(a: np.ndarray) -> np.ndarray:
+    """``np.roll(a, -1, axis=0)``: each row's successor, the first after the last."""
+    return np.concatenate([a[1:], a[:1]])
 
 
 #: Above this many points, :func:`hull_2d` first drops those inside the octagon of the
@@ -136,7 +154,7 @@ def bounding_perimeter(uv: np.ndarray, angle: float) -> float:
 
 def exact_angle(hull: np.ndarray) -> float:
     """Rotation angle of the minimum-perimeter rectangle: one side lies on a hull edge."""
-    edges = np.roll(hull, -1, axis=0) - hull
+    edges = _next(hull) - hull
     angles = np.mod(np.arctan2(edges[:, 1], edges[:, 0]), np.pi / 2)
     c, s = np.cos(angles), np.sin(angles)
     a = hull @ np.vstack([c, s])  # (H points, E angles)
@@ -200,7 +218,7 @@ def plane_from_scatter(count: float, centroid, scatter) -> tuple[np.ndarray, np.
     values, vectors = np.linalg.eigh(np.asarray(scatter, dtype=np.float64) / count)
     normal, u = vectors[:, 0], vectors[:, 2]
     residual = float(np.sqrt(max(values[0], 0.0)))
-    return np.asarray(centroid, dtype=np.float64), normal, np.vstack([u, np.cross(normal, u)]), residual
+    return np.asarray(centroid, dtype=np.float64), normal, in_plane_axes(normal, u), residual
 
 
 def bound_plane(centroid, normal, axes, residual, uv: np.ndarray, n_points: int, method: str = "exact") -> RegionPlane:
@@ -225,4 +243,4 @@ def bound_plane(centroid, normal, axes, residual, uv: np.ndarray, n_points: int,
 
 def _polygon_area(poly: np.ndarray) -> float:
     x, y = poly[:, 0], poly[:, 1]
-    return float(0.5 * abs(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+    return float(0.5 * abs(x @ _next(y) - y @ _next(x)))
