@@ -53,3 +53,11 @@ def test_the_outlier_filter_is_the_same_bits_on_one_thread_and_on_four(monkeypat
     assert np.array_equal(judged[1].keep, judged[4].keep)
     assert np.array_equal(judged[1].distance, judged[4].distance)
     assert not judged[1].keep.all()  # a filter that judged something
+
+
+def test_omp_num_threads_bounds_the_threads_as_dask_workers_set_it(monkeypatch):
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    assert threads.available_cores() == 1
+    assert threads.row_blocks(10**6) == [slice(0, 10**6)]
+    monkeypatch.setenv("OMP_NUM_THREADS", "not a number")  # ignored, as OpenBLAS ignores it
+    assert threads.available_cores() >= 1

@@ -21,11 +21,22 @@ MIN_ROWS_PER_THREAD = 32_768
 
 
 def available_cores() -> int:
-    """The cores this process may run on (its affinity, as a batch scheduler sets it)."""
+    """The threads this process's numpy work may use: the cores it may run on (its
+    affinity, as a batch scheduler sets it), and no more than ``OMP_NUM_THREADS`` when that
+    is set, the limit OpenBLAS and numexpr honour too. Dask's workers set it to 1: there the
+    cluster's processes share the cores, and threads in each would only oversubscribe them.
+
+    Examples
+    --------
+    >>> available_cores() >= 1
+    True
+    """
     try:
-        return max(1, len(os.sched_getaffinity(0)))
+        cores = max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
+        cores = max(1, os.cpu_count() or 1)
+    limit = os.environ.get("OMP_NUM_THREADS", "").strip()
+    return max(1, min(cores, int(limit))) if limit.isdigit() else cores
 
 
 def row_blocks(n_rows: int, workers: int | None = None, min_rows: int = MIN_ROWS_PER_THREAD) -> list[slice]:
