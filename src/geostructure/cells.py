@@ -22,7 +22,7 @@ from itertools import product
 import numpy as np
 
 from .bounds import column_max, column_min
-from .threads import MIN_ROWS_PER_THREAD, run_blocks, run_tasks
+from .threads import run_blocks, run_tasks, task_workers
 from .voxel import binned_sums, floor_index, group_codes
 
 #: The 27 offsets of a block, the centre (0, 0, 0) at index 13; and the 13 that go "forward"
@@ -225,7 +225,7 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
         neighbour[found, o] = at[found]
         neighbour[at[found], 26 - o] = found
 
-    run_tasks([partial(search, o) for o in FORWARD], workers=None if n_cells >= MIN_ROWS_PER_THREAD else 1)
+    run_tasks([partial(search, o) for o in FORWARD], workers=task_workers(n_cells))
     # A block's moments are the sum of its 27 cells' (-1, "no neighbour", picks the last
     # row, of zeros), the table itself the gather's index.
     block = neighbour_sums(grid.moments, neighbour)
@@ -382,8 +382,7 @@ def block_moments(grid: CellGrid, cells: np.ndarray) -> np.ndarray:
     def search(k: int, step: int) -> None:  # a column each: the threads never meet
         index[:, k] = grid.find(codes + step)  # -1, "no cell": the row of zeros
 
-    run_tasks([partial(search, k, step) for k, step in enumerate(grid.steps())],
-              workers=None if len(cells) >= MIN_ROWS_PER_THREAD else 1)  # fmt: skip
+    run_tasks([partial(search, k, step) for k, step in enumerate(grid.steps())], workers=task_workers(len(cells)))
     return neighbour_sums(grid.moments, index)
 
 

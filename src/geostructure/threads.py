@@ -78,6 +78,20 @@ def run_blocks(work: Callable[[slice], object], n_rows: int, *, workers: int | N
     return [future.result() for future in futures]
 
 
+def task_workers(n_rows: int, at_most: int | None = None) -> int:
+    """Threads for tasks over ``n_rows`` rows each: one below :data:`MIN_ROWS_PER_THREAD`
+    rows (a thread's start costs more), else the cores, at most ``at_most``.
+
+    Examples
+    --------
+    >>> task_workers(10)
+    1
+    """
+    if n_rows < MIN_ROWS_PER_THREAD:
+        return 1
+    return available_cores() if at_most is None else min(available_cores(), at_most)
+
+
 def run_tasks(tasks: list[Callable[[], object]], *, workers: int | None = None) -> list:
     """Independent ``tasks`` (no arguments) side by side; their results in order.
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from .bounds import column_max, column_min
 from .errors import ParameterError
-from .threads import MIN_ROWS_PER_THREAD, available_cores, run_blocks, run_tasks
+from .threads import MIN_ROWS_PER_THREAD, run_blocks, run_tasks, task_workers
 
 #: Index pairs of the 6 distinct entries of a symmetric 3x3 matrix.
 _I, _J = np.triu_indices(3)
@@ -268,7 +268,7 @@ def binned_sums(rel: np.ndarray, inverse: np.ndarray, n: int) -> tuple[np.ndarra
     columns = [(sums, a, a, None) for a in range(3)] + [(products, c, i, j) for c, (i, j) in enumerate(zip(_I, _J))]
     # Each column's sum whole, in one thread (so the same bits in any split); a thread's
     # columns share one product buffer.
-    workers = min(available_cores(), 3) if rel.shape[1] >= MIN_ROWS_PER_THREAD else 1
+    workers = task_workers(rel.shape[1], at_most=3)
 
     def sum_columns(share: list) -> None:
         product = None
