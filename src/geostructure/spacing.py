@@ -21,6 +21,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,52 +117,52 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, 
     centroids = moments.centroid
     joint = np.full(len(normals), -1, dtype=np.int64)
     members: list[list[int]] = []
-    plane_normal, plane_point = [], []
-    cos_angle, max_tilt = np.cos(np.radians(angle)), np.radians(EXTRAPOLATION_ANGLE)
-    min_tilt = np.radians(MIN_EXTRAPOLATION_ANGLE)
-    slope = np.tan(max_tilt)
-    cos_on_plane = np.cos(np.radians(ON_PLANE_ANGLE))
+    # Each joint's plane, a row per joint so far (``n`` at most): one facet's tests are a few
+    # operations over these rows, and its angles are Python's on scalars (numpy's cost more).
+    plane_normal, plane_point = np.empty((len(normals), 3)), np.empty((len(normals), 3))
+    cos_angle, max_tilt = math.cos(math.radians(angle)), math.radians(EXTRAPOLATION_ANGLE)
+    min_tilt = math.radians(MIN_EXTRAPOLATION_ANGLE)
+    slope = math.tan(max_tilt)
+    cos_on_plane = math.cos(math.radians(ON_PLANE_ANGLE))
     for i in np.argsort(-moments.count, kind="stable"):
-        best = -1
-        if members:
-            jn, jp = np.array(plane_normal), np.array(plane_point)
-            off_plane = np.abs(np.einsum("ij,ij->i", jn, centroids[i] - jp))
+        best, n_joints = -1, len(members)
+        if n_joints:
+            jn, jp = plane_normal[:n_joints], plane_point[:n_joints]
+            off_plane = np.abs(((centroids[i] - jp) * jn).sum(axis=1))
             agree = np.abs(jn @ normals[i])
             candidates = np.flatnonzero((agree >= cos_angle) & (off_plane <= offset + slope * 50.0))
-            tilts = np.full(len(jn), np.inf)
-            for k in candidates:
-                reach = np.linalg.norm(centroids[members[k]] - centroids[i], axis=1).min()
+            best_tilt = math.inf
+            for k in candidates.tolist():
+                gap = centroids[members[k]] - centroids[i]
+                reach = math.sqrt(float((gap * gap).sum(axis=1).min()))
                 # Extrapolating over ``reach`` allows for the tilt the two planes can be off
                 # by, no more than they are: a facet parallel to a joint and 12 cm off it
                 # is another joint however far away it lies.
-                tilt = float(np.clip(np.arccos(min(agree[k], 1.0)), min_tilt, max_tilt))
-                if off_plane[k] <= offset + np.tan(tilt) * reach:
-                    tilts[k] = np.arccos(min(agree[k], 1.0))
-            if np.isfinite(tilts).any():
+                tilt = math.acos(min(float(agree[k]), 1.0))
                 # Where two joints of a set cross, a facet near the line lies on both
-                # planes: it belongs to the one its normal agrees with.
-                best = int(np.argmin(tilts))
-            else:
+                # planes: it belongs to the one its normal agrees with (the first on a tie).
+                if off_plane[k] <= offset + math.tan(min(max(tilt, min_tilt), max_tilt)) * reach and tilt < best_tilt:
+                    best, best_tilt = k, tilt
+            if best < 0:
                 # A small facet on rough rock can be ten degrees off its joint: when its
                 # points lie on a joint's plane (their RMS distance from it within
                 # ``offset``), it is on that joint whatever its own normal says.
-                spread = np.einsum("ki,ij,kj->k", jn, moments.scatter[i], jn) / max(moments.count[i], 1e-12)
+                spread = ((jn @ moments.scatter[i]) * jn).sum(axis=1) / max(moments.count[i], 1e-12)
                 rms = np.sqrt(off_plane**2 + spread)
                 on = np.flatnonzero((agree >= cos_on_plane) & (rms <= offset))
                 if len(on):
                     best = int(on[np.argmin(rms[on])])
         if best < 0:
             members.append([int(i)])
-            plane_normal.append(normals[i])
-            plane_point.append(centroids[i])
-            joint[i] = len(members) - 1
+            plane_normal[n_joints], plane_point[n_joints] = normals[i], centroids[i]
+            joint[i] = n_joints
             continue
         joint[i] = best
         members[best].append(int(i))
         fitted, centre = _pooled_plane(moments, members[best])
         plane_normal[best] = fitted if fitted @ plane_normal[best] >= 0 else -fitted
         plane_point[best] = centre
-    return joint, np.array(plane_normal).reshape(-1, 3), np.array(plane_point).reshape(-1, 3)
+    return joint, plane_normal[: len(members)].copy(), plane_point[: len(members)].copy()
 
 
 @dataclass
