@@ -115,6 +115,9 @@ def format_number(value) -> str:
     return repr(float(value))
 
 
+_AS_WRITTEN = (str, int, float)
+
+
 def write_table_csv(rows: list[dict], path, columns=None) -> Path:
     """A list of same-keyed dicts as CSV, atomically; the header is ``columns`` or the first
     row's keys, so a table with no rows still has its header when ``columns`` is given."""
@@ -127,5 +130,7 @@ def write_table_csv(rows: list[dict], path, columns=None) -> Path:
             if header:
                 writer.writerow(header)
             for row in rows:
-                writer.writerow([v if isinstance(v, str) else format_number(v) for v in row.values()])
+                # The csv module writes Python's str, int and float as format_number would
+                # (a float's str is its repr): only the others (numpy's, bools) go through it.
+                writer.writerow([v if type(v) in _AS_WRITTEN else format_number(v) for v in row.values()])
     return Path(path)
