@@ -1,7 +1,16 @@
 import numpy as np
 import pytest
 
-from geostructure.rectangle import bounding_perimeter, exact_angle, golden_angle, hull_2d, region_plane, rodrigues
+from geostructure.hulls import segment_hulls
+from geostructure.rectangle import (
+    bounding_perimeter,
+    exact_angle,
+    golden_angle,
+    hull_2d,
+    region_plane,
+    region_planes_of_segments,
+    rodrigues,
+)
 
 
 def test_rodrigues_is_a_rotation_about_its_axis():
@@ -67,3 +76,66 @@ def test_the_octagon_prefilter_keeps_every_hull_vertex(shape):
     whole = p[ConvexHull(p).vertices]
     assert len(p) > OCTAGON_POINTS
     assert set(map(tuple, hull_2d(p))) == set(map(tuple, whole))
+
+
+def _small_outlines(rng, n_sets):
+    """2-D point sets as small regions give them: blobs, boxes, and grids with points in line
+    along every edge (exact or within rounding, axis-aligned or turned)."""
+    sets = []
+    for k in range(n_sets):
+        n = int(rng.integers(3, 600))
+        kind = k % 4
+        if kind == 0:
+            p = rng.random((n, 2)) * rng.uniform(0.1, 3, 2)
+        elif kind == 1:
+            p = rng.normal(size=(n, 2)) * 0.3
+        else:
+            p = rng.integers(0, 12, (n, 2)) * 0.025
+            p = p + rng.normal(0, 1e-9, p.shape) if kind == 2 else p @ rodrigues(np.array([0, 0, 1.0]), 0.3)[:2, :2]
+        sets.append(p)
+    return sets
+
+
+def test_segment_hulls_match_qhull():
+    rng = np.random.default_rng(3)
+    sets = _small_outlines(rng, 200)
+    hulls, n_vertices, closed = segment_hulls(np.vstack(sets), np.r_[0, np.cumsum([len(p) for p in sets])])
+    area = lambda h: 0.5 * abs(h[:, 0] @ np.roll(h[:, 1], -1) - h[:, 1] @ np.roll(h[:, 0], -1))  # noqa: E731
+    for p, hull, n, ok in zip(sets, hulls, n_vertices, closed):
+        reference = hull_2d(p)
+        assert ok
+        mine = hull[:n]
+        assert {tuple(x) for x in mine.tolist()} <= {tuple(x) for x in p.tolist()}  # vertices are points
+        assert area(mine) == pytest.approx(area(reference), rel=1e-9)
+        # Counter-clockwise, every point on or inside every edge.
+        edge = np.roll(mine, -1, axis=0) - mine
+        side = edge[:, 0, None] * (p[None, :, 1] - mine[:, 1, None]) - edge[:, 1, None] * (
+            p[None, :, 0] - mine[:, 0, None]
+        )
+        assert side.min() >= -1e-9
+
+
+def test_points_in_line_have_no_hull_and_are_left_to_the_caller():
+    line = np.c_[np.linspace(0, 1, 20), np.linspace(0, 2, 20)]
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]])
+    _, n_vertices, closed = segment_hulls(np.vstack([line, square]), np.array([0, 20, 24]))
+    assert closed.tolist() == [False, True] and n_vertices[1] == 4
+    planes = region_planes_of_segments(np.c_[np.vstack([line, square]), np.zeros(24)], np.array([0, 20, 24]))
+    assert planes[0] is None and planes[1].area == pytest.approx(1.0)
+
+
+def test_regions_fitted_together_are_fitted_as_one_by_one():
+    rng = np.random.default_rng(4)
+    sets = _small_outlines(rng, 120)
+    turns = [rodrigues(rng.normal(size=3) / np.sqrt(3), rng.uniform(0, 3)) for _ in sets]
+    regions = [np.c_[p, rng.normal(0, 0.01, len(p))] @ r.T + rng.normal(0, 50, 3) for p, r in zip(sets, turns)]
+    together = region_planes_of_segments(np.vstack(regions), np.r_[0, np.cumsum([len(p) for p in regions])])
+    for points, plane in zip(regions, together):
+        one = region_plane(points)
+        np.testing.assert_allclose(plane.centroid, one.centroid, atol=1e-9)
+        np.testing.assert_allclose(plane.center, one.center, atol=1e-9)
+        assert abs(plane.normal @ one.normal) == pytest.approx(1.0, abs=1e-12)
+        assert abs(plane.u @ one.u) == pytest.approx(1.0, abs=1e-9)
+        for name in ("width", "height", "area", "residual"):
+            assert getattr(plane, name) == pytest.approx(getattr(one, name), rel=1e-9, abs=1e-12)
+        assert plane.n_points == one.n_points

@@ -244,3 +244,69 @@ def bound_plane(centroid, normal, axes, residual, uv: np.ndarray, n_points: int,
 def _polygon_area(poly: np.ndarray) -> float:
     x, y = poly[:, 0], poly[:, 1]
     return float(0.5 * abs(x @ _next(y) - y @ _next(x)))
+
+
+def region_planes_of_segments(points: np.ndarray, starts: np.ndarray) -> list[RegionPlane | None]:
+    """:func:`region_plane` (``exact``) of many small regions at once, their points one after
+    another in ``points`` (region ``r`` at ``starts[r]:starts[r + 1]``): the fits by sums
+    over the segments and one batched eigen-decomposition, the hulls by
+    :func:`~.hulls.segment_hulls`, the rectangles over all hull edges of all regions
+    together. None for a region whose hull is degenerate: :func:`region_plane` measures it.
+
+    Examples
+    --------
+    >>> g = np.mgrid[0:4:41j, 0:2:21j].reshape(2, -1).T
+    >>> flat = np.c_[g, np.zeros(len(g))]
+    >>> pts = np.vstack([flat @ rodrigues(np.array([0, 0, 1.0]), 0.3).T, flat[:, [0, 2, 1]]])
+    >>> a, b = region_planes_of_segments(pts, np.array([0, len(g), 2 * len(g)]))
+    >>> round(a.width, 6), round(a.height, 6), round(b.area, 6), np.abs(b.normal).round(6).tolist()
+    (4.0, 2.0, 8.0, [0.0, 1.0, 0.0])
+    """
+    from .hulls import segment_hulls
+
+    sizes = np.diff(starts)
+    count = sizes.astype(np.float64)
+    centroid = np.add.reduceat(points, starts[:-1], axis=0) / count[:, None]
+    centred = points - np.repeat(centroid, sizes, axis=0)
+    pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    sums = np.add.reduceat(np.stack([centred[:, i] * centred[:, j] for i, j in pairs], axis=1), starts[:-1], axis=0)
+    scatter = sums[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3) / count[:, None, None]
+    values, vectors = np.linalg.eigh(scatter)
+    residual = np.sqrt(np.maximum(values[:, 0], 0.0))
+    normal, u = vectors[:, :, 0], vectors[:, :, 2]
+    axes = np.stack([u, np.cross(normal, u)], axis=1)  # (R, 2, 3), as in_plane_axes
+    uv = np.einsum("nk,njk->nj", centred, np.repeat(axes, sizes, axis=0))
+    hull, n_vertices, closed = segment_hulls(uv, starts)
+    # Every hull edge's angle (the padding's edges have none), then each rectangle's perimeter.
+    edges = np.roll(hull, -1, axis=1) - hull
+    real = (edges != 0).any(axis=2)
+    angles = np.mod(np.arctan2(edges[..., 1], edges[..., 0]), np.pi / 2)
+    c, s = np.cos(angles), np.sin(angles)
+    a = hull[..., 0][:, :, None] * c[:, None, :] + hull[..., 1][:, :, None] * s[:, None, :]  # (R, points, angles)
+    b = hull[..., 1][:, :, None] * c[:, None, :] - hull[..., 0][:, :, None] * s[:, None, :]
+    perimeter = np.where(real, 2.0 * (np.ptp(a, axis=1) + np.ptp(b, axis=1)), np.inf)
+    best = perimeter.argmin(axis=1)
+    rows = np.arange(len(sizes))
+    phi = angles[rows, best]
+    a, b = a[rows, :, best], b[rows, :, best]
+    width, height = np.ptp(a, axis=1), np.ptp(b, axis=1)
+    c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    ru, rv = c * axes[:, 0] + s * axes[:, 1], -s * axes[:, 0] + c * axes[:, 1]
+    center = (
+        centroid
+        + ru * ((a.max(axis=1) + a.min(axis=1)) / 2)[:, None]
+        + rv * ((b.max(axis=1) + b.min(axis=1)) / 2)[:, None]
+    )
+    x, y = hull[..., 0], hull[..., 1]
+    area = 0.5 * np.abs((x * np.roll(y, -1, axis=1) - y * np.roll(x, -1, axis=1)).sum(axis=1))
+    planes: list[RegionPlane | None] = []
+    for r in range(len(sizes)):
+        if not closed[r]:
+            planes.append(None)
+            continue
+        w, h, pu, pv = float(width[r]), float(height[r]), ru[r], rv[r]
+        if h > w:  # report the long side as the width
+            pu, pv, w, h = pv, -pu, h, w
+        planes.append(RegionPlane(centroid[r], normal[r], pu, pv, w, h, center[r], float(residual[r]),
+                                  float(area[r]), int(sizes[r])))  # fmt: skip
+    return planes

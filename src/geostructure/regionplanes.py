@@ -13,7 +13,7 @@ import numpy as np
 
 from .facets import MIN_FACET_CELLS_ACROSS
 from .merge import MERGE_MIN_POINTS, absorbing_planes
-from .rectangle import region_plane
+from .rectangle import region_plane, region_planes_of_segments
 from .threads import run_tasks
 from .voxel import label_order
 
@@ -25,6 +25,9 @@ SPARSE_FACET_DENSITY = 0.25
 #: :data:`PLANE_BATCH` between two progress reports.
 THREADED_PLANE_POINTS = 20_000
 PLANE_BATCH = 16
+#: Regions of fewer points are fitted all at once (:func:`~.rectangle.region_planes_of_segments`):
+#: one by one, each hull's call to Qhull costs more than its sums.
+SEGMENT_PLANE_POINTS = 2000
 
 
 def region_planes(points, point_region, voxel_region, min_points, method, report, *, min_voxels=3):
@@ -54,8 +57,18 @@ def region_planes(points, point_region, voxel_region, min_points, method, report
         last = min(first + PLANE_BATCH, n_large)
         run_tasks([partial(fit, i) for i in range(first, last)])
         report("planes", last, len(candidates))
+    small = n_large + np.flatnonzero(sizes[candidates[n_large:]] < SEGMENT_PLANE_POINTS)
+    if method == "exact" and len(small):
+        # The small regions' points one region after another, in one array.
+        regions = candidates[small]
+        counts = sizes[regions]
+        ends = np.cumsum(counts)
+        taken = order[np.repeat(starts[regions] - (ends - counts), counts) + np.arange(ends[-1])]
+        for i, plane in zip(small.tolist(), region_planes_of_segments(points[taken], np.r_[0, ends])):
+            planes[i] = plane  # None where the hull is degenerate: fitted one by one below
     for i in range(n_large, len(candidates)):
-        fit(i)
+        if planes[i] is None:
+            fit(i)
         report("planes", i + 1, len(candidates))
     return planes, candidates
 
