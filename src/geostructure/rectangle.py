@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from .hulls import segment_hulls
+
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 METHODS = ("exact", "golden")
 
@@ -262,8 +264,6 @@ def region_planes_of_segments(points: np.ndarray, starts: np.ndarray) -> list[Re
     >>> round(a.width, 6), round(a.height, 6), round(b.area, 6), np.abs(b.normal).round(6).tolist()
     (4.0, 2.0, 8.0, [0.0, 1.0, 0.0])
     """
-    from .hulls import segment_hulls
-
     sizes = np.diff(starts)
     count = sizes.astype(np.float64)
     centroid = np.add.reduceat(points, starts[:-1], axis=0) / count[:, None]
