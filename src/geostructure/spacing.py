@@ -76,15 +76,6 @@ class PlaneMoments:
         return PlaneMoments(self.count[index], self.centroid[index], self.scatter[index])
 
 
-def _pooled_plane(moments: PlaneMoments, members) -> tuple[np.ndarray, np.ndarray]:
-    """Normal and centroid of the least-squares plane through all the members' points."""
-    w = moments.count[members]
-    mean = (w[:, None] * moments.centroid[members]).sum(axis=0) / w.sum()
-    d = moments.centroid[members] - mean
-    scatter = moments.scatter[members].sum(axis=0) + np.einsum("k,ki,kj->ij", w, d, d)
-    return np.linalg.eigh(scatter)[1][:, 0], mean
-
-
 def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, offset: float | None = None):
     """Group the facets of one set into joints, largest facet first.
 
@@ -120,6 +111,13 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, 
     # Each joint's plane, a row per joint so far (``n`` at most): one facet's tests are a few
     # operations over these rows, and its angles are Python's on scalars (numpy's cost more).
     plane_normal, plane_point = np.empty((len(normals), 3)), np.empty((len(normals), 3))
+    # And its members' moments pooled so far, about its first facet's centroid (``ref``, no
+    # cancellation): weight, first and second moments, a facet's added as it joins (the
+    # parallel-axis rule), where summing all the members again made joining cost their number.
+    weight = np.empty(len(normals))
+    first_moment, ref = np.empty((len(normals), 3)), np.empty((len(normals), 3))
+    second_moment = np.empty((len(normals), 3, 3))
+    count, scatter = moments.count, moments.scatter
     cos_angle, max_tilt = math.cos(math.radians(angle)), math.radians(EXTRAPOLATION_ANGLE)
     min_tilt = math.radians(MIN_EXTRAPOLATION_ANGLE)
     slope = math.tan(max_tilt)
@@ -155,13 +153,25 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, 
         if best < 0:
             members.append([int(i)])
             plane_normal[n_joints], plane_point[n_joints] = normals[i], centroids[i]
+            weight[n_joints], first_moment[n_joints] = count[i], 0.0
+            second_moment[n_joints], ref[n_joints] = scatter[i], centroids[i]
             joint[i] = n_joints
             continue
         joint[i] = best
         members[best].append(int(i))
-        fitted, centre = _pooled_plane(moments, members[best])
+        # The plane through all the joint's points: their scatter about the joint's centroid
+        # is the second moment about ``ref`` less weight x shift shift^T.
+        w = count[i]
+        d = centroids[i] - ref[best]
+        wd = w * d
+        weight[best] += w
+        first_moment[best] += wd
+        second_moment[best] += scatter[i] + wd[:, None] * d
+        m = first_moment[best]
+        shift = m / weight[best]
+        fitted = np.linalg.eigh(second_moment[best] - shift[:, None] * m)[1][:, 0]
         plane_normal[best] = fitted if fitted @ plane_normal[best] >= 0 else -fitted
-        plane_point[best] = centre
+        plane_point[best] = ref[best] + shift
     return joint, plane_normal[: len(members)].copy(), plane_point[: len(members)].copy()
 
 
