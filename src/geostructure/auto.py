@@ -37,7 +37,7 @@ from scipy.spatial import cKDTree
 from .bounds import column_max, column_min
 from .params import ParameterWarning, Params
 from .sampling import order_free_sample, sampled_blocks
-from .voxel import CloudMoments, accumulate_moments, fit_voxels, voxel_planes_from_moments
+from .voxel import CloudMoments, accumulate_moments, fit_voxels, voxel_counts, voxel_planes_from_moments
 
 #: Points wanted in the typical voxel.
 TARGET_POINTS = 30
@@ -124,8 +124,8 @@ class Occupancy:
         return probe
 
     def at(self, zeta: float) -> float:
-        moments, inverse = accumulate_moments(self.sub, zeta * self.extent, self.lower)
-        return float(np.median(moments.count[inverse])) / self.fraction
+        count, inverse = voxel_counts(self.sub, zeta * self.extent, self.lower)
+        return float(np.median(count[inverse])) / self.fraction
 
 
 def choose_zeta(

@@ -229,6 +229,26 @@ def unique_key_rows(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([kx, ky, kz]) + low, inverse
 
 
+def voxel_counts(points: np.ndarray, edge: float, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points in every occupied voxel, and each point's voxel index: :func:`accumulate_moments`'
+    counts and inverse map without its sums (a density probe needs only these).
+
+    Examples
+    --------
+    >>> counts, inverse = voxel_counts(np.array([[0.1, 0.1, 0.1], [0.2, 0.3, 0.1], [1.5, 0.2, 0.1]]), 1.0, np.zeros(3))
+    >>> counts[inverse].tolist()
+    [2, 2, 1]
+    """
+    origin = np.asarray(origin, float)
+    check_voxel_count(points, edge, origin)
+    key, scratch = np.empty((3, len(points)), dtype=np.int64), np.empty(len(points))
+    for a in range(3):
+        floor_index(points[:, a], origin[a], edge, key[a], scratch)
+    del scratch
+    unique, inverse = unique_key_rows(key)
+    return np.bincount(inverse, minlength=len(unique)), inverse
+
+
 def accumulate_moments(points: np.ndarray, edge: float, origin: np.ndarray):
     """Moments of every occupied voxel, and each point's voxel index (inverse map)."""
     origin = np.asarray(origin, float)
