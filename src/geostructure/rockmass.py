@@ -243,12 +243,12 @@ def rock_mass(
     n_sets = len(set_normals)
     result = RockMass(persistence, face.area, set_labels)
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)
-    joints = []
+    joints, uv = [], face.project(points)
     for s, mean in enumerate(set_normals):
         members = np.flatnonzero(set_labels == s)
         joint, joint_normal, joint_centre = joint_planes(moments.subset(members), normals[members])
         joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
-        line = scanline_spacing(points, joint_normal, joint_centre, mean, face)
+        line = scanline_spacing(points, joint_normal, joint_centre, mean, face, uv)
         result.scanlines.append(line)
         result.nearest_gaps.append(nearest_plane_gaps(normals, centroids, members, mean, persistence))
         result.p21[s] = persistence.trace_face[members].sum() / face.area if face.area > 0 else np.nan

@@ -204,7 +204,7 @@ class Scanlines:
         return self.spacing / np.sqrt(self.joints) if self.joints > 0 else float("nan")
 
 
-def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure) -> Scanlines:
+def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, uv=None) -> Scanlines:
     """One set's joints along virtual scanlines on the face (see the module's description).
 
     Parameters
@@ -216,6 +216,8 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure) -
     mean : (3,) array
         The set's mean normal.
     face : Exposure
+    uv : (N, 2) array, optional
+        ``face.project(points)``, when made already (one projection serves every set).
     """
     direction = mean - (mean @ face.normal) * face.normal
     cosine = float(np.linalg.norm(direction))
@@ -223,8 +225,9 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure) -
         return Scanlines(np.zeros(0), 0.0, 0, 0, cosine, None)
     direction /= cosine
     across = np.cross(face.normal, direction)
-    along_pts = (points - face.origin) @ direction
-    across_pts = (points - face.origin) @ across
+    # Both lines lie in the face: the points' face coordinates give their positions along them.
+    uv = face.project(points) if uv is None else uv
+    along_pts, across_pts = uv @ (face.axes @ direction), uv @ (face.axes @ across)
     start = across_pts.min() + LINE_SPACING / 2
     # Each line runs as far as the points within a cell of it (a band as wide as the lines'
     # spacing would overstate a line that cuts the face's edge obliquely).
