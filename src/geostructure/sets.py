@@ -214,7 +214,8 @@ def find_sets(
 
 
 def _joint_counter(x, centroids, area):
-    """A function of (labels, k): the number of distinct joints in each of the k sets."""
+    """A function of (labels, k): the number of distinct joints in each of the k sets, counted
+    up to :data:`MIN_SET_JOINTS` (all the choice asks)."""
     from .spacing import PlaneMoments, joint_planes  # lazy: the sets need the joints only here
 
     # Each facet as a disc of its area: count, centroid and in-plane scatter (r^2 / 4 per axis).
@@ -224,7 +225,7 @@ def _joint_counter(x, centroids, area):
 
     def joints(labels, k):
         return [
-            int(joint_planes(moments.subset(m), x[m])[0].max(initial=-1)) + 1
+            int(joint_planes(moments.subset(m), x[m], enough=MIN_SET_JOINTS)[0].max(initial=-1)) + 1
             for m in (np.flatnonzero(labels == j) for j in range(k))
         ]
 

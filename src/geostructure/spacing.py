@@ -76,7 +76,14 @@ class PlaneMoments:
         return PlaneMoments(self.count[index], self.centroid[index], self.scatter[index])
 
 
-def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, offset: float | None = None):
+def joint_planes(
+    moments: PlaneMoments,
+    normals,
+    *,
+    angle: float | None = None,
+    offset: float | None = None,
+    enough: int | None = None,
+):
     """Group the facets of one set into joints, largest facet first.
 
     Each facet, in order of decreasing size, joins the joint whose plane passes
@@ -90,7 +97,9 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, 
     at once (their moments pooled): several facets metres apart fix a plane far better than
     any one of them, whose normal may be a degree off. Grouping by growing joints rather than
     by linkage keeps two joints of a set apart where they cross. Returns each facet's joint
-    and each joint's normal and centroid.
+    and each joint's normal and centroid. With ``enough``, the grouping stops when that many
+    joints are found (joints never merge, so a count that need only reach it is then
+    known), its facets not yet grouped left at -1.
 
     Examples
     --------
@@ -101,6 +110,8 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, 
     >>> joint, normal, centre = joint_planes(PlaneMoments.of(points, labels, 3), [[0, 0, 1.0]] * 3)
     >>> joint.tolist(), np.round(centre[:, 2], 3).tolist()  # two patches of one joint, one 0.6 m above
     ([0, 0, 1], [0.0, 0.6])
+    >>> joint_planes(PlaneMoments.of(points, labels, 3), [[0, 0, 1.0]] * 3, enough=1)[0].tolist()  # one is enough
+    [0, 0, -1]
     """
     angle = SAME_JOINT_ANGLE if angle is None else angle
     offset = SAME_JOINT_TOLERANCE if offset is None else offset
@@ -151,6 +162,8 @@ def joint_planes(moments: PlaneMoments, normals, *, angle: float | None = None, 
                 if len(on):
                     best = int(on[np.argmin(rms[on])])
         if best < 0:
+            if n_joints == enough:
+                break
             members.append([int(i)])
             plane_normal[n_joints], plane_point[n_joints] = normals[i], centroids[i]
             weight[n_joints], first_moment[n_joints] = count[i], 0.0
