@@ -63,9 +63,11 @@ class Exposure:
         return np.clip(ij[:, 0], 0, self.occupied.shape[0] - 1), np.clip(ij[:, 1], 0, self.occupied.shape[1] - 1)
 
 
-def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0) -> Exposure:
+def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None = None) -> Exposure:
     """The mean face of ``points`` and its occupancy on a grid of cells of :data:`CELL_POINTS`
     points each on average; holes of :data:`SMALL_HOLE_CELLS` or fewer are filled.
+    ``spacing``, the points' spacing as :func:`~.facets.point_spacing` reads it, saves
+    reading their density again (a kd-tree over all of them).
 
     Examples
     --------
@@ -86,9 +88,12 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0) -> Exposure:
     # The cell holds CELL_POINTS points on average, from the density the 8th neighbours give
     # (pi r8^2 holds 8 points): few cells of a sampled surface are then empty by chance,
     # whether its points lie on a grid (SfM) or at random (a scan's overlap).
-    probe = points[order_free_sample(points, min(len(points), 2000), seed + 1)]
-    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # half the build time; queried once
-    r8 = float(np.median(tree.query(probe, k=9, workers=-1)[0][:, 8]))
+    if spacing is None:
+        probe = points[order_free_sample(points, min(len(points), 2000), seed + 1)]
+        tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # half the build time; queried once
+        r8 = float(np.median(tree.query(probe, k=9, workers=-1)[0][:, 8]))
+    else:  # the spacing is r8 sqrt(pi / 8): 8 points in pi r8^2
+        r8 = float(spacing) / np.sqrt(np.pi / 8.0)
     cell = np.sqrt(CELL_POINTS * np.pi * max(r8, 1e-6) ** 2 / 8.0)
     uv = (points - origin) @ axes.T
     lower = uv.min(axis=0)

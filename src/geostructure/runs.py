@@ -144,12 +144,22 @@ def plane_rock_mass(
 
 
 def sets_and_rock_mass(
-    points, labels, planes: Planes, frame: Frame = Frame(), n_sets: int | None = None, progress=None, *, errors=None
+    points,
+    labels,
+    planes: Planes,
+    frame: Frame = Frame(),
+    n_sets: int | None = None,
+    progress=None,
+    *,
+    errors=None,
+    spacing: float | None = None,
 ) -> tuple[JointSets, RockMass]:
     """:func:`plane_sets`, then :func:`plane_rock_mass` (``errors`` as it takes them); the
     exposure's grid, which needs the points alone, is made in a thread meanwhile (its
     kd-tree and grid are numpy's and scipy's work, the sets' EM mostly Python's: on the
-    0.7M-point outcrop the two overlap). ``progress(stage)`` is told each stage as it starts.
+    0.7M-point outcrop the two overlap). ``progress(stage)`` is told each stage as it starts;
+    ``spacing``, the points' spacing as the facet detector read it (:func:`detected_spacing`),
+    spares the exposure reading it again.
 
     Examples
     --------
@@ -163,11 +173,23 @@ def sets_and_rock_mass(
     report = progress or (lambda stage: None)
     report("sets")
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
-        face = pool.submit(exposure, points, frame.matrix[2])
+        face = pool.submit(exposure, points, frame.matrix[2], spacing=spacing)
         sets = plane_sets(planes, frame, n_sets)
         report("spacing and persistence")
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors)
     return sets, rock
+
+
+def detected_spacing(detection: dict | None) -> float | None:
+    """The point spacing the facet detector read (a run's ``detection`` record), if it ran.
+
+    Examples
+    --------
+    >>> detected_spacing({"facet_thresholds": {"spacing": 0.03}}), detected_spacing(None)
+    (0.03, None)
+    """
+    spacing = ((detection or {}).get("facet_thresholds") or {}).get("spacing")
+    return float(spacing) if spacing else None
 
 
 def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass, dict[str, Path]]:
@@ -203,7 +225,8 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         had_report = (outputs.outdir / "report.html").is_file()
         planes = read_planes(outputs.outdir)
         points, region = read_regions(outputs.outdir, planes.offset)
-        sets, rock = sets_and_rock_mass(points, plane_rows(region, planes.region_id), planes, frame, n_sets)
+        labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
+        sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, spacing=spacing)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)

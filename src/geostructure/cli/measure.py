@@ -18,7 +18,7 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
-from ..runs import add_evaluation, add_report, save_measurement, sets_and_rock_mass
+from ..runs import add_evaluation, add_report, detected_spacing, save_measurement, sets_and_rock_mass
 from ..slope_stability import add_kinematics
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
@@ -167,7 +167,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         if wants_sets(args):
             sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
                                             args.n_sets, lambda stage: progress(stage, 0, None),
-                                            errors=result.planes.standard_errors())  # as measured: no tilt yet  # fmt: skip
+                                            errors=result.planes.standard_errors(),  # as measured: no tilt yet
+                                            spacing=detected_spacing(result.detection))  # fmt: skip
         progress("write", 0, None)
         paths = save_measurement(
             result,
