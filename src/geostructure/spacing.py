@@ -133,7 +133,7 @@ def joint_planes(
     min_tilt = math.radians(MIN_EXTRAPOLATION_ANGLE)
     slope = math.tan(max_tilt)
     cos_on_plane = math.cos(math.radians(ON_PLANE_ANGLE))
-    for i in np.argsort(-moments.count, kind="stable"):
+    for i in np.argsort(-count, kind="stable"):
         best, n_joints = -1, len(members)
         if n_joints:
             jn, jp = plane_normal[:n_joints], plane_point[:n_joints]
@@ -156,7 +156,7 @@ def joint_planes(
                 # A small facet on rough rock can be ten degrees off its joint: when its
                 # points lie on a joint's plane (their RMS distance from it within
                 # ``offset``), it is on that joint whatever its own normal says.
-                spread = ((jn @ moments.scatter[i]) * jn).sum(axis=1) / max(moments.count[i], 1e-12)
+                spread = ((jn @ scatter[i]) * jn).sum(axis=1) / max(count[i], 1e-12)
                 rms = np.sqrt(off_plane**2 + spread)
                 on = np.flatnonzero((agree >= cos_on_plane) & (rms <= offset))
                 if len(on):

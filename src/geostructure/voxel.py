@@ -239,34 +239,37 @@ def voxel_counts(points: np.ndarray, edge: float, origin: np.ndarray) -> tuple[n
     >>> counts[inverse].tolist()
     [2, 2, 1]
     """
-    origin = np.asarray(origin, float)
-    check_voxel_count(points, edge, origin)
-    key, scratch = np.empty((3, len(points)), dtype=np.int64), np.empty(len(points))
-    for a in range(3):
-        floor_index(points[:, a], origin[a], edge, key[a], scratch)
-    del scratch
-    unique, inverse = unique_key_rows(key)
+    unique, inverse = _grouped_voxels(points, edge, np.asarray(origin, float))
     return np.bincount(inverse, minlength=len(unique)), inverse
 
 
 def accumulate_moments(points: np.ndarray, edge: float, origin: np.ndarray):
     """Moments of every occupied voxel, and each point's voxel index (inverse map)."""
     origin = np.asarray(origin, float)
-    check_voxel_count(points, edge, origin)
-    # Keys and coordinates about each point's voxel corner (keys == unique[inverse]), both
-    # as rows and column by column: no array the cloud's size is allocated twice.
-    key, rel = np.empty((3, len(points)), dtype=np.int64), np.empty((3, len(points)))
-    for a in range(3):
-        floor_index(points[:, a], origin[a], edge, key[a], rel[a])
-        np.multiply(key[a], edge, out=rel[a])
-        rel[a] += origin[a]
-        np.subtract(points[:, a], rel[a], out=rel[a])
-    unique, inverse = unique_key_rows(key)
-    del key
+    rel = np.empty((3, len(points)))
+    unique, inverse = _grouped_voxels(points, edge, origin, rel)
     n = len(unique)
     count = np.bincount(inverse, minlength=n).astype(np.float64)
     sums, products = binned_sums(rel, inverse, n)
     return VoxelMoments(unique, count, sums, products, edge, origin), inverse
+
+
+def _grouped_voxels(points: np.ndarray, edge: float, origin: np.ndarray, rel=None) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's voxel at ``edge`` from ``origin``: the occupied voxels' keys and the
+    inverse map; given ``rel`` (3, N), each point's coordinates about its voxel's corner are
+    written there too. Keys and coordinates as rows, column by column, through one buffer:
+    no array the cloud's size is allocated twice."""
+    check_voxel_count(points, edge, origin)
+    key = np.empty((3, len(points)), dtype=np.int64)
+    scratch = np.empty(len(points)) if rel is None else None
+    for a in range(3):
+        row = scratch if rel is None else rel[a]
+        floor_index(points[:, a], origin[a], edge, key[a], row)
+        if rel is not None:  # the point less its voxel's corner (keys == unique[inverse])
+            np.multiply(key[a], edge, out=row)
+            row += origin[a]
+            np.subtract(points[:, a], row, out=row)
+    return unique_key_rows(key)
 
 
 def binned_sums(rel: np.ndarray, inverse: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
