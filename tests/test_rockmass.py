@@ -5,13 +5,16 @@ import json
 
 import numpy as np
 import pytest
-from helpers import lidar_outcrop
+from conftest import shared_file
+from helpers import lidar_outcrop, run_cli
 
 from geostructure import measure
 from geostructure.cli import main
+from geostructure.cloud import Cloud
 from geostructure.exposure import exposure, plane_persistence
-from geostructure.rockmass import RockMass
-from geostructure.runs import plane_rock_mass, plane_sets
+from geostructure.io.gis import metres_per_unit
+from geostructure.rockmass import RockMass, jv_scope, unmeasured_spacing
+from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 from geostructure.spacing import Scanlines, spacing_statistics
 from geostructure.synthetic import outcrop_scene
 from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
@@ -190,3 +193,61 @@ def test_the_measured_standard_errors_are_the_ones_the_rock_mass_would_compute(o
     for name, values in rock.plane_errors.items():
         assert np.array_equal(given.plane_errors[name], values, equal_nan=True), name
     assert given.correlated_tilt == rock.correlated_tilt
+
+
+def test_a_cloud_in_feet_gives_its_rock_mass_in_metres():
+    """A State Plane survey in feet (EPSG:2992): sets.csv's spacing, areas, traces and
+    intensities are metres, as for the same face in metres, and the joints' metric
+    tolerances (2 cm, 1 m between scanlines) are metres too, not feet."""
+    scene = outcrop_scene(width=8.0, height=5.0, seed=5)
+    found = {}
+    for crs, unit in (("EPSG:32633", 1.0), ("EPSG:2992", 0.3048)):
+        result = measure(Cloud(scene.cloud.local / unit, crs=crs))
+        found[unit] = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
+                                         spacing=detected_spacing(result.detection),
+                                         metres_per_unit=metres_per_unit(crs))  # fmt: skip
+    (m_sets, m_rock), (ft_sets, ft_rock) = found[1.0], found[0.3048]
+    assert len(m_sets) == len(ft_sets) == 3
+    np.testing.assert_allclose(ft_rock.spacing, m_rock.spacing, rtol=0.05)
+    np.testing.assert_allclose(ft_sets.area, m_sets.area, rtol=0.05)
+    np.testing.assert_allclose(ft_rock.p21, m_rock.p21, rtol=0.05)
+    assert ft_rock.exposure_area == pytest.approx(m_rock.exposure_area, rel=0.02)
+    assert ft_rock.summary(ft_sets.mean_normal)["metres_per_cloud_unit"] == 0.3048
+
+
+def test_a_set_along_the_exposed_face_says_why_it_has_no_spacing():
+    """Bedding on a level exposure: no scanline on the face crosses it (the blind zone).
+    Its spacing is NaN in sets.csv; the table shows a dash and says why, and Jv names the
+    sets it leaves out rather than passing for the whole rock mass."""
+    along = {"spacing_m": np.nan, "scanline_cosine": 0.0229, "spacing_nearest_m": 0.963,
+             "p32_per_m": np.nan, "n_censored": 8}  # fmt: skip
+    crossed = {"spacing_m": 0.4, "scanline_cosine": 0.9, "spacing_nearest_m": 0.5, "p32_per_m": 2.5, "n_censored": 1}
+    note = unmeasured_spacing(0, along)
+    assert note.startswith("Set 0 lies along the exposed face (its mean normal 1° from the face's)")
+    assert "0.96 m" in note and unmeasured_spacing(1, crossed) is None
+    assert "no joint" in unmeasured_spacing(2, {**along, "scanline_cosine": 0.8})
+    assert jv_scope([along, crossed]) == " (without set 0)" and jv_scope([crossed]) == ""
+
+
+@pytest.mark.real_data
+def test_airborne_lidar_in_feet_its_level_roofs_and_the_metric_rock_mass(tmp_path, capsys):
+    """autzen (Oregon Lambert, feet): the roofs and ground form one near-level set on a level
+    exposure. Its traces come out in metres, the plane table's sizes are labelled in feet,
+    and the tables say why the set has no spacing instead of printing NaN."""
+    out = tmp_path / "autzen"
+    code, printed, _ = run_cli(
+        capsys, "measure", shared_file("pdal_autzen/autzen_trim.laz"), "-o", out, "--sets", "--report"
+    )  # the report once failed on run.json's null Jv
+    assert code == 0 and "nan" not in printed.lower()
+    assert "lies along the exposed face" in " ".join(printed.split())
+    page = (out / "report.html").read_text()
+    assert "lies along the exposed face" in page and "Area (ft" in page and "Roughness (ft)" in page
+    record = json.loads((out / "run.json").read_text())["sets"]["rock_mass"]
+    assert record["metres_per_cloud_unit"] == 0.3048
+    with open(out / "planes.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    in_set = [r for r in rows if r["set"] == "0"]
+    # a plane's rectangle is in the cloud's feet; its trace along strike, in metres, spans
+    # no more than the rectangle's diagonal in metres
+    diagonal_m = [0.3048 * np.hypot(float(r["rect_width"]), float(r["rect_height"])) for r in in_set]
+    assert in_set and all(float(r["trace_strike_m"]) <= 1.001 * d for r, d in zip(in_set, diagonal_m))

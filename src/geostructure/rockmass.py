@@ -11,8 +11,8 @@
 - P32, joint area per cubic metre, from P10 with C13 = 1 / mean |n . line| over the set's
   planes, and (a lower bound, as P21 is) from P21 with C23 = 1 / mean sin(angle between
   plane and face normals);
-- the volumetric joint count Jv = sum over sets of 1 / spacing (ISRM 1978; Palmstrom
-  2005) and the block volume Vb = beta Jv^-3 with beta = 36 (Palmstrom 2005's value for
+- the volumetric joint count Jv = sum of 1 / spacing over the sets with a spacing (ISRM
+  1978; Palmstrom 2005) and the block volume Vb = beta Jv^-3 with beta = 36 (Palmstrom 2005's value for
   equidimensional blocks), and for three sets S1 S2 S3 / (sin g12 sin g23 sin g31).
 
 Per set, the mean trace length is the exponential distribution's estimate with censoring,
@@ -27,7 +27,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .exposure import Persistence, exposure, plane_persistence
-from .spacing import PlaneMoments, joint_planes, nearest_plane_gaps, scanline_spacing, spacing_statistics
+from .spacing import (
+    MIN_SCANLINE_COSINE,
+    PlaneMoments,
+    joint_planes,
+    nearest_plane_gaps,
+    scanline_spacing,
+    spacing_statistics,
+)
 from .uncertainty import correlated_tilt
 
 #: Palmstrom (2005)'s block shape factor for Vb = beta Jv^-3 (equidimensional blocks).
@@ -85,6 +92,7 @@ class RockMass:
     correlated_tilt: float = 0.0  # degrees RMS, read from the joints' facets
     correlated_tilt_n: int = 0  # facets it was read from
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
+    metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
 
     @property
     def spacing(self) -> np.ndarray:
@@ -106,7 +114,8 @@ class RockMass:
 
     @property
     def jv(self) -> float:
-        """Volumetric joint count (joints per m^3): the sum over sets of 1 / spacing."""
+        """Volumetric joint count (joints per m^3): the sum of 1 / spacing over the sets whose
+        spacing was measured (:func:`jv_scope` names those left out)."""
         s = self.spacing
         return float(np.sum(1.0 / s[np.isfinite(s)])) if np.isfinite(s).any() else float("nan")
 
@@ -189,7 +198,48 @@ class RockMass:
             "spacing_method": "scanlines on the mean face, joints extended as persistent planes",
             "correlated_tilt_deg": self.correlated_tilt,
             "correlated_tilt_facets": self.correlated_tilt_n,
+            "metres_per_cloud_unit": self.metres_per_unit,
         }
+
+
+def unmeasured_spacing(set_id: int, row: dict) -> str | None:
+    """Why set ``set_id`` has no scanline spacing (nor P10, nor P32), in a sentence, from its
+    row of ``sets.csv`` (:meth:`RockMass.set_rows`); None when it has one. A set whose planes
+    lie along the exposed face (a horizontal face's bedding, a wall's own joints) is
+    crossed by no line drawn on that face (ISRM 1978's blind zone, Terzaghi 1965).
+
+    Examples
+    --------
+    >>> row = {"spacing_m": float("nan"), "scanline_cosine": 0.0229, "spacing_nearest_m": 3.128}
+    >>> unmeasured_spacing(0, row)
+    "Set 0 lies along the exposed face (its mean normal 1° from the face's), so no scanline on the face crosses it: its spacing, P10 and P32 are not measured (its nearest-plane spacing, after DSE, is 3.13 m)."
+    """
+    if np.isfinite(row["spacing_m"]):
+        return None
+    cosine = float(row["scanline_cosine"])
+    if cosine < MIN_SCANLINE_COSINE:
+        angle = np.degrees(np.arcsin(np.clip(cosine, 0.0, 1.0)))
+        why = f"lies along the exposed face (its mean normal {angle:.0f}° from the face's), so no scanline on the face crosses it"
+    else:
+        why = "has no joint that a scanline on the exposed face crosses"
+    near = float(row.get("spacing_nearest_m", np.nan))
+    tail = f" (its nearest-plane spacing, after DSE, is {near:.2f} m)" if np.isfinite(near) else ""
+    return f"Set {set_id} {why}: its spacing, P10 and P32 are not measured{tail}."
+
+
+def jv_scope(rows: list[dict]) -> str:
+    """What the volumetric joint count leaves out: ``" (without sets 0, 2)"`` when some of
+    the sets' rows (:meth:`RockMass.set_rows`, in set order) have no spacing, else ``""``.
+
+    Examples
+    --------
+    >>> jv_scope([{"spacing_m": float("nan")}, {"spacing_m": 0.4}])
+    ' (without set 0)'
+    """
+    missing = [s for s, row in enumerate(rows) if not np.isfinite(row["spacing_m"])]
+    if not missing:
+        return ""
+    return f" (without set{'s' if len(missing) > 1 else ''} {', '.join(map(str, missing))})"
 
 
 def rock_mass(

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import shutil
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ import numpy as np
 from .evaluate import Evaluation, evaluate
 from .exposure import exposure
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
+from .io.gis import metres_per_unit
 from .io.laz import add_point_sets
 from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_regions, read_sets
@@ -96,8 +98,12 @@ def save_measurement(
     return paths
 
 
-def plane_sets(planes: Planes, frame: Frame = Frame(), n_sets: int | None = None) -> JointSets:
-    """The joint sets of a plane table: poles weighted by area (:func:`~.sets.find_sets`).
+def plane_sets(
+    planes: Planes, frame: Frame = Frame(), n_sets: int | None = None, *, metres_per_unit: float = 1.0
+) -> JointSets:
+    """The joint sets of a plane table: poles weighted by area (:func:`~.sets.find_sets`),
+    the planes' centroids in metres (``metres_per_unit`` of the table's coordinates, as
+    :func:`~.io.gis.metres_per_unit` reads it from the CRS) for the joints' metric tolerances.
 
     Examples
     --------
@@ -108,11 +114,21 @@ def plane_sets(planes: Planes, frame: Frame = Frame(), n_sets: int | None = None
     >>> len(sets), sets.n_planes.sum()
     (2, np.int64(80))
     """
-    return find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame, centroids=planes.local_centroid)
+    centroids = planes.local_centroid * metres_per_unit
+    sets = find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame, centroids=centroids)
+    return sets if metres_per_unit == 1.0 else replace(sets, area=sets.area * metres_per_unit**2)
 
 
 def plane_rock_mass(
-    points, labels, planes: Planes, sets: JointSets, frame: Frame = Frame(), *, face=None, errors=None
+    points,
+    labels,
+    planes: Planes,
+    sets: JointSets,
+    frame: Frame = Frame(),
+    *,
+    face=None,
+    errors=None,
+    metres_per_unit: float = 1.0,
 ) -> RockMass:
     """Spacing, persistence and intensity of the sets of a plane table (:func:`~.rockmass.rock_mass`).
 
@@ -128,18 +144,23 @@ def plane_rock_mass(
     frame : Frame
         The run's frame, whose up gives strike and dip.
     face : :class:`~.exposure.Exposure`, optional
-        The points' exposure, when it was made already.
+        The points' exposure (in metres), when it was made already.
     errors : dict, optional
         The planes' block standard errors as measured (:meth:`~.planes.Planes.standard_errors`
         of a fresh :func:`~geostructure.measure`'s table). Without them they are computed
         again: a folder's table may carry a correlated tilt already, which must not be
         added twice.
+    metres_per_unit : float
+        Metres in one unit of ``points`` (:func:`~.io.gis.metres_per_unit`): the rock mass's
+        lengths, areas and intensities are in metres, whatever the cloud's unit.
     """
     up = frame.matrix[2]
     if errors is None:
         errors = normal_standard_errors(points, labels, planes.normal, planes.local_centroid, planes.rect_u, up)
-    rock = rock_mass(points, labels, planes.normal, sets.labels, sets.mean_normal, up, errors["normal"], face=face)
+    metric = in_metres(points, metres_per_unit)
+    rock = rock_mass(metric, labels, planes.normal, sets.labels, sets.mean_normal, up, errors["normal"], face=face)
     rock.plane_errors = with_correlated_tilt(errors, rock.correlated_tilt, planes.normal, up)
+    rock.metres_per_unit = float(metres_per_unit)
     return rock
 
 
@@ -153,13 +174,15 @@ def sets_and_rock_mass(
     *,
     errors=None,
     spacing: float | None = None,
+    metres_per_unit: float = 1.0,
 ) -> tuple[JointSets, RockMass]:
     """:func:`plane_sets`, then :func:`plane_rock_mass` (``errors`` as it takes them); the
     exposure's grid, which needs the points alone, is made in a thread meanwhile (its
     kd-tree and grid are numpy's and scipy's work, the sets' EM mostly Python's: on the
     0.7M-point outcrop the two overlap). ``progress(stage)`` is told each stage as it starts;
     ``spacing``, the points' spacing as the facet detector read it (:func:`detected_spacing`),
-    spares the exposure reading it again.
+    spares the exposure reading it again. ``metres_per_unit``: as :func:`plane_rock_mass`
+    takes it.
 
     Examples
     --------
@@ -173,11 +196,24 @@ def sets_and_rock_mass(
     report = progress or (lambda stage: None)
     report("sets")
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
-        face = pool.submit(exposure, points, frame.matrix[2], spacing=spacing)
-        sets = plane_sets(planes, frame, n_sets)
+        f = metres_per_unit
+        face = pool.submit(exposure, in_metres(points, f), frame.matrix[2], spacing=spacing and spacing * f)
+        sets = plane_sets(planes, frame, n_sets, metres_per_unit=f)
         report("spacing and persistence")
-        rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors)
+        rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors,
+                               metres_per_unit=f)  # fmt: skip
     return sets, rock
+
+
+def in_metres(points: np.ndarray, metres_per_unit: float) -> np.ndarray:
+    """``points`` scaled to metres (the same array when they are in metres already).
+
+    Examples
+    --------
+    >>> in_metres(np.array([[10.0, 0.0, 1.0]]), 0.3048).tolist()
+    [[3.048, 0.0, 0.3048]]
+    """
+    return points if metres_per_unit == 1.0 else np.asarray(points, dtype=np.float64) * metres_per_unit
 
 
 def detected_spacing(detection: dict | None) -> float | None:
@@ -226,7 +262,8 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         planes = read_planes(outputs.outdir)
         points, region = read_regions(outputs.outdir, planes.offset)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
-        sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, spacing=spacing)
+        sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, spacing=spacing,
+                                        metres_per_unit=metres_per_unit(outputs.record.get("crs")))  # fmt: skip
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)

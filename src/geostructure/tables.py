@@ -8,6 +8,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from .rockmass import jv_scope, unmeasured_spacing
 from .sets import MIN_SET_PLANES
 
 
@@ -87,15 +88,15 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         console.print(f"No joint set: no {MIN_SET_PLANES} of the {len(sets.labels)} planes share an orientation.")
         return
     title = f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)"
+    rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
     if rock is not None and np.isfinite(rock.jv):
-        title += f"; Jv {rock.jv:.1f}/m³, block {rock.block_volume:.2g} m³"
+        title += f"; Jv {rock.jv:.1f}/m³{jv_scope(rock_rows)}, block {rock.block_volume:.2g} m³"
     table = Table(title=title)
     columns = ["set", "planes", "area m²", "dip", "dip dir", "Fisher K", "α95 deg", "sph. var."]
     for column in columns + (["spacing m", "P32 1/m", "censored"] if rock is not None else []):
         table.add_column(column, justify="right")
-    rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
     for row, more in zip(sets.rows(), rock_rows):
-        extra = [f"{more['spacing_m']:.2f}", f"{more['p32_per_m']:.2f}", str(more["n_censored"])] if more else []
+        extra = [_figure(more["spacing_m"]), _figure(more["p32_per_m"]), str(more["n_censored"])] if more else []
         table.add_row(
             str(row["set"]),
             str(row["n_planes"]),
@@ -108,6 +109,13 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
             *extra,
         )
     console.print(table)
+    for note in filter(None, (unmeasured_spacing(s, more) for s, more in enumerate(rock_rows) if more)):
+        console.print(note)
+
+
+def _figure(value: float) -> str:
+    """A table's figure to two decimals, or a dash where it was not measured (NaN)."""
+    return f"{value:.2f}" if np.isfinite(value) else "—"
 
 
 def print_kinematics(summary: dict, console: Console | None = None) -> None:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.gis import NO_CRS_NOTE
+from ..io.gis import NO_CRS_NOTE, metres_per_unit
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
@@ -168,7 +168,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
                                             args.n_sets, lambda stage: progress(stage, 0, None),
                                             errors=result.planes.standard_errors(),  # as measured: no tilt yet
-                                            spacing=detected_spacing(result.detection))  # fmt: skip
+                                            spacing=detected_spacing(result.detection),
+                                            metres_per_unit=metres_per_unit(cloud.crs))  # fmt: skip
         progress("write", 0, None)
         paths = save_measurement(
             result,

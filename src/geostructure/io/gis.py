@@ -76,9 +76,41 @@ def _lon_lat(points: np.ndarray, crs=None, enu_origin=None) -> np.ndarray:
     lon, lat = to_wgs84.transform(points[:, 0], points[:, 1])
     # RFC 7946 heights are in metres: a cloud in feet (Oregon Lambert) is scaled, not moved
     # (its vertical datum stays the cloud's own).
-    axes = source.axis_info
-    to_metres = axes[0].unit_conversion_factor if axes and axes[0].unit_conversion_factor else 1.0
-    return np.column_stack([lon, lat, points[:, 2] * to_metres])
+    return np.column_stack([lon, lat, points[:, 2] * metres_per_unit(crs)])
+
+
+#: Symbols of the linear units clouds come in, by metres per unit.
+UNIT_SYMBOLS = {1.0: "m", 0.3048: "ft", 1200.0 / 3937.0: "US ft"}
+
+
+def unit_symbol(crs: str | None) -> str:
+    """The symbol of a cloud's length unit, for the labels of figures in its own unit.
+
+    Examples
+    --------
+    >>> unit_symbol("EPSG:2992"), unit_symbol("EPSG:2227"), unit_symbol(None)
+    ('ft', 'US ft', 'm')
+    """
+    factor = metres_per_unit(crs)
+    # PROJ's US survey foot differs from 1200 / 3937 in the last bit.
+    return next((symbol for f, symbol in UNIT_SYMBOLS.items() if abs(f - factor) <= 1e-12 * f), f"{factor:g} m")
+
+
+def metres_per_unit(crs: str | None) -> float:
+    """Metres in one unit of a cloud's coordinates: its CRS's linear unit (0.3048 for a State
+    Plane in international feet), 1 for a cloud without a CRS (taken to be in metres). The
+    vertical is taken in the same unit, as LAS files in feet hold it.
+
+    Examples
+    --------
+    >>> metres_per_unit("EPSG:2992"), metres_per_unit("EPSG:32633"), metres_per_unit(None)
+    (0.3048, 1.0, 1.0)
+    """
+    if crs is None:
+        return 1.0
+    axes = parse_crs(crs).axis_info
+    factor = axes[0].unit_conversion_factor if axes and axes[0].unit_name not in ("degree", "radian") else None
+    return float(factor) if factor else 1.0
 
 
 def _properties(planes) -> list[dict]:

@@ -17,6 +17,7 @@ import numpy as np
 from ..io.atomic import atomic_path, plain
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
+from ..rockmass import jv_scope, unmeasured_spacing
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .spacing_plot import figure_spacing
@@ -26,15 +27,16 @@ from .view3d import figure_3d, figure_json, hover_text, panel_title, plane_color
 MAX_GREAT_CIRCLES = 30
 NET_HEIGHT, ROSE_HEIGHT = 400, 360  # pixels
 
+#: The plane table's columns: key in planes.csv, label ({unit}: the cloud's length unit), decimals.
 COLUMNS = [
     ("region_id", "Plane", 0),
     ("strike", "Strike", 1),
     ("dip", "Dip", 1),
     ("dip_direction", "Dip dir.", 1),
     ("normal_uncertainty_deg", "± (°)", 2),
-    ("area_m2", "Area (m²)", 2),
+    ("area_m2", "Area ({unit}²)", 2),
     ("n_points", "Points", 0),
-    ("fit_residual", "Roughness (m)", 4),
+    ("fit_residual", "Roughness ({unit})", 4),
     ("planarity", "Planarity", 3),
 ]
 
@@ -66,6 +68,7 @@ def _georeference_note(record: dict | None) -> dict | None:
 def render(scene: ReportScene, title: str) -> str:
     from plotly.offline import get_plotlyjs
 
+    unit = scene.unit  # the plane table's sizes are in the cloud's unit
     payload = {
         "title": title,
         "scene": figure_3d(scene),
@@ -73,12 +76,13 @@ def render(scene: ReportScene, title: str) -> str:
         "rose": figure_rose(scene),
         "spacing": figure_spacing(scene),
         "planes": table_rows(scene),
-        "columns": [{"key": k, "label": label, "digits": d} for k, label, d in COLUMNS]
+        "columns": [{"key": k, "label": label.format(unit=unit), "digits": d} for k, label, d in COLUMNS]
         + ([{"key": "set", "label": "Set", "digits": 0}] if "set" in scene.planes.extra else [])
         + ([{"key": "truth_error", "label": "Truth error (°)", "digits": 2}] if scene.truth else []),
         "meta": {
             "source": scene.source,
             "crs": scene.crs,
+            "unit": unit,
             "offset": scene.offset.tolist(),
             "frame": scene.frame.name,
             "points_total": scene.n_points_total,
@@ -197,7 +201,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
             name="poles",
             customdata=np.arange(len(dd)),
             marker=dict(color=pole_colors, size=7, line=dict(color="white", width=1)),
-            text=[hover_text(r, scene.truth.get(r["region_id"])) for r in scene.planes.rows()],
+            text=[hover_text(r, scene.truth.get(r["region_id"]), scene.unit) for r in scene.planes.rows()],
             hovertemplate="%{text}<extra></extra>",
         )
     )
@@ -291,17 +295,24 @@ def set_table(scene: ReportScene) -> str:
     rows = []
     for row in scene.sets:
         swatch = f'<span class="swatch" style="background:{set_color(int(row["set"]))}"></span>'
-        cells = ["" if not np.isfinite(row[key]) else f"{row[key]:,.{digits}f}" for key, _, digits in columns]
+        cells = ["—" if not np.isfinite(row[key]) else f"{row[key]:,.{digits}f}" for key, _, digits in columns]
         rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
     unassigned = int((scene.planes.extra["set"] < 0).sum())
     caption = f"Joint sets ({unassigned} plane{'s' if unassigned != 1 else ''} in no set)"
     rock = scene.rock_mass
-    if rock and np.isfinite(rock.get("jv_per_m3", np.nan)):
+    measured = "spacing_m" in scene.sets[0]
+    jv = rock.get("jv_per_m3") if rock else None  # null in run.json when no set has a spacing
+    if measured and jv is not None and np.isfinite(jv):
         caption += (
-            f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³, "
+            f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³{jv_scope(scene.sets)}, "
             f"block volume {rock['block_volume_m3']:.3g} m³ (Palmström, 36/Jv³)"
         )
-    return f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}</tbody></table>'
+    notes = [unmeasured_spacing(int(row["set"]), row) for row in scene.sets] if measured else []
+    notes = "".join(f'<p class="note">{_escape(n)}</p>' for n in notes if n)
+    return (
+        f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead>'
+        f"<tbody>{''.join(rows)}</tbody></table>{notes}"
+    )
 
 
 def table_rows(scene: ReportScene) -> list[dict]:

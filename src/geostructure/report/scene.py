@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
+from ..io.gis import unit_symbol
 from ..io.results import ply_field, read_planes, read_run, read_sets, read_spacings
 from ..orientation import Frame
 from ..planes import Planes
@@ -47,6 +48,12 @@ class ReportScene:
     rock_mass: dict = field(default_factory=dict)  # run.json's totals: Jv, block volume
     kinematics: dict = field(default_factory=dict)  # kinematics.json, when the tests were run
     georeference: dict | None = None  # how a reconstruction was tied to the world
+
+    @property
+    def unit(self) -> str:
+        """The symbol of the cloud's length unit (``"m"``, ``"ft"``): the plane table's sizes
+        are in it, the rock mass's in metres."""
+        return unit_symbol(self.crs)
 
 
 def load_scene(

@@ -229,7 +229,8 @@ def _plane_mesh(scene: ReportScene, colors):
         scene.planes.local_corners,
     ).reshape(-1, 3)
     i, j, k = _quads(n)
-    text = np.repeat([hover_text(row, scene.truth.get(row["region_id"])) for row in scene.planes.rows()], 4)
+    unit = scene.unit
+    text = np.repeat([hover_text(row, scene.truth.get(row["region_id"]), unit) for row in scene.planes.rows()], 4)
     face_colors = [colors[f % n] for f in range(n)] * 2 if n else []
     return go.Mesh3d(
         x=corners[:, 0] if n else [],
@@ -248,11 +249,12 @@ def _plane_mesh(scene: ReportScene, colors):
     )
 
 
-def hover_text(row: dict, truth: dict | None) -> str:
+def hover_text(row: dict, truth: dict | None, unit: str = "m") -> str:
+    """A plane's hover label; its sizes in the cloud's length ``unit``."""
     text = (
         f"<b>Plane {row['region_id']}</b><br>strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, "
         f"dip direction {row['dip_direction']:.1f}° (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
-        f"<br>area {row['area_m2']:.2f} m², {row['n_points']:,} points, roughness {row['fit_residual']:.4f} m"
+        f"<br>area {row['area_m2']:.2f} {unit}², {row['n_points']:,} points, roughness {row['fit_residual']:.4f} {unit}"
     )
     if truth:
         text += f"<br>truth '{truth['surface']}': error {float(truth['normal_error_deg']):.2f}°"
