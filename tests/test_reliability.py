@@ -273,7 +273,12 @@ def test_no_space_left_during_staging_is_an_output_error(tmp_path):
         with output_set(tmp_path / "out") as outputs:
             outputs.path("planes.csv").write_text("partial")
             raise OSError(28, "No space left on device")
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".geostructure-lock"]
+    assert not (tmp_path / "out").exists()  # the folder this run made goes with it
+    (tmp_path / "kept").mkdir()  # one the user made stays, holding only the lock
+    with pytest.raises(OutputError, match="No space left on device"):
+        with output_set(tmp_path / "kept") as outputs:
+            raise OSError(28, "No space left on device")
+    assert sorted(p.name for p in (tmp_path / "kept").iterdir()) == [".geostructure-lock"]
 
 
 # 10. A truth CSV that is not UTF-8, for evaluate and measure --truth.
@@ -430,3 +435,37 @@ def test_every_command_leaves_no_partial_output_on_bad_input(tmp_path, capsys):
     assert code == 2
     assert_one_sentence(err, "bad.xyz", "line 2")
     assert not (tmp_path / "out").exists() and digest(bad) == before
+
+
+def test_a_cloud_in_longitude_and_latitude_is_refused_before_reading(tmp_path, capsys):
+    """A LAS whose CRS is geographic (EPSG:4326): x and y in degrees, z in metres. Measured,
+    it gave dips of a cloud squeezed 80,000 times across and a traceback; now one sentence,
+    exit 2, no output, in memory and streamed, and the same for --crs."""
+    import laspy
+    from pyproj import CRS
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [1e-7, 1e-7, 1e-3], [-123.0, 44.0, 0.0]
+    header.add_crs(CRS.from_epsg(4326))
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(0)
+    las.x, las.y, las.z = -123 + rng.random(500) * 1e-4, 44 + rng.random(500) * 1e-4, 100 + rng.random(500)
+    path = tmp_path / "wgs84.laz"
+    las.write(str(path))
+    for engine in ("memory", "stream"):
+        code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / engine, "--engine", engine)
+        assert code == 2 and "geographic" in err and not (tmp_path / engine).exists()
+        assert_one_sentence(err, path)
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "given", "--crs", "EPSG:4326")
+    assert code == 2 and "--crs EPSG:4326" in err and "geographic" in err and not (tmp_path / "given").exists()
+
+
+def test_a_cloud_along_a_line_gives_no_plane_and_no_traceback(tmp_path, capsys):
+    """Points along a thin line (a pole, a cable): its voxels lie in no region, which once
+    indexed an empty table in the facets' merge (IndexError)."""
+    rng = np.random.default_rng(0)
+    points = np.c_[rng.random(20_000) * 1e-4, rng.random(20_000) * 1e-4, rng.random(20_000) * 5.0]
+    path = tmp_path / "line.xyz"
+    np.savetxt(path, points)
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out", "-q")
+    assert code == 0 and "Traceback" not in err and "no plane found" in err

@@ -309,7 +309,8 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
         region_of_voxel[in_curved] = np.where(sub_region >= 0, n_facets + sub_region, -1)
     counts["regions"] = n_facets + sub_counts.get("regions", 0)
     if params.merge:  # large regions of one plane split by a small gap: one plane, as with the voxel growing
-        size = np.bincount(point_region[point_region >= 0], minlength=int(region_of_voxel.max(initial=-1)) + 1)
+        # At least one bin: voxels that all lie in no region (a cloud along a line) index it.
+        size = np.bincount(point_region[point_region >= 0], minlength=max(int(region_of_voxel.max(initial=-1)) + 1, 1))
         large = np.where(region_of_voxel >= 0, size[np.maximum(region_of_voxel, 0)] >= MERGE_MIN_POINTS, False)
         merged, merges = merge_coplanar(
             voxels, np.where(large, region_of_voxel, -1), params.theta, params.psi * voxels.edge

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, InputError
 from ..geodesy import enu_to_geodetic
 from .atomic import atomic_path, json_text
 
@@ -77,6 +77,32 @@ def _lon_lat(points: np.ndarray, crs=None, enu_origin=None) -> np.ndarray:
     # RFC 7946 heights are in metres: a cloud in feet (Oregon Lambert) is scaled, not moved
     # (its vertical datum stays the cloud's own).
     return np.column_stack([lon, lat, points[:, 2] * metres_per_unit(crs)])
+
+
+def check_projected(crs: str | None, source: str) -> None:
+    """Refuse a cloud whose CRS is geographic: its x and y would be longitude and latitude in
+    degrees, its z in metres, and no dip, area or spacing means anything on such axes. A CRS
+    PROJ cannot read is left to the writers that need it.
+
+    Examples
+    --------
+    >>> check_projected("EPSG:32633", "cloud.laz")
+    >>> check_projected("EPSG:4326", "cloud.laz")
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.InputError: cloud.laz: the CRS WGS 84 is geographic (longitude and latitude in degrees); reproject the cloud to a projected CRS in metres or feet (a UTM zone, a State Plane) first.
+    """
+    if crs is None:
+        return
+    try:
+        parsed = parse_crs(crs, source)
+    except GeoStructureError:
+        return
+    if parsed.is_geographic:
+        raise InputError(
+            f"{source}: the CRS {parsed.name} is geographic (longitude and latitude in degrees); reproject "
+            f"the cloud to a projected CRS in metres or feet (a UTM zone, a State Plane) first."
+        )
 
 
 #: Symbols of the linear units clouds come in, by metres per unit.

@@ -271,8 +271,9 @@ def output_set(
     ['planes.csv']
     """
     check_inputs_not_outputs(outdir, inputs)
+    created = not Path(outdir).is_dir()
     outdir = prepare_outdir(outdir)
-    with _locked(outdir):
+    with _removed_on_failure(outdir, created), _locked(outdir):
         recover(outdir)
         outputs = OutputSet(outdir, outdir / STAGING, record_name, replace)
         if replace:
@@ -355,6 +356,18 @@ def _fsync(path: Path) -> None:
         pass  # some file systems cannot sync a folder; the rename order still holds
     finally:
         os.close(fd)
+
+
+@contextmanager
+def _removed_on_failure(outdir: Path, created: bool):
+    """A folder this set created goes again when the set fails before it holds anything but
+    its lock (a bad input found once the folder was open): no empty folder is left behind."""
+    try:
+        yield
+    except BaseException:
+        if created and {p.name for p in outdir.iterdir()} <= {LOCK}:
+            shutil.rmtree(outdir, ignore_errors=True)
+        raise
 
 
 @contextmanager

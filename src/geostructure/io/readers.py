@@ -243,6 +243,7 @@ def read_las(path: Path) -> Cloud:
     check_las_header(path)
     with laspy.open(str(path)) as reader:
         header = reader.header
+        crs = las_crs(header, path)  # refused before the points are read
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
         parts = [
@@ -253,7 +254,7 @@ def read_las(path: Path) -> Cloud:
     if len(points) < expected:
         raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
-    return Cloud.from_points(points, source=str(path), crs=las_crs(header), las_grid=grid)
+    return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid)
 
 
 def check_las_header(path: Path) -> None:
@@ -274,7 +275,18 @@ def check_las_header(path: Path) -> None:
         )
 
 
-def las_crs(header) -> str | None:
+def las_crs(header, path=None) -> str | None:
+    """The CRS a LAS header declares (WKT, or ``EPSG:n`` from its GeoTIFF keys), or None;
+    given the file's ``path``, a geographic one is refused (:func:`~.gis.check_projected`)."""
+    crs = _declared_crs(header)
+    if path is not None:
+        from .gis import check_projected  # lazy: pyproj, only for a file that declares a CRS
+
+        check_projected(crs, str(path))
+    return crs
+
+
+def _declared_crs(header) -> str | None:
     for vlr in header.vlrs:
         text = getattr(vlr, "string", None)
         if isinstance(text, str) and text.strip().startswith(("PROJCS", "GEOGCS", "COMPD", "PROJCRS", "GEOGCRS")):

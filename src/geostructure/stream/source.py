@@ -202,7 +202,7 @@ def _las_chunks(path: Path, rows: int):
     with laspy.open(str(path)) as reader:
         header = reader.header
         grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
-        meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header), source=str(path)), "grid": grid}
+        meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header, path), source=str(path)), "grid": grid}
         seen = 0
         for chunk in reader.chunk_iterator(rows):
             points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
