@@ -139,3 +139,13 @@ def test_regions_fitted_together_are_fitted_as_one_by_one():
         for name in ("width", "height", "area", "residual"):
             assert getattr(plane, name) == pytest.approx(getattr(one, name), rel=1e-9, abs=1e-12)
         assert plane.n_points == one.n_points
+
+
+def test_a_large_region_in_a_line_is_bounded_by_its_two_ends():
+    """Qhull refuses points in a line; the hull is then the segment's two ends, not every
+    point (which made the rectangle search an N x N array: 20,000 points, 3 GB each)."""
+    t = np.random.default_rng(0).random(20_000) * 10.0
+    plane = region_plane(np.c_[t, 2 * t, 3 * t])
+    assert plane.width == pytest.approx(np.ptp(t) * np.sqrt(14.0), rel=1e-9)
+    assert plane.height == pytest.approx(0.0, abs=1e-9) and plane.area == pytest.approx(0.0, abs=1e-9)
+    assert hull_2d(np.zeros((5, 2))).tolist() == [[0.0, 0.0], [0.0, 0.0]]

@@ -97,11 +97,6 @@ def in_plane_axes(normal: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.array([[b0, b1, b2], [a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]], dtype=np.float64)
 
 
-def _next(a: np.ndarray) -> np.ndarray:
-    """``np.roll(a, -1, axis=0)``: each row's successor, the first after the last."""
-    return np.concatenate([a[1:], a[:1]])
-
-
 #: Above this many points, :func:`hull_2d` first drops those inside the octagon of the
 #: extremes in eight directions (Akl & Toussaint 1978): no such point is a hull vertex, and
 #: on a large plane nearly all of them are, so Qhull reads a few thousand instead of millions.
@@ -109,7 +104,7 @@ OCTAGON_POINTS = 2000
 
 
 def hull_2d(uv: np.ndarray) -> np.ndarray:
-    """Convex-hull vertices of 2-D points, in order (all points if they are degenerate).
+    """Convex-hull vertices of 2-D points, in order (the two ends of points in a line).
 
     Examples
     --------
@@ -122,8 +117,12 @@ def hull_2d(uv: np.ndarray) -> np.ndarray:
         uv = uv[outside_octagon(uv)]
     try:
         return uv[ConvexHull(uv).vertices]
-    except (QhullError, ValueError):
-        return uv
+    except (QhullError, ValueError):  # in a line, or one point: the hull is the segment's ends
+        if len(uv) < 2:
+            return uv
+        along = uv - uv[0]
+        t = along @ along[np.argmax(np.einsum("ij,ij->i", along, along))]
+        return uv[[t.argmin(), t.argmax()]]
 
 
 def outside_octagon(uv: np.ndarray) -> np.ndarray:
@@ -156,13 +155,48 @@ def bounding_perimeter(uv: np.ndarray, angle: float) -> float:
 
 def exact_angle(hull: np.ndarray) -> float:
     """Rotation angle of the minimum-perimeter rectangle: one side lies on a hull edge."""
-    edges = _next(hull) - hull
-    angles = np.mod(np.arctan2(edges[:, 1], edges[:, 0]), np.pi / 2)
-    c, s = np.cos(angles), np.sin(angles)
-    a = hull @ np.vstack([c, s])  # (H points, E angles)
-    b = hull @ np.vstack([-s, c])
-    perimeter = 2.0 * (np.ptp(a, axis=0) + np.ptp(b, axis=0))
-    return float(angles[np.argmin(perimeter)])
+    return float(exact_angles(np.asarray(hull, dtype=np.float64)[None])[0])
+
+
+def exact_angles(hulls: np.ndarray) -> np.ndarray:
+    """:func:`exact_angle` of each of padded hulls (R, H, 2): every hull edge's angle tried
+    at once (the padding repeats a vertex, and its edges of no length are not tried)."""
+    edges = np.roll(hulls, -1, axis=1) - hulls
+    angles = np.mod(np.arctan2(edges[..., 1], edges[..., 0]), np.pi / 2)
+    a, b = _turned(hulls, angles)  # (R, points, angles)
+    real = (edges != 0).any(axis=2)
+    perimeter = np.where(real, 2.0 * (np.ptp(a, axis=1) + np.ptp(b, axis=1)), np.inf)
+    return np.take_along_axis(angles, perimeter.argmin(axis=1)[:, None], axis=1)[:, 0]
+
+
+def _turned(hulls: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The coordinates (R, H, A) of hulls (R, H, 2) along axes turned by each of ``angles``
+    (R, A): u cos + v sin, and v cos - u sin."""
+    c, s = np.cos(angles)[:, None, :], np.sin(angles)[:, None, :]
+    u, v = hulls[..., 0][:, :, None], hulls[..., 1][:, :, None]
+    return u * c + v * s, v * c - u * s
+
+
+def rectangles_at(hulls: np.ndarray, phi: np.ndarray, centroid: np.ndarray, axes: np.ndarray):
+    """The rectangles of padded hulls (R, H, 2), in the planes through ``centroid`` (R, 3)
+    along ``axes`` (R, 2, 3), turned by ``phi`` (R,): width, height, the long side's axis
+    ``u`` and the other ``v`` (R, 3 each), centre (R, 3) and the hull's area, the long side
+    reported as the width."""
+    a, b = (x[..., 0] for x in _turned(hulls, phi[:, None]))
+    width, height = np.ptp(a, axis=1), np.ptp(b, axis=1)
+    c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    u, v = c * axes[:, 0] + s * axes[:, 1], -s * axes[:, 0] + c * axes[:, 1]
+    center = (
+        centroid
+        + u * ((a.max(axis=1) + a.min(axis=1)) / 2)[:, None]
+        + v * ((b.max(axis=1) + b.min(axis=1)) / 2)[:, None]
+    )
+    x, y = hulls[..., 0], hulls[..., 1]
+    area = 0.5 * np.abs((x * np.roll(y, -1, axis=1) - y * np.roll(x, -1, axis=1)).sum(axis=1))
+    swap = (height > width)[:, None]  # report the long side as the width
+    u, v = np.where(swap, v, u), np.where(swap, -u, v)
+    width, height = np.maximum(width, height), np.minimum(width, height)
+    return width, height, u, v, center, area
 
 
 def golden_angle(
@@ -226,26 +260,11 @@ def plane_from_scatter(count: float, centroid, scatter) -> tuple[np.ndarray, np.
 def bound_plane(centroid, normal, axes, residual, uv: np.ndarray, n_points: int, method: str = "exact") -> RegionPlane:
     """The region plane through ``centroid`` whose points lie at ``uv`` (2-D, along ``axes``):
     all of them, or any set with the same convex hull (the hull of parts' hulls)."""
-    hull = hull_2d(uv)
-    if method == "golden":
-        phi = golden_angle(hull, normal, axes)
-    else:
-        phi = exact_angle(hull)
-    c, s = np.cos(phi), np.sin(phi)
-    u = c * axes[0] + s * axes[1]
-    v = -s * axes[0] + c * axes[1]
-    a, b = hull @ np.array([c, s]), hull @ np.array([-s, c])  # the extremes lie on the hull
-    width, height = float(np.ptp(a)), float(np.ptp(b))
-    center = centroid + u * (a.max() + a.min()) / 2 + v * (b.max() + b.min()) / 2
-    if height > width:  # report the long side as the width
-        u, v, width, height = v, -u, height, width
-    area = _polygon_area(hull) if len(hull) >= 3 else 0.0
-    return RegionPlane(centroid, normal, u, v, width, height, center, residual, area, int(n_points))
-
-
-def _polygon_area(poly: np.ndarray) -> float:
-    x, y = poly[:, 0], poly[:, 1]
-    return float(0.5 * abs(x @ _next(y) - y @ _next(x)))
+    hull = hull_2d(uv)[None]  # the extremes lie on the hull
+    phi = np.array([golden_angle(hull[0], normal, axes)]) if method == "golden" else exact_angles(hull)
+    width, height, u, v, center, area = rectangles_at(hull, phi, np.asarray(centroid)[None], axes[None])
+    return RegionPlane(centroid, normal, u[0], v[0], float(width[0]), float(height[0]), center[0], residual,
+                       float(area[0]), int(n_points))  # fmt: skip
 
 
 def region_planes_of_segments(points: np.ndarray, starts: np.ndarray) -> list[RegionPlane | None]:
@@ -277,36 +296,12 @@ def region_planes_of_segments(points: np.ndarray, starts: np.ndarray) -> list[Re
     axes = np.stack([u, np.cross(normal, u)], axis=1)  # (R, 2, 3), as in_plane_axes
     uv = np.einsum("nk,njk->nj", centred, np.repeat(axes, sizes, axis=0))
     hull, n_vertices, closed = segment_hulls(uv, starts)
-    # Every hull edge's angle (the padding's edges have none), then each rectangle's perimeter.
-    edges = np.roll(hull, -1, axis=1) - hull
-    real = (edges != 0).any(axis=2)
-    angles = np.mod(np.arctan2(edges[..., 1], edges[..., 0]), np.pi / 2)
-    c, s = np.cos(angles), np.sin(angles)
-    a = hull[..., 0][:, :, None] * c[:, None, :] + hull[..., 1][:, :, None] * s[:, None, :]  # (R, points, angles)
-    b = hull[..., 1][:, :, None] * c[:, None, :] - hull[..., 0][:, :, None] * s[:, None, :]
-    perimeter = np.where(real, 2.0 * (np.ptp(a, axis=1) + np.ptp(b, axis=1)), np.inf)
-    best = perimeter.argmin(axis=1)
-    rows = np.arange(len(sizes))
-    phi = angles[rows, best]
-    a, b = a[rows, :, best], b[rows, :, best]
-    width, height = np.ptp(a, axis=1), np.ptp(b, axis=1)
-    c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
-    ru, rv = c * axes[:, 0] + s * axes[:, 1], -s * axes[:, 0] + c * axes[:, 1]
-    center = (
-        centroid
-        + ru * ((a.max(axis=1) + a.min(axis=1)) / 2)[:, None]
-        + rv * ((b.max(axis=1) + b.min(axis=1)) / 2)[:, None]
-    )
-    x, y = hull[..., 0], hull[..., 1]
-    area = 0.5 * np.abs((x * np.roll(y, -1, axis=1) - y * np.roll(x, -1, axis=1)).sum(axis=1))
+    width, height, ru, rv, center, area = rectangles_at(hull, exact_angles(hull), centroid, axes)
     planes: list[RegionPlane | None] = []
     for r in range(len(sizes)):
         if not closed[r]:
             planes.append(None)
             continue
-        w, h, pu, pv = float(width[r]), float(height[r]), ru[r], rv[r]
-        if h > w:  # report the long side as the width
-            pu, pv, w, h = pv, -pu, h, w
-        planes.append(RegionPlane(centroid[r], normal[r], pu, pv, w, h, center[r], float(residual[r]),
-                                  float(area[r]), int(sizes[r])))  # fmt: skip
+        planes.append(RegionPlane(centroid[r], normal[r], ru[r], rv[r], float(width[r]), float(height[r]), center[r],
+                                  float(residual[r]), float(area[r]), int(sizes[r])))  # fmt: skip
     return planes
