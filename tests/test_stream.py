@@ -118,7 +118,7 @@ def test_streamed_run_refuses_what_needs_the_points_in_memory(tiled, tmp_path, c
     out = tmp_path / "out"
     code, _, err = run_cli(capsys, "measure", str(paths[0]), "-o", str(out), "--engine", "stream", "--sets")
     assert code == 2
-    assert_one_sentence(err, "--sets")
+    assert_one_sentence(err, "--sets", "'geostructure sets OUTDIR'")  # what to run instead
     assert not out.exists()
 
 

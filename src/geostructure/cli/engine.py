@@ -113,9 +113,11 @@ def check_streamable(args, engine: str) -> None:
     """Refuse, before any work, what a streamed run cannot give yet."""
     wanted = [name for name, on in (("--sets", wants_sets(args)), ("--kinematics", args.kinematics)) if on]
     if wanted:
+        later = " and ".join(f"'geostructure {name[2:]} OUTDIR'" for name in wanted)
         raise GeoStructureError(
-            f"{' and '.join(wanted)} need the points in memory (spacing, the slope face), which the {engine} "
-            f"engine does not hold; give --engine memory, or measure first and add them to the folder later."
+            f"{' and '.join(wanted)} {'need' if len(wanted) > 1 else 'needs'} the points in memory (spacing, the "
+            f"slope face), which the {engine} engine does not hold; give --engine memory, or measure streamed and "
+            f"run {later} on the folder afterwards."
         )
     if args.detector == "facets":
         raise GeoStructureError(
