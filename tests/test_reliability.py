@@ -437,10 +437,11 @@ def test_every_command_leaves_no_partial_output_on_bad_input(tmp_path, capsys):
     assert not (tmp_path / "out").exists() and digest(bad) == before
 
 
-def test_a_cloud_in_longitude_and_latitude_is_refused_before_reading(tmp_path, capsys):
+def test_clouds_whose_axes_have_different_units_are_refused_before_reading(tmp_path, capsys):
     """A LAS whose CRS is geographic (EPSG:4326): x and y in degrees, z in metres. Measured,
     it gave dips of a cloud squeezed 80,000 times across and a traceback; now one sentence,
-    exit 2, no output, in memory and streamed, and the same for --crs."""
+    exit 2, no output, in memory and streamed, and the same for --crs, and for a compound
+    CRS with positions in feet and heights in metres."""
     import laspy
     from pyproj import CRS
 
@@ -458,6 +459,9 @@ def test_a_cloud_in_longitude_and_latitude_is_refused_before_reading(tmp_path, c
         assert_one_sentence(err, path)
     code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "given", "--crs", "EPSG:4326")
     assert code == 2 and "--crs EPSG:4326" in err and "geographic" in err and not (tmp_path / "given").exists()
+    # feet across, metres up (a State Plane with NAVD88 heights): every dip would be off
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "mixed", "--crs", "EPSG:2992+5703")
+    assert code == 2 and "heights in metre and positions in foot" in err and not (tmp_path / "mixed").exists()
 
 
 def test_a_cloud_along_a_line_gives_no_plane_and_no_traceback(tmp_path, capsys):

@@ -12,7 +12,7 @@ from pathlib import Path
 from ..auto import choose_params
 from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
-from ..io.gis import check_projected, parse_crs
+from ..io.gis import check_cloud_crs, parse_crs
 from ..io.outdir import check_inputs_not_outputs, check_outdir
 from ..kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
 from ..orientation import Frame
@@ -323,7 +323,7 @@ def crs_from(args) -> str | None:
     if not text:
         return None
     crs = parse_crs(text)
-    check_projected(text, f"--crs {text}")
+    check_cloud_crs(text, f"--crs {text}")
     authority = crs.to_authority()
     return (
         f"{authority[0]}:{authority[1]}" if authority and text.upper().startswith(("EPSG:", "ESRI:")) else crs.to_wkt()

@@ -79,15 +79,22 @@ def _lon_lat(points: np.ndarray, crs=None, enu_origin=None) -> np.ndarray:
     return np.column_stack([lon, lat, points[:, 2] * metres_per_unit(crs)])
 
 
-def check_projected(crs: str | None, source: str) -> None:
-    """Refuse a cloud whose CRS is geographic: its x and y would be longitude and latitude in
-    degrees, its z in metres, and no dip, area or spacing means anything on such axes. A CRS
-    PROJ cannot read is left to the writers that need it.
+def check_cloud_crs(crs: str | None, source: str) -> None:
+    """Refuse a cloud whose axes do not share one length unit, where no dip, area or spacing
+    means anything: a geographic CRS (x and y longitude and latitude in degrees, z in metres),
+    or a compound one whose heights are in another unit than its positions (a State Plane in
+    feet with NAVD88 heights in metres: every dip would be off). International and US survey
+    feet (2 ppm apart) pass. A CRS PROJ cannot read is left to the writers that need it.
 
     Examples
     --------
-    >>> check_projected("EPSG:32633", "cloud.laz")
-    >>> check_projected("EPSG:4326", "cloud.laz")
+    >>> check_cloud_crs("EPSG:32633", "cloud.laz"), check_cloud_crs("EPSG:2992+6360", "cloud.laz")
+    (None, None)
+    >>> check_cloud_crs("EPSG:2992+5703", "cloud.laz")
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.InputError: cloud.laz: the CRS NAD83 / Oregon GIC Lambert (ft) + NAVD88 height gives heights in metre and positions in foot; dips need one unit on all three axes: convert the heights to the positions' unit first.
+    >>> check_cloud_crs("EPSG:4326", "cloud.laz")
     Traceback (most recent call last):
     ...
     geostructure.errors.InputError: cloud.laz: the CRS WGS 84 is geographic (longitude and latitude in degrees); reproject the cloud to a projected CRS in metres or feet (a UTM zone, a State Plane) first.
@@ -102,6 +109,13 @@ def check_projected(crs: str | None, source: str) -> None:
         raise InputError(
             f"{source}: the CRS {parsed.name} is geographic (longitude and latitude in degrees); reproject "
             f"the cloud to a projected CRS in metres or feet (a UTM zone, a State Plane) first."
+        )
+    axes = [a for a in parsed.axis_info if a.unit_conversion_factor]
+    if len(axes) == 3 and abs(axes[2].unit_conversion_factor / axes[0].unit_conversion_factor - 1.0) > 1e-4:
+        raise InputError(
+            f"{source}: the CRS {parsed.name} gives heights in {axes[2].unit_name} and positions in "
+            f"{axes[0].unit_name}; dips need one unit on all three axes: convert the heights to the "
+            f"positions' unit first."
         )
 
 

@@ -277,12 +277,12 @@ def check_las_header(path: Path) -> None:
 
 def las_crs(header, path=None) -> str | None:
     """The CRS a LAS header declares (WKT, or ``EPSG:n`` from its GeoTIFF keys), or None;
-    given the file's ``path``, a geographic one is refused (:func:`~.gis.check_projected`)."""
+    given the file's ``path``, a geographic one is refused (:func:`~.gis.check_cloud_crs`)."""
     crs = _declared_crs(header)
     if path is not None:
-        from .gis import check_projected  # lazy: pyproj, only for a file that declares a CRS
+        from .gis import check_cloud_crs  # lazy: pyproj, only for a file that declares a CRS
 
-        check_projected(crs, str(path))
+        check_cloud_crs(crs, str(path))
     return crs
 
 

@@ -116,7 +116,7 @@ def check_headers(paths) -> None:
     """Refuse LAS/LAZ tiles that declare different CRSs from their headers alone."""
     import laspy  # lazy: only tiles read LAS headers here
 
-    from .gis import check_projected  # lazy: pyproj, only for tiles that declare a CRS
+    from .gis import check_cloud_crs  # lazy: pyproj, only for tiles that declare a CRS
     from .readers import las_crs
 
     first = None
@@ -128,7 +128,7 @@ def check_headers(paths) -> None:
                 crs = las_crs(reader.header)
         except Exception:  # a damaged header: read_cloud says what is wrong with it
             continue
-        check_projected(crs, str(path))  # a tile in degrees: before any tile is read
+        check_cloud_crs(crs, str(path))  # a tile in degrees: before any tile is read
         cloud = Cloud(np.zeros((1, 3)), crs=crs, source=str(path))
         if first is None:
             first = (cloud, path)
