@@ -104,3 +104,37 @@ def test_a_las_crs_is_kept_and_the_planes_land_in_oregon(tmp_path, capsys):
             ["ogrinfo", "-so", "-al", str(out / "planes.geojson")], capture_output=True, text=True
         ).stdout
         assert "WGS 84" in text and "Extent: (-12" in text
+
+
+def _orientations(out):
+    import csv
+
+    rows = list(csv.DictReader(open(out / "planes.csv")))
+    return np.array([[float(r["dip"]), float(r["dip_direction"])] for r in rows])
+
+
+@pytest.mark.parametrize("engine", ["memory", "stream"])
+def test_azimuths_are_read_against_true_north(tmp_path, capsys, engine):
+    """UTM 33N two degrees east of its central meridian, at 45 N: grid north lies 1.41
+    degrees east of true north (Delta lambda sin phi). The dip directions are the grid's
+    plus that convergence, the dips the same; --grid-north keeps the grid's. Streamed, the
+    --crs given is the survey's too (it was once dropped: no GIS file, no CRS recorded)."""
+    scene = outcrop_scene(width=6.0, height=4.0, seed=1, offset=(657_500.0, 4_984_000.0, 300.0))
+    cloud = tmp_path / "outcrop.xyz"
+    np.savetxt(cloud, scene.cloud.points, fmt="%.4f")
+    options = ["--crs", UTM_33N, "--engine", engine, "-q"] + (["--detector", "voxel"] if engine == "stream" else [])
+    runs = {}
+    for north in ("true", "grid"):
+        out = tmp_path / north
+        code, _, _ = run_cli(
+            capsys, "measure", cloud, "-o", out, *options, *(["--grid-north"] if north == "grid" else [])
+        )
+        assert code == 0 and (out / "planes.gpkg").exists()
+        runs[north] = (_orientations(out), json.loads((out / "run.json").read_text()))
+    (true, record), (grid, grid_record) = runs["true"], runs["grid"]
+    gamma = record["north"]["grid_convergence_deg"]
+    assert gamma == pytest.approx(1.41, abs=0.01) and record["crs"] == UTM_33N and "north" not in grid_record
+    assert record["frame"]["name"] == "enu, true north" and grid_record["frame"]["name"] == "enu"
+    np.testing.assert_allclose(true[:, 0], grid[:, 0], atol=1e-9)
+    turned = (true[:, 1] - grid[:, 1] + 180.0) % 360.0 - 180.0
+    np.testing.assert_allclose(turned[true[:, 0] > 1.0], gamma, atol=1e-6)

@@ -98,6 +98,23 @@ class Frame:
         east = np.cross(north, up)
         return cls(tuple(map(tuple, np.vstack([east, north, up]).tolist())), declination, "custom")
 
+    def turned(self, azimuth: float, name: str) -> "Frame":
+        """This frame with its north turned ``azimuth`` degrees west about its up: what was
+        north here has that azimuth there. A projected CRS's grid north has the grid
+        convergence as its true azimuth (:func:`~.io.gis.grid_convergence`), so turning the
+        grid frame by it reads azimuths against true north.
+
+        Examples
+        --------
+        >>> true = Frame().turned(1.5, "enu, true north")  # a plane dipping to grid north
+        >>> round(float(orientation_from_normals([0.0, np.sin(0.5), np.cos(0.5)], true).dip_direction[0]), 6)
+        1.5
+        """
+        east, north, up = self.matrix
+        g = np.radians(azimuth)
+        rows = np.vstack([np.cos(g) * east + np.sin(g) * north, np.cos(g) * north - np.sin(g) * east, up])
+        return Frame(tuple(map(tuple, rows.tolist())), self.declination, name)
+
     def to_dict(self) -> dict:
         """The frame as ``run.json`` records it.
 

@@ -11,6 +11,7 @@ import time
 from ..errors import GeoStructureError
 from ..evaluate import evaluate
 from ..io.outdir import output_set
+from ..io.truth import read_truth
 from ..io.writers import write_result
 from ..progress import StageProgress
 from ..runs import stage_evaluation, stage_report
@@ -19,7 +20,7 @@ from ..stream.engine import DEFAULT_CHUNK_POINTS
 from ..stream.output import RegionsLaz, RegionsPly
 from ..stream.source import estimate_points
 from ..tables import print_evaluation, print_planes
-from .options import base_params, given_factors, wants_sets
+from .options import base_params, crs_from, given_factors, wants_sets
 
 ENGINES = ("auto", "memory", "stream", "dask")
 #: A run in memory with the default options peaked at 1.10 GB for a 1M-point LAZ and 1.12 GB
@@ -146,9 +147,15 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
                 writers=writers,
                 spill_dir=args.spill_dir,
                 mesh_samples=args.mesh_samples or None,
+                crs=crs_from(args),
+                true_north=not args.grid_north,
             )
+            if result.north and truth is not None:  # the truth's azimuths are true: its normals in the turned frame
+                truth = read_truth(args.truth, result.frame)
             evaluation = evaluate(result.planes, truth) if truth is not None else None
             record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {})}
+            if result.north:
+                record["north"] = result.north
             written = write_result(result, outputs, record, point_files=False)
             if evaluation is not None:
                 written.update(stage_evaluation(outputs, evaluation, None))

@@ -8,9 +8,10 @@ import sys
 import time
 from pathlib import Path
 
+from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.gis import NO_CRS_NOTE, metres_per_unit
+from ..io.gis import NO_CRS_NOTE, metres_per_unit, true_north_frame
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
@@ -154,6 +155,12 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
     crs = crs_from(args)
     if crs is not None:  # given: it is the cloud's (over any its file declared)
         cloud = dataclasses.replace(cloud, crs=crs)
+    if cloud.crs is not None and not args.grid_north and len(cloud):
+        frame, north = true_north_frame(frame, cloud.crs, cloud.offset + column_min(cloud.local),
+                                        cloud.offset + column_max(cloud.local))  # fmt: skip
+        extra = {**(extra or {}), **({"north": north} if north else {})}
+        if north and truth is not None:  # the truth's azimuths are true too: its normals in the turned frame
+            truth = read_truth(args.truth, frame)
     with StageProgress(enabled=not args.quiet) as progress:
         t = time.perf_counter()
         progress("auto", 0, None)

@@ -91,6 +91,12 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
         default=0.0,
         help="magnetic declination in degrees, east positive: azimuths read against magnetic north",
     )
+    g.add_argument(
+        "--grid-north",
+        action="store_true",
+        help="read azimuths against the CRS's grid north (its y axis) instead of true north: a cloud with a "
+        "projected CRS is otherwise turned by the grid convergence at its centre",
+    )
     a = p.add_argument_group("algorithm (the paper's variable factors)")
     a.add_argument(
         "--auto",

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+from ..io.gis import true_north_frame
 from ..io.readers import DEFAULT_MESH_SAMPLES
 from ..orientation import Frame
 from ..params import Params
@@ -26,12 +27,16 @@ def measure_stream(
     writers=(),
     spill_dir=None,
     mesh_samples: int | None = DEFAULT_MESH_SAMPLES,
+    crs: str | None = None,
+    true_north: bool = False,
 ) -> StreamResult:
     """Measure the files ``paths`` (tiles of one survey) without holding their points.
 
     The files are read chunk by chunk into a spill file in ``spill_dir`` (a temporary
     folder by default, removed afterwards), then measured by :func:`.engine.measure_spill`,
-    whose parameters these are.
+    whose parameters these are. ``crs``, when given, is the survey's (over any its files
+    declare); with ``true_north``, a projected survey's azimuths are read against true north
+    (:func:`~geostructure.io.gis.true_north_frame`, recorded in the result's ``north``).
 
     Examples
     --------
@@ -47,8 +52,12 @@ def measure_stream(
     """
     report = progress or (lambda stage, done, total: None)
     spill = spill_inputs(paths, chunk_points, mesh_samples=mesh_samples, progress=report, folder=spill_dir)
+    spill.crs = crs or spill.crs
+    north = None
+    if true_north:
+        frame, north = true_north_frame(frame, spill.crs, spill.lower, spill.upper)
     try:
-        return measure_spill(
+        result = measure_spill(
             spill,
             params,
             frame,
@@ -60,3 +69,5 @@ def measure_stream(
         )
     finally:
         spill.close()
+    result.north = north
+    return result

@@ -62,6 +62,7 @@ class StreamResult:
     counts: dict = field(default_factory=dict)
     detection: dict = field(default_factory=dict)
     engine: str = "stream"
+    north: dict | None = None  # what run.json says of north (true_north_frame), when turned
 
     @property
     def normals(self) -> np.ndarray:
