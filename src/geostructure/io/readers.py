@@ -14,7 +14,7 @@ import numpy as np
 
 from ..bounds import first_bad_coordinates
 from ..cloud import MAX_COORDINATE, Cloud
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, GeoStructureWarning
 
 TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
 SUFFIXES = (".ply", ".las", ".laz", ".e57") + TEXT_SUFFIXES
@@ -116,6 +116,10 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     data, vertex = ply_vertices(path)
     names = vertex.dtype.names
     points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
+    if any(vertex.dtype[a] == np.float32 for a in "xyz") and len(points) and np.isfinite(points).all():
+        largest = float(np.abs(points).max())
+        check_coordinate_step(points, float(np.spacing(np.float32(largest))), path,
+                              f"as 32-bit floats, which at {largest:,.0f} round to steps of")  # fmt: skip
     normals = None
     if all(n in names for n in ("nx", "ny", "nz")):
         normals = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in ("nx", "ny", "nz")])
@@ -128,6 +132,43 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
             except OverflowError:
                 raise GeoStructureError(f"{path}: the mesh's coordinates are too large to sample its faces.") from None
     return Cloud.from_points(points, source=str(path), normals=normals)
+
+
+#: A stored coordinate step below this share of the cloud's extent is never checked against
+#: the point spacing: no surface the detector resolves has fewer than 10,000 steps across.
+STEP_CHECK_SHARE = 1e-4
+#: Stored steps this many point spacings wide leave a lattice, not a surface: refused.
+MAX_STEP_SPACINGS = 4.0
+
+
+def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) -> None:
+    """Refuse a cloud whose stored coordinates are rounded to steps of more than four times
+    its point spacing (32-bit floats at UTM northings round to 0.5 m): its points are heaped
+    on that grid, a dozen or more to a node, and the planes found would be the grid's. Warn
+    from a quarter of the spacing (a drone LAZ stored to 1 cm at 6 mm spacing): the rounding
+    is noise of step / sqrt(12) on every plane, and facets a few steps across are lost. The
+    spacing is read only when the step is coarse for the cloud's extent. ``stored`` says
+    how, before the step ("on the LAS scale, in steps of")."""
+    extent = float(np.max(np.ptp(points, axis=0))) if len(points) > 1 else 0.0
+    if not step > STEP_CHECK_SHARE * extent or len(points) < 10:
+        return
+    from ..facets import point_spacing  # lazy: only for a coarsely stored cloud
+
+    spacing = point_spacing(points - points.mean(axis=0))
+    if step > MAX_STEP_SPACINGS * spacing:
+        raise GeoStructureError(
+            f"{path}: its coordinates are stored {stored} {step:g}, {step / spacing:.0f} times its point spacing "
+            f"({spacing:.3g}), so its points are heaped on that grid, not on their surfaces; save it with finer "
+            f"coordinates (double precision, a finer LAS scale, or shifted near the origin) and measure that."
+        )
+    if step > spacing / 4:
+        warnings.warn(
+            f"{path}: its coordinates are stored {stored} {step:g}, {step / spacing:.2g} times its point "
+            f"spacing: the rounding adds noise of about {step / np.sqrt(12):.2g} to every plane, and facets "
+            f"a few steps across are lost.",
+            GeoStructureWarning,
+            stacklevel=2,
+        )
 
 
 def ply_vertices(path: Path):
@@ -254,6 +295,8 @@ def read_las(path: Path) -> Cloud:
     if len(points) < expected:
         raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
+    if len(points) and np.isfinite(points).all():
+        check_coordinate_step(points, float(np.max(grid[0])), path, "on the LAS scale, in steps of")
     return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid)
 
 
