@@ -166,7 +166,11 @@ def true_north_frame(frame, crs: str | None, lower, upper):
     >>> frame.name, round(north["grid_convergence_deg"], 2), north["reference"]
     ('enu, true north', 1.41, 'true north')
     """
-    if crs is None or frame.name != "enu" or not parse_crs(crs).is_projected:
+    try:
+        projected = crs is not None and parse_crs(crs).is_projected
+    except GeoStructureError:  # a CRS PROJ cannot read: left as it is, as for the other checks
+        projected = False
+    if not projected or frame.name != "enu":
         return frame, None
     lower, upper = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     corners = np.array([[x, y] for x in (lower[0], upper[0]) for y in (lower[1], upper[1])])
