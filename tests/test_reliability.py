@@ -475,9 +475,9 @@ def test_a_cloud_along_a_line_gives_no_plane_and_no_traceback(tmp_path, capsys):
     assert code == 0 and "Traceback" not in err and "no plane found" in err
 
 
-def _outcrop_file(tmp_path, name, *, float32=False, las_scale=None):
-    """A 6 x 4 m synthetic outcrop (2.5 cm spacing) at UTM coordinates, as a PLY of 32-bit
-    floats or a LAS with the given scale."""
+def _outcrop_file(tmp_path, name, *, float32="", las_scale=None):
+    """A 6 x 4 m synthetic outcrop (2.5 cm spacing) at UTM coordinates, as a PLY whose axes
+    ``float32`` (some of "xyz") are 32-bit floats, or a LAS with the given scale."""
     import laspy
     from plyfile import PlyData, PlyElement
 
@@ -486,7 +486,7 @@ def _outcrop_file(tmp_path, name, *, float32=False, las_scale=None):
     points = outcrop_scene(width=6.0, height=4.0, seed=1, offset=(657_500.0, 4_984_000.0, 300.0)).cloud.points
     path = tmp_path / name
     if float32:
-        vertex = np.empty(len(points), dtype=[("x", "f4"), ("y", "f4"), ("z", "f4")])
+        vertex = np.empty(len(points), dtype=[(a, "f4" if a in float32 else "f8") for a in "xyz"])
         vertex["x"], vertex["y"], vertex["z"] = points.T
         PlyData([PlyElement.describe(vertex, "vertex")], text=False).write(str(path))
     else:
@@ -502,11 +502,15 @@ def test_coordinates_stored_coarser_than_the_points_are_refused_or_warned_of(tmp
     """32-bit floats at a UTM northing round to 0.5 m, 13 times the outcrop's 2.5 cm spacing:
     measured, every point sat on one of a few planes y = const and the run reported those,
     exit 0. Now one sentence, exit 2, no output. A LAS stored to 1 cm (0.4 spacings) is
-    measured with a warning of the noise it adds; one stored to 1 mm, and doubles, without."""
-    coarse = _outcrop_file(tmp_path, "float32.ply", float32=True)
+    measured with a warning of the noise it adds; one stored to 1 mm, and doubles with 32-bit
+    heights, without."""
+    coarse = _outcrop_file(tmp_path, "float32.ply", float32="xyz")
     code, _, err = run_cli(capsys, "measure", coarse, "-o", tmp_path / "f32", "-q")
     assert code == 2 and "32-bit floats" in err and "steps of 0.5" in err and not (tmp_path / "f32").exists()
     assert_one_sentence(err, coarse)
+    heights = _outcrop_file(tmp_path, "heights32.ply", float32="z")  # 32-bit heights of 300 m: 3e-5 steps
+    code, _, err = run_cli(capsys, "measure", heights, "-o", tmp_path / "z32", "-q")
+    assert code == 0 and "warning" not in err
     for scale, warned in ((0.01, True), (0.001, False)):
         path = _outcrop_file(tmp_path, f"scale_{scale}.las", las_scale=scale)
         code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / f"las_{scale}", "-q")

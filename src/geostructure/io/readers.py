@@ -116,8 +116,9 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     data, vertex = ply_vertices(path)
     names = vertex.dtype.names
     points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
-    if any(vertex.dtype[a] == np.float32 for a in "xyz") and len(points) and np.isfinite(points).all():
-        largest = float(np.abs(points).max())
+    single = [i for i, a in enumerate("xyz") if vertex.dtype[a] == np.float32]  # the axes stored in 32 bits
+    if single and len(points) and np.isfinite(points).all():
+        largest = float(np.abs(points[:, single]).max())
         check_coordinate_step(points, float(np.spacing(np.float32(largest))), path,
                               f"as 32-bit floats, which at {largest:,.0f} round to steps of")  # fmt: skip
     normals = None
