@@ -6,10 +6,12 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import sys
 import time
 
 from ..errors import GeoStructureError
 from ..evaluate import evaluate
+from ..io.gis import describe_north
 from ..io.outdir import output_set
 from ..io.truth import read_truth
 from ..io.writers import write_result
@@ -156,6 +158,8 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
             record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {})}
             if result.north:
                 record["north"] = result.north
+                if not args.quiet:
+                    print(f"geostructure: note: {describe_north(result.north)}", file=sys.stderr)
             written = write_result(result, outputs, record, point_files=False)
             if evaluation is not None:
                 written.update(stage_evaluation(outputs, evaluation, None))

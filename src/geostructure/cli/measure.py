@@ -11,7 +11,7 @@ from pathlib import Path
 from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.gis import NO_CRS_NOTE, metres_per_unit, true_north_frame
+from ..io.gis import NO_CRS_NOTE, describe_north, metres_per_unit, true_north_frame
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
@@ -159,6 +159,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         frame, north = true_north_frame(frame, cloud.crs, cloud.offset + column_min(cloud.local),
                                         cloud.offset + column_max(cloud.local))  # fmt: skip
         extra = {**(extra or {}), **({"north": north} if north else {})}
+        if north and not args.quiet:
+            print(f"geostructure: note: {describe_north(north)}", file=sys.stderr)
         if north and truth is not None:  # the truth's azimuths are true too: its normals in the turned frame
             truth = read_truth(args.truth, frame)
     with StageProgress(enabled=not args.quiet) as progress:

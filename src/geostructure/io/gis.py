@@ -184,6 +184,20 @@ def true_north_frame(frame, crs: str | None, lower, upper):
     return frame.turned(float(gamma[0]), "enu, true north"), record
 
 
+def describe_north(north: dict) -> str:
+    """A line on the north a run read azimuths against (:func:`true_north_frame`'s record).
+
+    Examples
+    --------
+    >>> describe_north({"grid_convergence_deg": 1.4145, "grid_convergence_range_deg": [1.41, 1.42]})
+    "azimuths read against true north: the grid convergence at the cloud's centre is +1.41 deg (--grid-north for grid azimuths)"
+    """
+    return (
+        f"azimuths read against true north: the grid convergence at the cloud's centre is "
+        f"{north['grid_convergence_deg']:+.2f} deg (--grid-north for grid azimuths)"
+    )
+
+
 #: Symbols of the linear units clouds come in, by metres per unit.
 UNIT_SYMBOLS = {1.0: "m", 0.3048: "ft", 1200.0 / 3937.0: "US ft"}
 
