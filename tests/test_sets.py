@@ -7,6 +7,7 @@ import pytest
 
 from geostructure import measure
 from geostructure.cli import main
+from geostructure.errors import GeoStructureWarning
 from geostructure.orientation import angle_between_normals, normal_from_orientation
 from geostructure.runs import plane_sets
 from geostructure.sets import find_sets, fisher_statistics
@@ -48,6 +49,18 @@ def test_the_number_of_sets_is_chosen_and_stray_planes_left_out():
     assert (sets.labels[-12:] < 0).sum() >= 6  # most stray planes fit no set
     given = find_sets(np.vstack(parts), n_sets=2)
     assert len(given) == 2 and given.criterion == "given"
+
+
+def test_asking_for_more_sets_than_the_planes_hold_says_so():
+    """--n-sets 10 on three sets of planes once gave fewer sets, or none, without a word."""
+    rng = np.random.default_rng(7)
+    means = [normal_from_orientation(dd, dip) for dd, dip in ((180, 45), (0, 70), (235, 65))]
+    normals = np.vstack([fisher_directions(m, 200.0, 8, rng) for m in means])
+    with pytest.warns(GeoStructureWarning, match="of the 8 sets asked for hold 3 planes or more"):
+        sets = find_sets(normals, n_sets=8)
+    assert len(sets) < 8
+    with pytest.warns(GeoStructureWarning, match="24 planes make at most 8 sets of 3 planes, not the 10 asked for"):
+        assert len(find_sets(normals, n_sets=10)) == 0
 
 
 # Seed 5 is left out on purpose: one of its joint planes drawn 25 degrees from its set's mean

@@ -21,11 +21,12 @@ alpha95 = arccos(1 - (N - R) / R (20^(1 / (N - 1)) - 1)), and the spherical vari
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ParameterError
+from .errors import GeoStructureWarning, ParameterError
 from .orientation import Frame, orientation_from_normals
 
 #: Sets tried at most when the number is chosen by BIC.
@@ -201,6 +202,13 @@ def find_sets(
         # Weighted, the log-likelihood counts the planes n / n_eff times over: scale it back.
         bic[k] = -2.0 * fits[k]["loglik"] * n_eff / len(x) + (3 * k + k) * np.log(max(n_eff, 2.0))
     if not fits:
+        if n_sets is not None:
+            warnings.warn(
+                f"{len(x)} planes make at most {len(x) // MIN_SET_PLANES} sets of {MIN_SET_PLANES} planes, not the "
+                f"{n_sets} asked for: no set was fitted; ask for fewer, or leave the number to BIC.",
+                GeoStructureWarning,
+                stacklevel=2,
+            )
         return _empty(len(x))
     admissible = sorted((k for k in bic if _separated(fits[k]["means"], MIN_SEPARATION)), key=bic.get)
     if centroids is not None and weights is not None:
@@ -210,7 +218,15 @@ def find_sets(
         admissible = next(([k] for k in admissible if min(joints(_assign(x, fits[k]), k)) >= MIN_SET_JOINTS), [])
     best = (admissible[0] if admissible else min(bic, key=bic.get)) if n_sets is None else candidates[0]
     labels = _assign(x, fits[best])
-    return _summarise(x, area, labels, frame, "bic" if n_sets is None else "given", bic)
+    found = _summarise(x, area, labels, frame, "bic" if n_sets is None else "given", bic)
+    if n_sets is not None and len(found) < n_sets:
+        warnings.warn(
+            f"{len(found)} of the {n_sets} sets asked for hold {MIN_SET_PLANES} planes or more; the planes of the "
+            f"others are left in no set.",
+            GeoStructureWarning,
+            stacklevel=2,
+        )
+    return found
 
 
 def _joint_counter(x, centroids, area):
