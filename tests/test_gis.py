@@ -138,3 +138,6 @@ def test_azimuths_are_read_against_true_north(tmp_path, capsys, engine):
     np.testing.assert_allclose(true[:, 0], grid[:, 0], atol=1e-9)
     turned = (true[:, 1] - grid[:, 1] + 180.0) % 360.0 - 180.0
     np.testing.assert_allclose(turned[true[:, 0] > 1.0], gamma, atol=1e-6)
+    if engine == "memory":  # the report's header says which north, and by how much
+        assert run_cli(capsys, "report", tmp_path / "true", "-q")[0] == 0
+        assert "true north (grid convergence +1.41" in (tmp_path / "true" / "report.html").read_text()

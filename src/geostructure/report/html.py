@@ -84,7 +84,8 @@ def render(scene: ReportScene, title: str) -> str:
             "crs": scene.crs,
             "unit": unit,
             "offset": scene.offset.tolist(),
-            "frame": scene.frame.name,
+            "frame": scene.frame.name
+            + (f" (grid convergence {scene.north['grid_convergence_deg']:+.2f}°)" if scene.north else ""),
             "points_total": scene.n_points_total,
             "points_shown": len(scene.points),
             "n_planes": len(scene.planes),

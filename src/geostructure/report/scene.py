@@ -48,6 +48,7 @@ class ReportScene:
     rock_mass: dict = field(default_factory=dict)  # run.json's totals: Jv, block volume
     kinematics: dict = field(default_factory=dict)  # kinematics.json, when the tests were run
     georeference: dict | None = None  # how a reconstruction was tied to the world
+    north: dict | None = None  # run.json's north: the grid convergence the azimuths were turned by
 
     @property
     def unit(self) -> str:
@@ -94,6 +95,7 @@ def load_scene(
         rock_mass=(run.get("sets") or {}).get("rock_mass") or {},
         kinematics=_read_json(outdir / "kinematics.json"),
         georeference=run.get("reconstruction", {}).get("georef"),
+        north=run.get("north"),
     )
 
 
