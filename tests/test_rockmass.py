@@ -12,7 +12,7 @@ from geostructure import measure
 from geostructure.cli import main
 from geostructure.cloud import Cloud
 from geostructure.exposure import exposure, plane_persistence
-from geostructure.io.gis import metres_per_unit
+from geostructure.io.crs import metres_per_unit
 from geostructure.rockmass import RockMass, jv_scope, unmeasured_spacing
 from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 from geostructure.spacing import Scanlines, spacing_statistics

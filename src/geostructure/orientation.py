@@ -101,7 +101,7 @@ class Frame:
     def turned(self, azimuth: float, name: str) -> "Frame":
         """This frame with its north turned ``azimuth`` degrees west about its up: what was
         north here has that azimuth there. A projected CRS's grid north has the grid
-        convergence as its true azimuth (:func:`~.io.gis.grid_convergence`), so turning the
+        convergence as its true azimuth (:func:`~.io.crs.grid_convergence`), so turning the
         grid frame by it reads azimuths against true north.
 
         Examples

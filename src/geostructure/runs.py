@@ -19,7 +19,7 @@ import numpy as np
 from .evaluate import Evaluation, evaluate
 from .exposure import exposure
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
-from .io.gis import metres_per_unit
+from .io.crs import metres_per_unit
 from .io.laz import add_point_sets
 from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_regions, read_sets
@@ -103,7 +103,7 @@ def plane_sets(
 ) -> JointSets:
     """The joint sets of a plane table: poles weighted by area (:func:`~.sets.find_sets`),
     the planes' centroids in metres (``metres_per_unit`` of the table's coordinates, as
-    :func:`~.io.gis.metres_per_unit` reads it from the CRS) for the joints' metric tolerances.
+    :func:`~.io.crs.metres_per_unit` reads it from the CRS) for the joints' metric tolerances.
 
     Examples
     --------
@@ -151,7 +151,7 @@ def plane_rock_mass(
         again: a folder's table may carry a correlated tilt already, which must not be
         added twice.
     metres_per_unit : float
-        Metres in one unit of ``points`` (:func:`~.io.gis.metres_per_unit`): the rock mass's
+        Metres in one unit of ``points`` (:func:`~.io.crs.metres_per_unit`): the rock mass's
         lengths, areas and intensities are in metres, whatever the cloud's unit.
     """
     up = frame.matrix[2]

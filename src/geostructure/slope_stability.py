@@ -13,7 +13,7 @@ import numpy as np
 from .errors import ParameterError
 from .exposure import exposure
 from .io.atomic import write_figure, write_json, write_table_csv
-from .io.gis import metres_per_unit
+from .io.crs import metres_per_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
 from .io.results import read_planes, read_regions, read_sets
 from .kinematics import (

@@ -11,7 +11,7 @@ import time
 
 from ..errors import GeoStructureError
 from ..evaluate import evaluate
-from ..io.gis import describe_north
+from ..io.crs import describe_north
 from ..io.outdir import output_set
 from ..io.truth import read_truth
 from ..io.writers import write_result

@@ -11,7 +11,8 @@ from pathlib import Path
 from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.gis import NO_CRS_NOTE, describe_north, metres_per_unit, true_north_frame
+from ..io.crs import describe_north, metres_per_unit, true_north_frame
+from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles

@@ -12,7 +12,7 @@ from pathlib import Path
 from ..auto import choose_params
 from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
-from ..io.gis import check_cloud_crs, parse_crs
+from ..io.crs import check_cloud_crs, parse_crs
 from ..io.outdir import check_inputs_not_outputs, check_outdir
 from ..kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
 from ..orientation import Frame

@@ -26,7 +26,7 @@ import numpy as np
 from ..bounds import column_max, column_min
 from ..planes import plane_rows
 from .atomic import atomic_path
-from .gis import parse_crs
+from .crs import parse_crs
 
 #: The step of the coordinate grid for a cloud that was not read from LAS/LAZ.
 LAS_QUANTUM = 1e-4

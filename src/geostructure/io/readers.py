@@ -15,6 +15,7 @@ import numpy as np
 from ..bounds import first_bad_coordinates
 from ..cloud import MAX_COORDINATE, Cloud
 from ..errors import GeoStructureError, GeoStructureWarning
+from .crs import check_cloud_crs
 
 TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
 SUFFIXES = (".ply", ".las", ".laz", ".e57") + TEXT_SUFFIXES
@@ -321,11 +322,9 @@ def check_las_header(path: Path) -> None:
 
 def las_crs(header, path=None) -> str | None:
     """The CRS a LAS header declares (WKT, or ``EPSG:n`` from its GeoTIFF keys), or None;
-    given the file's ``path``, a geographic one is refused (:func:`~.gis.check_cloud_crs`)."""
+    given the file's ``path``, a geographic one is refused (:func:`~.crs.check_cloud_crs`)."""
     crs = _declared_crs(header)
     if path is not None:
-        from .gis import check_cloud_crs  # lazy: pyproj, only for a file that declares a CRS
-
         check_cloud_crs(crs, str(path))
     return crs
 

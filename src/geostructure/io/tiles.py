@@ -17,7 +17,7 @@ import numpy as np
 
 from ..cloud import Cloud
 from ..errors import GeoStructureError
-from .gis import parse_crs
+from .crs import check_cloud_crs, parse_crs
 from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, read_cloud
 
 #: Files named in a message before it says how many more there are.
@@ -116,7 +116,6 @@ def check_headers(paths) -> None:
     """Refuse LAS/LAZ tiles that declare different CRSs from their headers alone."""
     import laspy  # lazy: only tiles read LAS headers here
 
-    from .gis import check_cloud_crs  # lazy: pyproj, only for tiles that declare a CRS
     from .readers import las_crs
 
     first = None

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
-from ..io.gis import unit_symbol
+from ..io.crs import unit_symbol
 from ..io.results import ply_field, read_planes, read_run, read_sets, read_spacings
 from ..orientation import Frame
 from ..planes import Planes

@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from ..io.gis import true_north_frame
+from ..io.crs import true_north_frame
 from ..io.readers import DEFAULT_MESH_SAMPLES
 from ..orientation import Frame
 from ..params import Params
@@ -36,7 +36,7 @@ def measure_stream(
     folder by default, removed afterwards), then measured by :func:`.engine.measure_spill`,
     whose parameters these are. ``crs``, when given, is the survey's (over any its files
     declare); with ``true_north``, a projected survey's azimuths are read against true north
-    (:func:`~geostructure.io.gis.true_north_frame`, recorded in the result's ``north``).
+    (:func:`~geostructure.io.crs.true_north_frame`, recorded in the result's ``north``).
 
     Examples
     --------

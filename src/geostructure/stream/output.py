@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.gis import parse_crs
+from ..io.crs import parse_crs
 from ..io.laz import las_grid
 from ..io.results import SCALAR
 
