@@ -19,7 +19,7 @@ import numpy as np
 from .evaluate import Evaluation, evaluate
 from .exposure import exposure
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
-from .io.crs import metres_per_unit
+from .io.crs import in_metres, metres_per_unit
 from .io.laz import add_point_sets
 from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_regions, read_sets
@@ -203,17 +203,6 @@ def sets_and_rock_mass(
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors,
                                metres_per_unit=f)  # fmt: skip
     return sets, rock
-
-
-def in_metres(points: np.ndarray, metres_per_unit: float) -> np.ndarray:
-    """``points`` scaled to metres (the same array when they are in metres already).
-
-    Examples
-    --------
-    >>> in_metres(np.array([[10.0, 0.0, 1.0]]), 0.3048).tolist()
-    [[3.048, 0.0, 0.3048]]
-    """
-    return points if metres_per_unit == 1.0 else np.asarray(points, dtype=np.float64) * metres_per_unit
 
 
 def detected_spacing(detection: dict | None) -> float | None:

@@ -197,3 +197,14 @@ def metres_per_unit(crs: str | None) -> float:
     axes = parse_crs(crs).axis_info
     factor = axes[0].unit_conversion_factor if axes and axes[0].unit_name not in ("degree", "radian") else None
     return float(factor) if factor else 1.0
+
+
+def in_metres(points: np.ndarray, metres_per_unit: float) -> np.ndarray:
+    """``points`` scaled to metres (the same array when they are in metres already).
+
+    Examples
+    --------
+    >>> in_metres(np.array([[10.0, 0.0, 1.0]]), 0.3048).tolist()
+    [[3.048, 0.0, 0.3048]]
+    """
+    return points if metres_per_unit == 1.0 else np.asarray(points, dtype=np.float64) * metres_per_unit
