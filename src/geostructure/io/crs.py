@@ -151,6 +151,10 @@ def true_north_frame(frame, crs: str | None, lower, upper):
     return frame.turned(float(gamma[0]), "enu, true north"), record
 
 
+#: A spread of the convergence over the cloud (degrees) worth saying: one frame reads it all.
+WIDE_CONVERGENCE = 0.05
+
+
 def describe_north(north: dict) -> str:
     """A line on the north a run read azimuths against (:func:`true_north_frame`'s record).
 
@@ -158,11 +162,17 @@ def describe_north(north: dict) -> str:
     --------
     >>> describe_north({"grid_convergence_deg": 1.4145, "grid_convergence_range_deg": [1.41, 1.42]})
     "azimuths read against true north: the grid convergence at the cloud's centre is +1.41 deg (--grid-north for grid azimuths)"
+    >>> describe_north({"grid_convergence_deg": 1.4, "grid_convergence_range_deg": [1.2, 1.6]}).split("; ")[1]
+    'it varies across the cloud, so azimuths near its edges are up to 0.20 deg off'
     """
-    return (
+    gamma, (low, high) = north["grid_convergence_deg"], north["grid_convergence_range_deg"]
+    text = (
         f"azimuths read against true north: the grid convergence at the cloud's centre is "
-        f"{north['grid_convergence_deg']:+.2f} deg (--grid-north for grid azimuths)"
+        f"{gamma:+.2f} deg (--grid-north for grid azimuths)"
     )
+    if high - low > WIDE_CONVERGENCE:  # one frame for the whole survey
+        text += f"; it varies across the cloud, so azimuths near its edges are up to {max(high - gamma, gamma - low):.2f} deg off"
+    return text
 
 
 #: Symbols of the linear units clouds come in, by metres per unit.
