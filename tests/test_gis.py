@@ -134,6 +134,7 @@ def test_azimuths_are_read_against_true_north(tmp_path, capsys, engine):
     (true, record), (grid, grid_record) = runs["true"], runs["grid"]
     gamma = record["north"]["grid_convergence_deg"]
     assert gamma == pytest.approx(1.41, abs=0.01) and record["crs"] == UTM_33N and "north" not in grid_record
+    assert record["unit"] == grid_record["unit"] == {"symbol": "m", "metres": 1.0}
     assert record["frame"]["name"] == "enu, true north" and grid_record["frame"]["name"] == "enu"
     np.testing.assert_allclose(true[:, 0], grid[:, 0], atol=1e-9)
     turned = (true[:, 1] - grid[:, 1] + 180.0) % 360.0 - 180.0

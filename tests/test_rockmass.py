@@ -242,8 +242,9 @@ def test_airborne_lidar_in_feet_its_level_roofs_and_the_metric_rock_mass(tmp_pat
     assert "lies along the exposed face" in " ".join(printed.split())
     page = (out / "report.html").read_text()
     assert "lies along the exposed face" in page and "Area (ft" in page and "Roughness (ft)" in page
-    record = json.loads((out / "run.json").read_text())["sets"]["rock_mass"]
-    assert record["metres_per_cloud_unit"] == 0.3048
+    run = json.loads((out / "run.json").read_text())
+    assert run["sets"]["rock_mass"]["metres_per_cloud_unit"] == 0.3048
+    assert run["unit"] == {"symbol": "ft", "metres": 0.3048}  # what planes.csv's sizes are in
     with open(out / "planes.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     in_set = [r for r in rows if r["set"] == "0"]

@@ -11,7 +11,7 @@ import time
 
 from ..errors import GeoStructureError
 from ..evaluate import evaluate
-from ..io.crs import describe_north
+from ..io.crs import describe_north, metres_per_unit, unit_symbol
 from ..io.outdir import output_set
 from ..io.truth import read_truth
 from ..io.writers import write_result
@@ -156,6 +156,8 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
                 truth = read_truth(args.truth, result.frame)
             evaluation = evaluate(result.planes, truth) if truth is not None else None
             record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {})}
+            if result.cloud.crs is not None:  # as in memory: planes.csv's sizes are in this unit
+                record["unit"] = {"symbol": unit_symbol(result.cloud.crs), "metres": metres_per_unit(result.cloud.crs)}
             if result.north:
                 record["north"] = result.north
                 if not args.quiet:

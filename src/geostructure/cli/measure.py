@@ -11,7 +11,7 @@ from pathlib import Path
 from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.crs import describe_north, metres_per_unit, true_north_frame
+from ..io.crs import describe_north, metres_per_unit, true_north_frame, unit_symbol
 from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
@@ -156,6 +156,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
     crs = crs_from(args)
     if crs is not None:  # given: it is the cloud's (over any its file declared)
         cloud = dataclasses.replace(cloud, crs=crs)
+    if cloud.crs is not None:  # planes.csv's sizes are in this unit; the rock mass's in metres
+        extra = {**(extra or {}), "unit": {"symbol": unit_symbol(cloud.crs), "metres": metres_per_unit(cloud.crs)}}
     if cloud.crs is not None and not args.grid_north and len(cloud):
         frame, north = true_north_frame(frame, cloud.crs, cloud.offset + column_min(cloud.local),
                                         cloud.offset + column_max(cloud.local))  # fmt: skip
