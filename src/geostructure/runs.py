@@ -129,6 +129,7 @@ def plane_rock_mass(
     face=None,
     errors=None,
     metres_per_unit: float = 1.0,
+    metric=None,
 ) -> RockMass:
     """Spacing, persistence and intensity of the sets of a plane table (:func:`~.rockmass.rock_mass`).
 
@@ -153,11 +154,13 @@ def plane_rock_mass(
     metres_per_unit : float
         Metres in one unit of ``points`` (:func:`~.io.crs.metres_per_unit`): the rock mass's
         lengths, areas and intensities are in metres, whatever the cloud's unit.
+    metric : (N, 3) array, optional
+        ``points`` in metres, when scaled already (the exposure's caller scales them once).
     """
     up = frame.matrix[2]
     if errors is None:
         errors = normal_standard_errors(points, labels, planes.normal, planes.local_centroid, planes.rect_u, up)
-    metric = in_metres(points, metres_per_unit)
+    metric = in_metres(points, metres_per_unit) if metric is None else metric
     rock = rock_mass(metric, labels, planes.normal, sets.labels, sets.mean_normal, up, errors["normal"], face=face)
     rock.plane_errors = with_correlated_tilt(errors, rock.correlated_tilt, planes.normal, up)
     rock.metres_per_unit = float(metres_per_unit)
@@ -196,12 +199,12 @@ def sets_and_rock_mass(
     report = progress or (lambda stage: None)
     report("sets")
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
-        f = metres_per_unit
-        face = pool.submit(exposure, in_metres(points, f), frame.matrix[2], spacing=spacing and spacing * f)
+        f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
+        face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f)
         sets = plane_sets(planes, frame, n_sets, metres_per_unit=f)
         report("spacing and persistence")
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors,
-                               metres_per_unit=f)  # fmt: skip
+                               metres_per_unit=f, metric=metric)  # fmt: skip
     return sets, rock
 
 

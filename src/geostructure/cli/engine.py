@@ -6,14 +6,11 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import sys
 import time
 
 from ..errors import GeoStructureError
 from ..evaluate import evaluate
-from ..io.crs import describe_north, metres_per_unit, unit_symbol
 from ..io.outdir import output_set
-from ..io.truth import read_truth
 from ..io.writers import write_result
 from ..progress import StageProgress
 from ..runs import stage_evaluation, stage_report
@@ -22,7 +19,7 @@ from ..stream.engine import DEFAULT_CHUNK_POINTS
 from ..stream.output import RegionsLaz, RegionsPly
 from ..stream.source import estimate_points
 from ..tables import print_evaluation, print_planes
-from .options import base_params, crs_from, given_factors, wants_sets
+from .options import base_params, crs_from, crs_record, given_factors, wants_sets
 
 ENGINES = ("auto", "memory", "stream", "dask")
 #: A run in memory with the default options peaked at 1.10 GB for a 1M-point LAZ and 1.12 GB
@@ -152,16 +149,9 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
                 crs=crs_from(args),
                 true_north=not args.grid_north,
             )
-            if result.north and truth is not None:  # the truth's azimuths are true: its normals in the turned frame
-                truth = read_truth(args.truth, result.frame)
+            about_crs, truth = crs_record(args, result.cloud.crs, result.north, result.frame, truth)
             evaluation = evaluate(result.planes, truth) if truth is not None else None
-            record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {})}
-            if result.cloud.crs is not None:  # as in memory: planes.csv's sizes are in this unit
-                record["unit"] = {"symbol": unit_symbol(result.cloud.crs), "metres": metres_per_unit(result.cloud.crs)}
-            if result.north:
-                record["north"] = result.north
-                if not args.quiet:
-                    print(f"geostructure: note: {describe_north(result.north)}", file=sys.stderr)
+            record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {}), **about_crs}
             written = write_result(result, outputs, record, point_files=False)
             if evaluation is not None:
                 written.update(stage_evaluation(outputs, evaluation, None))

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.crs import describe_north, metres_per_unit, true_north_frame, unit_symbol
+from ..io.crs import metres_per_unit, true_north_frame
 from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
@@ -35,6 +35,7 @@ from .options import (
     check_before_work,
     check_outdir,
     crs_from,
+    crs_record,
     finite_float,
     folder,
     frame_from,
@@ -156,16 +157,12 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
     crs = crs_from(args)
     if crs is not None:  # given: it is the cloud's (over any its file declared)
         cloud = dataclasses.replace(cloud, crs=crs)
-    if cloud.crs is not None:  # planes.csv's sizes are in this unit; the rock mass's in metres
-        extra = {**(extra or {}), "unit": {"symbol": unit_symbol(cloud.crs), "metres": metres_per_unit(cloud.crs)}}
+    north = None
     if cloud.crs is not None and not args.grid_north and len(cloud):
         frame, north = true_north_frame(frame, cloud.crs, cloud.offset + column_min(cloud.local),
                                         cloud.offset + column_max(cloud.local))  # fmt: skip
-        extra = {**(extra or {}), **({"north": north} if north else {})}
-        if north and not args.quiet:
-            print(f"geostructure: note: {describe_north(north)}", file=sys.stderr)
-        if north and truth is not None:  # the truth's azimuths are true too: its normals in the turned frame
-            truth = read_truth(args.truth, frame)
+    record, truth = crs_record(args, cloud.crs, north, frame, truth)
+    extra = {**(extra or {}), **record}
     with StageProgress(enabled=not args.quiet) as progress:
         t = time.perf_counter()
         progress("auto", 0, None)

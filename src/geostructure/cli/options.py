@@ -12,8 +12,9 @@ from pathlib import Path
 from ..auto import choose_params
 from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
-from ..io.crs import check_cloud_crs, parse_crs
+from ..io.crs import check_cloud_crs, describe_north, metres_per_unit, parse_crs, unit_symbol
 from ..io.outdir import check_inputs_not_outputs, check_outdir
+from ..io.truth import read_truth
 from ..kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
 from ..orientation import Frame
 from ..params import Params
@@ -334,6 +335,23 @@ def crs_from(args) -> str | None:
     return (
         f"{authority[0]}:{authority[1]}" if authority and text.upper().startswith(("EPSG:", "ESRI:")) else crs.to_wkt()
     )
+
+
+def crs_record(args, crs: str | None, north: dict | None, frame: Frame, truth):
+    """What ``run.json`` says of a measured cloud's CRS beyond its name (``unit``: what
+    planes.csv's sizes are in; ``north``: the convergence its azimuths were turned by), said
+    on stderr too unless quiet, and the ground truth read in the turned frame (its azimuths
+    are true, as a compass's). In memory and streamed alike."""
+    record = {}
+    if crs is not None:
+        record["unit"] = {"symbol": unit_symbol(crs), "metres": metres_per_unit(crs)}
+    if north:
+        record["north"] = north
+        if not args.quiet:
+            print(f"geostructure: note: {describe_north(north)}", file=sys.stderr)
+        if truth is not None:
+            truth = read_truth(args.truth, frame)
+    return record, truth
 
 
 def check_before_work(args, inputs) -> None:

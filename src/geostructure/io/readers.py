@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import first_bad_coordinates
+from ..bounds import column_max, column_min, first_bad_coordinates
 from ..cloud import MAX_COORDINATE, Cloud
 from ..errors import GeoStructureError, GeoStructureWarning
 from .crs import check_cloud_crs
@@ -118,8 +118,8 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     names = vertex.dtype.names
     points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
     single = [i for i, a in enumerate("xyz") if vertex.dtype[a] == np.float32]  # the axes stored in 32 bits
-    if single and len(points) and np.isfinite(points).all():
-        largest = float(np.abs(points[:, single]).max())
+    if single and len(points):
+        largest = float(np.max(np.abs(np.r_[column_min(points)[single], column_max(points)[single]])))
         check_coordinate_step(points, float(np.spacing(np.float32(largest))), path,
                               f"as 32-bit floats, which at {largest:,.0f} round to steps of")  # fmt: skip
     normals = None
@@ -151,8 +151,10 @@ def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) ->
     is noise of step / sqrt(12) on every plane, and facets a few steps across are lost. The
     spacing is read only when the step is coarse for the cloud's extent. ``stored`` says
     how, before the step ("on the LAS scale, in steps of")."""
-    extent = float(np.max(np.ptp(points, axis=0))) if len(points) > 1 else 0.0
-    if not step > STEP_CHECK_SHARE * extent or len(points) < 10:
+    if len(points) < 10:
+        return
+    extent = float(np.max(column_max(points) - column_min(points)))  # NaN for non-finite rows: not checked
+    if not step > STEP_CHECK_SHARE * extent:
         return
     from ..facets import point_spacing  # lazy: only for a coarsely stored cloud
 
@@ -297,8 +299,7 @@ def read_las(path: Path) -> Cloud:
     if len(points) < expected:
         raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
-    if len(points) and np.isfinite(points).all():
-        check_coordinate_step(points, float(np.max(grid[0])), path, "on the LAS scale, in steps of")
+    check_coordinate_step(points, float(np.max(grid[0])), path, "on the LAS scale, in steps of")
     return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid)
 
 
