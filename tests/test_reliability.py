@@ -515,3 +515,17 @@ def test_coordinates_stored_coarser_than_the_points_are_refused_or_warned_of(tmp
         path = _outcrop_file(tmp_path, f"scale_{scale}.las", las_scale=scale)
         code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / f"las_{scale}", "-q")
         assert code == 0 and ("geostructure: warning:" in err and "noise of about 0.0029" in err) == warned, err
+
+
+def test_streamed_coordinates_stored_coarser_than_the_points_are_refused_or_warned_of(tmp_path, capsys):
+    """The same check streamed, where each file is judged on its first chunk: the 32-bit
+    UTM PLY is refused (it used to be measured on its rounding grid, exit 0), the 1 cm LAS
+    warned of, the 1 mm LAS measured without a word."""
+    coarse = _outcrop_file(tmp_path, "float32.ply", float32="xyz")
+    code, _, err = run_cli(capsys, "measure", coarse, "-o", tmp_path / "f32", "-q", "--engine", "stream")
+    assert code == 2 and "32-bit floats" in err and "steps of 0.5" in err and not (tmp_path / "f32").exists()
+    assert_one_sentence(err, coarse)
+    for scale, warned in ((0.01, True), (0.001, False)):
+        path = _outcrop_file(tmp_path, f"scale_{scale}.las", las_scale=scale)
+        code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / f"las_{scale}", "-q", "--engine", "stream")
+        assert code == 0 and ("geostructure: warning:" in err and "noise of about 0.0029" in err) == warned, err

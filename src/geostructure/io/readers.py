@@ -117,11 +117,7 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     data, vertex = ply_vertices(path)
     names = vertex.dtype.names
     points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
-    single = [i for i, a in enumerate("xyz") if vertex.dtype[a] == np.float32]  # the axes stored in 32 bits
-    if single and len(points):
-        largest = float(np.max(np.abs(np.r_[column_min(points)[single], column_max(points)[single]])))
-        check_coordinate_step(points, float(np.spacing(np.float32(largest))), path,
-                              f"as 32-bit floats, which at {largest:,.0f} round to steps of")  # fmt: skip
+    check_ply_step(points, vertex.dtype, path)
     normals = None
     if all(n in names for n in ("nx", "ny", "nz")):
         normals = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in ("nx", "ny", "nz")])
@@ -141,6 +137,21 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
 STEP_CHECK_SHARE = 1e-4
 #: Stored steps this many point spacings wide leave a lattice, not a surface: refused.
 MAX_STEP_SPACINGS = 4.0
+
+
+def check_ply_step(points: np.ndarray, vertex_dtype: np.dtype, path) -> None:
+    """:func:`check_coordinate_step` for PLY vertices whose axes are stored as 32-bit floats:
+    their step is the float spacing at the largest coordinate among ``points``."""
+    single = [i for i, a in enumerate("xyz") if vertex_dtype[a] == np.float32]
+    if single and len(points):
+        largest = float(np.max(np.abs(np.r_[column_min(points)[single], column_max(points)[single]])))
+        check_coordinate_step(points, float(np.spacing(np.float32(largest))), path,
+                              f"as 32-bit floats, which at {largest:,.0f} round to steps of")  # fmt: skip
+
+
+def check_las_step(points: np.ndarray, scales, path) -> None:
+    """:func:`check_coordinate_step` for LAS/LAZ points, stored in steps of the header's scale."""
+    check_coordinate_step(points, float(np.max(scales)), path, "on the LAS scale, in steps of")
 
 
 def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) -> None:
@@ -299,7 +310,7 @@ def read_las(path: Path) -> Cloud:
     if len(points) < expected:
         raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
-    check_coordinate_step(points, float(np.max(grid[0])), path, "on the LAS scale, in steps of")
+    check_las_step(points, grid[0], path)
     return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid)
 
 

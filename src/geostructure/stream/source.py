@@ -21,7 +21,16 @@ import numpy as np
 from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
-from ..io.readers import DEFAULT_MESH_SAMPLES, check_coordinates, check_las_header, las_crs, ply_vertices, read_cloud
+from ..io.readers import (
+    DEFAULT_MESH_SAMPLES,
+    check_coordinates,
+    check_las_header,
+    check_las_step,
+    check_ply_step,
+    las_crs,
+    ply_vertices,
+    read_cloud,
+)
 from ..io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
@@ -180,7 +189,13 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
 
 def _file_chunks(path: Path, rows: int, mesh_samples):
     """(points, normals, meta) chunks of one file; ``meta`` carries a Cloud with its CRS and,
-    for LAS/LAZ, the file's grid."""
+    for LAS/LAZ, the file's grid.
+
+    A file whose coordinates are stored coarser than its points lie (32-bit floats far from
+    the origin, a coarse LAS scale) is refused or warned of as in memory
+    (:func:`~.io.readers.check_coordinate_step`), judged on its first chunk: the spacing a
+    chunk reads is the file's where a chunk is a patch of it (a tile's points in their scan
+    order) and reads wider, so errs towards measuring, where a chunk is thinned evenly."""
     suffix = path.suffix.lower()
     if suffix in (".las", ".laz"):
         yield from _las_chunks(path, rows)
@@ -206,6 +221,8 @@ def _las_chunks(path: Path, rows: int):
         seen = 0
         for chunk in reader.chunk_iterator(rows):
             points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+            if not seen:
+                check_las_step(points, header.scales, path)  # the first chunk: see _file_chunks
             seen += len(points)
             yield points, None, meta
         if seen < header.point_count:
@@ -234,6 +251,8 @@ def _ply_chunks(path: Path, rows: int):
     for a in range(0, max(len(vertex), 1), rows):
         part = vertex[a : a + rows]
         points = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
+        if not a:
+            check_ply_step(points, vertex.dtype, path)  # the first chunk: see _file_chunks
         normals = (
             np.column_stack([np.asarray(part[c], dtype=np.float64) for c in ("nx", "ny", "nz")])
             if has_normals
