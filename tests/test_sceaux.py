@@ -32,7 +32,7 @@ def sceaux_dir(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def split(sceaux_dir, tmp_path_factory):
+def split_dir(sceaux_dir, tmp_path_factory):
     """The same cloud measured with the same parameters as the paper would: no coplanar merge."""
     params = [
         f"--{k}={v}"
@@ -41,7 +41,15 @@ def split(sceaux_dir, tmp_path_factory):
     ]
     out = tmp_path_factory.mktemp("split")
     assert main(["measure", str(sceaux_dir / "cloud.ply"), "-o", str(out), "--no-merge", "-q", *params]) == 0
-    return read_planes(out)
+    return out
+
+
+def read_regions(out):
+    """The filtered points of a run and the plane each lies in (-1 for none), from regions.ply."""
+    from plyfile import PlyData
+
+    vertex = PlyData.read(str(out / "regions.ply"))["vertex"].data
+    return np.column_stack([vertex[a] for a in "xyz"]), np.asarray(vertex["scalar_region_id"])
 
 
 def vector(plane, name):
@@ -77,13 +85,21 @@ def test_the_facade_walls_are_vertical_and_share_one_orientation(sceaux_dir):
     assert np.ptp(orientation, axis=0).max() < 2.5  # measured 1.1 to 1.5 deg
 
 
-def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split):
+def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split_dir):
+    """Point by point: the merged wall's points are, without the merge, in one region on one
+    side of the bay and in others on the other side. (Judged on the points, not on the split
+    run's planes: region growing cuts the half across the bay into two to five pieces, some
+    under 1,000 points, depending on the cloud SfM gave; repeated runs differ.)"""
     facade = read_planes(sceaux_dir)[0]
-    normal, centre = vector(facade, "normal"), vector(facade, "rect_center")
+    points, merged = read_regions(sceaux_dir)
+    split_points, split = read_regions(split_dir)
+    assert np.array_equal(points, split_points)  # the same filtered cloud, in the same order
+    on_wall = merged == facade["region_id"]
+    pieces = split[on_wall]
+    largest = pieces == np.bincount(pieces[pieces >= 0]).argmax()
     axis, length = long_axis(facade)
-    # the pieces the paper's regions give: coplanar with the merged wall, on both sides of the bay
-    pieces = [p for p in facade_walls(split, facade) if abs(normal @ (vector(p, "centroid") - centre)) < 0.1]
-    along = np.array([axis @ (vector(p, "rect_center") - centre) for p in pieces])
-    assert len(pieces) >= 2 and along.min() < 0 < along.max()
-    assert np.all(np.abs(along) < length / 2)  # both lie inside the one merged rectangle
-    assert max(long_axis(p)[1] for p in pieces) < 0.7 * length  # measured: 2.8 against 6.1 to 6.5
+    along = (points[on_wall] - vector(facade, "rect_center")) @ axis
+    assert 0.25 < largest.mean() < 0.75  # measured 0.37 to 0.44 over 4 runs: about half the wall
+    # the rest, joined by the merge, lies across the bay from the largest piece
+    assert np.median(along[largest]) * np.median(along[~largest]) < 0
+    assert np.ptp(along[largest]) < 0.7 * length  # the largest piece spans half of the wall
