@@ -180,6 +180,15 @@ def test_bad_parameter_is_one_sentence(capsys, tmp_path, good_ply):
     assert not (tmp_path / "o" / "planes.csv").exists()
 
 
+@pytest.mark.parametrize("value", ["400", "-181"])
+def test_a_declination_beyond_half_a_turn_is_refused(capsys, tmp_path, good_ply, value):
+    """400 degrees was read as 40 without a word: a slip, not a declination."""
+    with pytest.raises(SystemExit) as stop:
+        main(["measure", str(good_ply), "-o", str(tmp_path / "o"), "--declination", value, "-q"])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and "is not a declination" in err and not (tmp_path / "o").exists()
+
+
 def test_python_dash_m_runs_the_demo(tmp_path):
     run = subprocess.run(
         [sys.executable, "-m", "geostructure", "demo", "-o", str(tmp_path / "demo"), "--points", "60000"],

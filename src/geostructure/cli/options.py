@@ -39,6 +39,15 @@ def positive_float(text: str) -> float:
     return value
 
 
+def declination(text: str) -> float:
+    """A magnetic declination: degrees east of true north, from -180 to 180 (400 is a slip,
+    not 40 degrees)."""
+    value = finite_float(text)
+    if not -180.0 <= value <= 180.0:
+        raise argparse.ArgumentTypeError(f"{text} degrees is not a declination: give one from -180 to 180")
+    return value
+
+
 def whole(minimum: int):
     """An argparse type: a whole number of at least ``minimum``."""
 
@@ -88,7 +97,7 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
     )
     g.add_argument(
         "--declination",
-        type=finite_float,
+        type=declination,
         default=0.0,
         help="magnetic declination in degrees, east positive: azimuths read against magnetic north",
     )
