@@ -78,11 +78,39 @@ def dbscan(points: np.ndarray, eps: float, min_samples: int) -> np.ndarray:
     return labels
 
 
+#: Points per batch of the peer's covariance matrices (bounds memory at ~50 MB a batch).
+BATCH = 100_000
+
+
+def knn_planes(points: np.ndarray, k: int = 30) -> tuple[np.ndarray, np.ndarray, float]:
+    """DSE's per-point planes: each point's unit normal (N, 3) and surface variation (N,)
+    from the least-squares plane through its ``k`` nearest neighbours, and the cloud's
+    spacing (the median distance to the nearest neighbour)."""
+    from scipy.spatial import cKDTree
+
+    k = min(k, len(points))
+    distances, neighbours = cKDTree(points).query(points, k=k, workers=-1)
+    normal = np.empty((len(points), 3))
+    variation = np.empty(len(points))
+    for start in range(0, len(points), BATCH):
+        # About the point itself (well conditioned), the six distinct moments one by one:
+        # much faster than an einsum over (n, k, 3, 3).
+        rel = points[neighbours[start : start + BATCH]] - points[start : start + BATCH, None, :]
+        mean = rel.mean(axis=1)
+        cov = np.empty((len(rel), 3, 3))
+        for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):
+            cov[:, i, j] = cov[:, j, i] = (rel[:, :, i] * rel[:, :, j]).mean(axis=1) - mean[:, i] * mean[:, j]
+        values, vectors = np.linalg.eigh(cov)
+        values = np.maximum(values, 0.0)
+        normal[start : start + BATCH] = vectors[:, :, 0]
+        variation[start : start + BATCH] = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
+    return normal, variation, float(np.median(distances[:, 1]))
+
+
 def peer(path: str) -> dict:
     """The DSE-style pipeline on a PLY file; returns planes (centroid, normal) and set poles."""
     from plyfile import PlyData
 
-    from geostructure.facets import point_planes
     from geostructure.orientation import normal_from_orientation, orientation_from_normals
     from geostructure.projection import pole_density
     from geostructure.rectangle import fit_plane
@@ -91,9 +119,9 @@ def peer(path: str) -> dict:
     points = np.column_stack([vertex["x"], vertex["y"], vertex["z"]]).astype(np.float64)
     offset = points.mean(axis=0)
     local = points - offset
-    planes = point_planes(local, k=30)
-    flat = planes.variation <= np.percentile(planes.variation, 75)
-    o = orientation_from_normals(planes.normal[flat])
+    normal, variation, spacing = knn_planes(local, k=30)
+    flat = variation <= np.percentile(variation, 75)
+    o = orientation_from_normals(normal[flat])
     sample = np.random.default_rng(0).choice(int(flat.sum()), min(20_000, int(flat.sum())), replace=False)
     x, y, density = pole_density(o.dip_direction[sample], o.dip[sample], gridsize=61)
     d = np.nan_to_num(density, nan=-np.inf)
@@ -107,9 +135,8 @@ def peer(path: str) -> dict:
     plunge = 90.0 - 2.0 * np.degrees(np.arcsin(np.clip(r / np.sqrt(2.0), 0, 1)))
     trend = np.degrees(np.arctan2(x[cols], y[rows])) % 360.0
     set_normals = normal_from_orientation((trend + 180.0) % 360.0, 90.0 - plunge)
-    cos = np.abs(planes.normal[flat] @ set_normals.T)
+    cos = np.abs(normal[flat] @ set_normals.T)
     member = np.where(cos.max(axis=1) >= np.cos(np.radians(30.0)), cos.argmax(axis=1), -1)
-    spacing = planes.spacing
     centroids, normals = [], []
     flat_points = local[flat]
     for s in range(len(set_normals)):
@@ -118,9 +145,9 @@ def peer(path: str) -> dict:
         for c in range(int(labels.max(initial=-1)) + 1):
             cluster = mine[labels == c]
             if len(cluster) >= 30:
-                centroid, normal, _, _ = fit_plane(cluster)
+                centroid, plane_normal, _, _ = fit_plane(cluster)
                 centroids.append(centroid + offset)
-                normals.append(normal)
+                normals.append(plane_normal)
     return {"centroids": np.array(centroids).reshape(-1, 3), "normals": np.array(normals).reshape(-1, 3),
             "set_normals": set_normals}  # fmt: skip
 

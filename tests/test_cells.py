@@ -3,7 +3,8 @@
 import numpy as np
 
 from geostructure.cells import CENTRE, OFFSETS, cell_planes, smallest_eigenpair
-from geostructure.facets import detect_facets, point_spacing
+from geostructure.density import point_spacing
+from geostructure.facets import detect_facets
 
 
 def test_the_closed_form_eigenpair_agrees_with_lapack():

@@ -66,7 +66,7 @@ class Exposure:
 def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None = None) -> Exposure:
     """The mean face of ``points`` and its occupancy on a grid of cells of :data:`CELL_POINTS`
     points each on average; holes of :data:`SMALL_HOLE_CELLS` or fewer are filled.
-    ``spacing``, the points' spacing as :func:`~.facets.point_spacing` reads it, saves
+    ``spacing``, the points' spacing as :func:`~.density.point_spacing` reads it, saves
     reading their density again (a kd-tree over all of them).
 
     Examples

@@ -34,9 +34,8 @@ from functools import partial
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
-from .bounds import column_max, column_min
+from .bounds import column_min
 from .cells import (
     CellGrid,
     CellPlanes,
@@ -46,16 +45,13 @@ from .cells import (
     sampled_far_scatter,
     with_sparse_cells_filled,
 )
-from .sampling import order_free_sample, sampled_blocks
+from .density import point_spacing
+from .sampling import sampled_blocks
 from .threads import run_blocks, run_tasks
 from .voxel import binned_sums
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")
-#: Neighbours per point for :func:`point_planes` (DSE's default).
-NORMAL_NEIGHBOURS = 30
-#: Points per batch of covariance matrices (bounds memory at ~50 MB a batch).
-BATCH = 100_000
 #: The grid's edge in point spacings (:func:`point_spacing`), so that a block of 3 x 3 x 3
 #: cells holds some 16 to 30 points of a surface, as DSE's 30 neighbours. On outcrop seeds 4,
 #: 5 and 7 and the 1 cm face, 1.35 found 91 to 95% of the facets; 1.6, 84 to 92%; 2.25, 78
@@ -79,8 +75,6 @@ ANGLE_FACTOR = 2.5
 #: 1.05 cells across and dipping 60 to 68 deg; on the rough outcrop (seed 0) one of its
 #: 1,556 facets is under two cells across, and none on the observatory.
 MIN_FACET_CELLS_ACROSS = 2.0
-#: Points sampled to measure the point spacing.
-SPACING_SAMPLE = 20_000
 #: Above this many points, the scatter that decides whether to coarsen the grid is read on
 #: this many cells drawn at random (:func:`~.cells.sampled_far_scatter`), and only the grid
 #: chosen gets its planes: at 8M observatory points each whole grid took some 19 s, and
@@ -93,29 +87,6 @@ SCATTER_SAMPLE_CELLS = 200_000
 #: whole cloud: at 8M observatory points, building and coarsening the whole grids took 13 s
 #: of the detector's 26.
 SCATTER_BLOCK_CELLS = 8
-#: Above this many points the spacing is read in a sample of whole blocks of the cloud
-#: (:func:`point_spacing`): the tree over 8M points took 3 s to build, for 20,000 queries.
-SPACING_TREE_POINTS = 2_000_000
-#: Those blocks are this fraction of the cloud's extent wide.
-SPACING_BLOCKS_ACROSS = 64
-
-
-@dataclass
-class PointPlanes:
-    """Per point: unit ``normal`` (N, 3), ``variation`` (N,), ``residual`` (N,) RMS distance
-    of its neighbours to its plane, and the indices (N, k) of its nearest neighbours, the
-    point itself first."""
-
-    normal: np.ndarray
-    variation: np.ndarray
-    residual: np.ndarray
-    neighbours: np.ndarray
-    distances: np.ndarray
-
-    @property
-    def spacing(self) -> float:
-        """The cloud's point spacing: the median distance to the nearest neighbour."""
-        return float(np.median(self.distances[:, 1])) if self.distances.shape[1] > 1 else 0.0
 
 
 @dataclass(frozen=True)
@@ -126,38 +97,6 @@ class FacetThresholds:
     max_offset: float  # distance from one to the other's plane (cloud units)
     max_variation: float  # surface variation of either
     spacing: float  # the cloud's median point spacing, for reference
-
-
-def point_planes(points: np.ndarray, k: int = NORMAL_NEIGHBOURS) -> PointPlanes:
-    """Each point's least-squares plane through its ``k`` nearest neighbours.
-
-    Examples
-    --------
-    >>> g = np.mgrid[0:1:30j, 0:1:30j].reshape(2, -1).T
-    >>> planes = point_planes(np.c_[g, 0.5 * g[:, 0]])
-    >>> bool(np.allclose(np.abs(planes.normal @ [-0.5, 0, 1]) / np.hypot(0.5, 1), 1))
-    True
-    """
-    points = np.asarray(points, dtype=np.float64)
-    k = min(k, len(points))
-    distances, neighbours = cKDTree(points).query(points, k=k, workers=-1)
-    normal = np.empty((len(points), 3))
-    variation = np.empty(len(points))
-    residual = np.empty(len(points))
-    for start in range(0, len(points), BATCH):
-        # About the point itself (well conditioned), the six distinct moments one by one:
-        # much faster than an einsum over (n, k, 3, 3).
-        rel = points[neighbours[start : start + BATCH]] - points[start : start + BATCH, None, :]
-        mean = rel.mean(axis=1)
-        cov = np.empty((len(rel), 3, 3))
-        for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):
-            cov[:, i, j] = cov[:, j, i] = (rel[:, :, i] * rel[:, :, j]).mean(axis=1) - mean[:, i] * mean[:, j]
-        values, vectors = np.linalg.eigh(cov)
-        values = np.maximum(values, 0.0)
-        normal[start : start + BATCH] = vectors[:, :, 0]
-        variation[start : start + BATCH] = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
-        residual[start : start + BATCH] = np.sqrt(values[:, 0])
-    return PointPlanes(normal, variation, residual, neighbours, distances)
 
 
 def planar_components(
@@ -266,43 +205,6 @@ def voxel_majority(point_voxel: np.ndarray, labels: np.ndarray, n_voxels: int) -
     first = order[np.r_[True, np.diff(voxel[order]) != 0]]
     out[voxel[first]] = label[first]
     return out
-
-
-def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 0) -> float:
-    """The cloud's point spacing, 1 / sqrt(surface density), from the distance r_8 of a
-    random sample of its points to their 8th nearest neighbour: 8 points in a disc of
-    radius r_8 give density 8 / (pi r_8^2). On a square grid of spacing s it reads 0.89 s;
-    unlike the nearest-neighbour distance, it reads a random (Poisson) scatter right too,
-    whose nearest neighbours lie at half its spacing."""
-    k = min(9, len(points))
-    if len(points) > SPACING_TREE_POINTS:
-        r8 = _block_sampled_r8(points, sample, seed)
-        if r8 is not None:
-            return r8 * float(np.sqrt(np.pi / (k - 1)))
-    probe = points[order_free_sample(points, min(sample, len(points)), seed)]
-    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # built fast: queried once
-    r8 = float(np.median(tree.query(probe, k=k, workers=-1)[0][:, -1]))
-    return r8 * float(np.sqrt(np.pi / max(k - 1, 1)))
-
-
-def _block_sampled_r8(points: np.ndarray, sample: int, seed: int) -> float | None:
-    """The median r_8 of :func:`point_spacing`, read in a hash-drawn sample of whole blocks
-    (:data:`SPACING_BLOCKS_ACROSS` across the cloud) holding some :data:`SPACING_TREE_POINTS`
-    / 4 points, from probes at least twice the median r_8 inside their block. Their 8 nearest
-    neighbours are then the whole cloud's, unless farther than that (the sparsest tail, which
-    does not move the median). None when too few probes are that far inside."""
-    # Blocks start half a block below the cloud's corner, so that surfaces at its bounds (the
-    # ground, at the lowest points) lie mid-block, not along a face where no probe counts.
-    edge = float((column_max(points) - column_min(points)).max()) / SPACING_BLOCKS_ACROSS
-    lower = column_min(points) - edge / 2
-    sub = points[sampled_blocks(points, lower, edge, SPACING_TREE_POINTS / 4 / len(points), seed)]
-    probe = order_free_sample(sub, min(4 * sample, len(sub)), seed)
-    tree = cKDTree(sub, balanced_tree=False, compact_nodes=False)
-    r8 = tree.query(sub[probe], k=9, workers=-1)[0][:, -1]
-    within = sub[probe] - (lower + np.floor((sub[probe] - lower) / edge) * edge)
-    room = np.minimum(within.min(axis=1), (edge - within).min(axis=1))
-    inside = room >= 2.0 * np.median(r8)  # chosen by position alone: no bias to dense or sparse
-    return float(np.median(r8[inside])) if inside.sum() >= sample // 4 else None
 
 
 def facet_thresholds(cells: CellPlanes, spacing: float, pairs=None) -> FacetThresholds:

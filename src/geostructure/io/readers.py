@@ -167,7 +167,7 @@ def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) ->
     extent = float(np.max(column_max(points) - column_min(points)))  # NaN for non-finite rows: not checked
     if not step > STEP_CHECK_SHARE * extent:
         return
-    from ..facets import point_spacing  # lazy: only for a coarsely stored cloud
+    from ..density import point_spacing  # lazy: only for a coarsely stored cloud
 
     spacing = point_spacing(points - points.mean(axis=0))
     if step > MAX_STEP_SPACINGS * spacing:
