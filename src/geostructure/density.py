@@ -1,7 +1,7 @@
 """How densely a cloud is sampled: its point spacing, read from its points alone.
 
 The facet detector sizes its grid by it (:mod:`.facets`), the readers compare a file's stored
-coordinate step with it (:func:`~.io.readers.check_coordinate_step`), and the exposure sizes
+coordinate step with it (:func:`~.io.checks.check_coordinate_step`), and the exposure sizes
 its occupancy cells by it (:mod:`.exposure`).
 """
 

@@ -21,16 +21,8 @@ import numpy as np
 from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
-from ..io.readers import (
-    DEFAULT_MESH_SAMPLES,
-    check_coordinates,
-    check_las_header,
-    check_las_step,
-    check_ply_step,
-    las_crs,
-    ply_vertices,
-    read_cloud,
-)
+from ..io.checks import check_coordinates, check_las_step, check_ply_step
+from ..io.readers import DEFAULT_MESH_SAMPLES, check_las_header, las_crs, ply_vertices, read_cloud
 from ..io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
@@ -136,7 +128,7 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     """Read ``paths`` chunk by chunk (at most ``rows`` points at a time for LAS/LAZ and PLY
     vertices) into a :class:`Spill` in ``folder`` (a new temporary folder by default).
 
-    Every file is checked as the in-memory readers check it (:func:`~.io.readers.check_points`);
+    Every file is checked as the in-memory readers check it (:func:`~.io.checks.check_points`);
     tiles must share a CRS (checked from the LAS headers before any is read)."""
     paths = [Path(p) for p in paths]
     check_headers(paths)
@@ -193,7 +185,7 @@ def _file_chunks(path: Path, rows: int, mesh_samples):
 
     A file whose coordinates are stored coarser than its points lie (32-bit floats far from
     the origin, a coarse LAS scale) is refused or warned of as in memory
-    (:func:`~.io.readers.check_coordinate_step`), judged on its first chunk: the spacing a
+    (:func:`~.io.checks.check_coordinate_step`), judged on its first chunk: the spacing a
     chunk reads is the file's where a chunk is a patch of it (a tile's points in their scan
     order) and reads wider, so errs towards measuring, where a chunk is thinned evenly."""
     suffix = path.suffix.lower()

@@ -1,0 +1,97 @@
+"""What the readers refuse or warn of in the coordinates they read, whatever the format:
+NaN, infinity and coordinates beyond any survey's; too few points; coordinates stored in
+steps coarser than the points lie (32-bit floats far from the origin, a coarse LAS scale).
+Each check names the file; the streamed reader runs them chunk by chunk.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..bounds import column_max, column_min, first_bad_coordinates
+from ..cloud import MAX_COORDINATE
+from ..errors import GeoStructureError, GeoStructureWarning
+
+
+def check_points(points: np.ndarray, path, offset=None) -> None:
+    """Refuse coordinates no measurement can use: NaN/inf, too few, degenerate; ``points``
+    relative to ``offset`` when given."""
+    if len(points) == 0:
+        raise GeoStructureError(f"{path}: holds no points.")
+    check_coordinates(points, path, offset=offset)
+    if len(points) < 3:
+        raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
+
+
+def check_coordinates(points: np.ndarray, path, first: int = 0, offset=None) -> None:
+    """Refuse NaN/inf coordinates and ones beyond :data:`MAX_COORDINATE`; ``first`` is the
+    number of the first of ``points`` in the file (a chunk's), for the message; ``points``
+    relative to ``offset`` (3,) when given."""
+    problem = first_bad_coordinates(points, MAX_COORDINATE, offset)
+    if problem is None:
+        return
+    kind, count, row = problem
+    if kind == "not finite":
+        raise GeoStructureError(
+            f"{path}: {count} point(s) have NaN or infinite coordinates (the first is point {first + row})."
+        )
+    raise GeoStructureError(
+        f"{path}: point {first + row} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
+        f"uses (float64 keeps no millimetres there); the file may be damaged."
+    )
+
+
+#: A stored coordinate step below this share of the cloud's extent is never checked against
+#: the point spacing: no surface the detector resolves has fewer than 10,000 steps across.
+STEP_CHECK_SHARE = 1e-4
+#: Stored steps this many point spacings wide leave a lattice, not a surface: refused.
+MAX_STEP_SPACINGS = 4.0
+
+
+def check_ply_step(points: np.ndarray, vertex_dtype: np.dtype, path) -> None:
+    """:func:`check_coordinate_step` for PLY vertices whose axes are stored as 32-bit floats:
+    their step is the float spacing at the largest coordinate among ``points``."""
+    single = [i for i, a in enumerate("xyz") if vertex_dtype[a] == np.float32]
+    if single and len(points):
+        largest = float(np.max(np.abs(np.r_[column_min(points)[single], column_max(points)[single]])))
+        check_coordinate_step(points, float(np.spacing(np.float32(largest))), path,
+                              f"as 32-bit floats, which at {largest:,.0f} round to steps of")  # fmt: skip
+
+
+def check_las_step(points: np.ndarray, scales, path) -> None:
+    """:func:`check_coordinate_step` for LAS/LAZ points, stored in steps of the header's scale."""
+    check_coordinate_step(points, float(np.max(scales)), path, "on the LAS scale, in steps of")
+
+
+def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) -> None:
+    """Refuse a cloud whose stored coordinates are rounded to steps of more than four times
+    its point spacing (32-bit floats at UTM northings round to 0.5 m): its points are heaped
+    on that grid, a dozen or more to a node, and the planes found would be the grid's. Warn
+    from a quarter of the spacing (a drone LAZ stored to 1 cm at 6 mm spacing): the rounding
+    is noise of step / sqrt(12) on every plane, and facets a few steps across are lost. The
+    spacing is read only when the step is coarse for the cloud's extent. ``stored`` says
+    how, before the step ("on the LAS scale, in steps of")."""
+    if len(points) < 10:
+        return
+    extent = float(np.max(column_max(points) - column_min(points)))  # NaN for non-finite rows: not checked
+    if not step > STEP_CHECK_SHARE * extent:
+        return
+    from ..density import point_spacing  # lazy: only for a coarsely stored cloud
+
+    spacing = point_spacing(points - points.mean(axis=0))
+    if step > MAX_STEP_SPACINGS * spacing:
+        raise GeoStructureError(
+            f"{path}: its coordinates are stored {stored} {step:g}, {step / spacing:.0f} times its point spacing "
+            f"({spacing:.3g}), so its points are heaped on that grid, not on their surfaces; save it with finer "
+            f"coordinates (double precision, a finer LAS scale, or shifted near the origin) and measure that."
+        )
+    if step > spacing / 4:
+        warnings.warn(
+            f"{path}: its coordinates are stored {stored} {step:g}, {step / spacing:.2g} times its point "
+            f"spacing: the rounding adds noise of about {step / np.sqrt(12):.2g} to every plane, and facets "
+            f"a few steps across are lost.",
+            GeoStructureWarning,
+            stacklevel=2,
+        )
