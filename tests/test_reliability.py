@@ -529,3 +529,10 @@ def test_streamed_coordinates_stored_coarser_than_the_points_are_refused_or_warn
         path = _outcrop_file(tmp_path, f"scale_{scale}.las", las_scale=scale)
         code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / f"las_{scale}", "-q", "--engine", "stream")
         assert code == 0 and ("geostructure: warning:" in err and "noise of about 0.0029" in err) == warned, err
+    # tiles stored in one step: judged once, one warning for the survey
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    for name in ("a.las", "b.las"):
+        (tiles / name).write_bytes((tmp_path / "scale_0.01.las").read_bytes())
+    code, _, err = run_cli(capsys, "measure", tiles, "-o", tmp_path / "tiled", "-q", "--engine", "stream")
+    assert code == 0 and err.count("noise of about 0.0029") == 1, err

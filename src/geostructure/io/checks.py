@@ -50,19 +50,33 @@ STEP_CHECK_SHARE = 1e-4
 MAX_STEP_SPACINGS = 4.0
 
 
-def check_ply_step(points: np.ndarray, vertex_dtype: np.dtype, path) -> None:
-    """:func:`check_coordinate_step` for PLY vertices whose axes are stored as 32-bit floats:
-    their step is the float spacing at the largest coordinate among ``points``."""
+def ply_step(points: np.ndarray, vertex_dtype: np.dtype) -> tuple[float, str] | None:
+    """The step PLY vertices are stored in, and how, for :func:`check_coordinate_step`: the
+    32-bit float spacing at the largest coordinate among ``points``; None when every axis is
+    a double."""
     single = [i for i, a in enumerate("xyz") if vertex_dtype[a] == np.float32]
-    if single and len(points):
-        largest = float(np.max(np.abs(np.r_[column_min(points)[single], column_max(points)[single]])))
-        check_coordinate_step(points, float(np.spacing(np.float32(largest))), path,
-                              f"as 32-bit floats, which at {largest:,.0f} round to steps of")  # fmt: skip
+    if not single or not len(points):
+        return None
+    largest = float(np.max(np.abs(np.r_[column_min(points)[single], column_max(points)[single]])))
+    return float(np.spacing(np.float32(largest))), f"as 32-bit floats, which at {largest:,.0f} round to steps of"
+
+
+def las_step(scales) -> tuple[float, str]:
+    """The step LAS/LAZ points are stored in (the header's coarsest scale), and how."""
+    return float(np.max(scales)), "on the LAS scale, in steps of"
+
+
+def check_ply_step(points: np.ndarray, vertex_dtype: np.dtype, path) -> None:
+    """:func:`check_coordinate_step` for PLY vertices (:func:`ply_step`)."""
+    step = ply_step(points, vertex_dtype)
+    if step is not None:
+        check_coordinate_step(points, step[0], path, step[1])
 
 
 def check_las_step(points: np.ndarray, scales, path) -> None:
-    """:func:`check_coordinate_step` for LAS/LAZ points, stored in steps of the header's scale."""
-    check_coordinate_step(points, float(np.max(scales)), path, "on the LAS scale, in steps of")
+    """:func:`check_coordinate_step` for LAS/LAZ points (:func:`las_step`)."""
+    step, stored = las_step(scales)
+    check_coordinate_step(points, step, path, stored)
 
 
 def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) -> None:

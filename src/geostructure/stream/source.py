@@ -21,7 +21,7 @@ import numpy as np
 from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
-from ..io.checks import check_coordinates, check_las_step, check_ply_step
+from ..io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
 from ..io.readers import DEFAULT_MESH_SAMPLES, check_las_header, las_crs, ply_vertices, read_cloud
 from ..io.tiles import check_headers, check_same_crs, describe
 
@@ -136,13 +136,13 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     remove_stale_spills(folder)
     folder = Path(tempfile.mkdtemp(prefix=f"{SPILL_PREFIX}{os.getpid()}-", dir=folder))
     spill = Spill(folder, 0, np.full(3, np.inf), np.full(3, -np.inf), describe(paths))
-    grids, first = [], None
+    grids, first, steps_checked = [], None, set()
     try:
         with open(spill.folder / "points.f8", "wb") as out, open(spill.folder / "normals.f8", "wb") as out_n:
             all_normals = True
             for i, path in enumerate(paths):
                 start = spill.n_points
-                for points, normals, meta in _file_chunks(path, rows, mesh_samples):
+                for points, normals, meta in _file_chunks(path, rows, mesh_samples, steps_checked):
                     check_coordinates(points, path, spill.n_points - start)
                     points.astype("<f8", copy=False).tofile(out)
                     all_normals = all_normals and normals is not None
@@ -179,7 +179,7 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     return spill
 
 
-def _file_chunks(path: Path, rows: int, mesh_samples):
+def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
     """(points, normals, meta) chunks of one file; ``meta`` carries a Cloud with its CRS and,
     for LAS/LAZ, the file's grid.
 
@@ -187,12 +187,14 @@ def _file_chunks(path: Path, rows: int, mesh_samples):
     the origin, a coarse LAS scale) is refused or warned of as in memory
     (:func:`~.io.checks.check_coordinate_step`), judged on its first chunk: the spacing a
     chunk reads is the file's where a chunk is a patch of it (a tile's points in their scan
-    order) and reads wider, so errs towards measuring, where a chunk is thinned evenly."""
+    order) and reads wider, so errs towards measuring, where a chunk is thinned evenly. A
+    step is judged once (``steps_checked``): a survey's tiles share it, and each judgement
+    reads a spacing."""
     suffix = path.suffix.lower()
     if suffix in (".las", ".laz"):
-        yield from _las_chunks(path, rows)
+        yield from _las_chunks(path, rows, steps_checked)
     elif suffix == ".ply" and not _ply_has_faces(path, mesh_samples):
-        yield from _ply_chunks(path, rows)
+        yield from _ply_chunks(path, rows, steps_checked)
     else:  # text, E57, a mesh to sample: read whole (one file at a time)
         cloud = read_cloud(path, mesh_samples=mesh_samples)
         points = cloud.points
@@ -202,7 +204,15 @@ def _file_chunks(path: Path, rows: int, mesh_samples):
             yield points[a : a + rows], normals, meta
 
 
-def _las_chunks(path: Path, rows: int):
+def _check_step(points: np.ndarray, step: tuple[float, str] | None, path: Path, steps_checked: set) -> None:
+    """:func:`~.io.checks.check_coordinate_step` on a file's first chunk, unless an earlier
+    file stored its coordinates in the same step."""
+    if step is not None and step[0] not in steps_checked:
+        check_coordinate_step(points, step[0], path, step[1])
+        steps_checked.add(step[0])
+
+
+def _las_chunks(path: Path, rows: int, steps_checked: set):
     import laspy
 
     check_las_header(path)
@@ -214,7 +224,7 @@ def _las_chunks(path: Path, rows: int):
         for chunk in reader.chunk_iterator(rows):
             points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
             if not seen:
-                check_las_step(points, header.scales, path)  # the first chunk: see _file_chunks
+                _check_step(points, las_step(header.scales), path, steps_checked)
             seen += len(points)
             yield points, None, meta
         if seen < header.point_count:
@@ -235,7 +245,7 @@ def _ply_has_faces(path: Path, mesh_samples) -> bool:
     return "face" in header and len(header["face"].data) > 0
 
 
-def _ply_chunks(path: Path, rows: int):
+def _ply_chunks(path: Path, rows: int, steps_checked: set):
     _, vertex = ply_vertices(path)
     names = vertex.dtype.names
     has_normals = all(n in names for n in ("nx", "ny", "nz"))
@@ -244,7 +254,7 @@ def _ply_chunks(path: Path, rows: int):
         part = vertex[a : a + rows]
         points = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
         if not a:
-            check_ply_step(points, vertex.dtype, path)  # the first chunk: see _file_chunks
+            _check_step(points, ply_step(points, vertex.dtype), path, steps_checked)
         normals = (
             np.column_stack([np.asarray(part[c], dtype=np.float64) for c in ("nx", "ny", "nz")])
             if has_normals
