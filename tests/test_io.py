@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from conftest import shared_file
 
-from geostructure.errors import GeoStructureWarning
+from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
 from geostructure.io.readers import read_cloud
 
 
@@ -66,6 +66,39 @@ def test_las_and_laz_scaled_coordinates(tmp_path, points, suffix):
     las.write(str(path))
     cloud = read_cloud(path)
     np.testing.assert_allclose(cloud.points, points, atol=0.0006, rtol=0)
+
+
+def write_marked_las(path, points, classification, withheld, point_format):
+    import laspy
+
+    header = laspy.LasHeader(point_format=point_format, version="1.4" if point_format >= 6 else "1.2")
+    header.scales, header.offsets = [0.001] * 3, [500_000, 5_000_000, 0]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.classification = classification
+    las.withheld = withheld
+    las.write(str(path))
+    return path
+
+
+@pytest.mark.parametrize("point_format", [3, 6])
+def test_points_a_las_marks_withheld_or_noise_are_left_out(tmp_path, points, point_format):
+    """The LAS specification has withheld points treated as deleted; classes 7 (low noise)
+    and 18 (high noise, LAS 1.4's formats) are the survey's own noise. They were measured."""
+    classification = np.full(len(points), 2, dtype=np.uint8)
+    classification[:40] = 7
+    if point_format >= 6:
+        classification[40:60] = 18
+    withheld = np.zeros(len(points), dtype=bool)
+    withheld[30:50] = True  # some of them noise too: counted once, as withheld
+    path = write_marked_las(tmp_path / "marked.las", points, classification, withheld, point_format)
+    with pytest.warns(GeoStructureNote, match="point\\(s\\) left out, as the file marks them: 20 withheld, "):
+        cloud = read_cloud(path)
+    keep = ~(withheld | np.isin(classification, (7, 18)))
+    np.testing.assert_allclose(cloud.points, points[keep], atol=0.0006, rtol=0)
+    assert len(cloud.points) == (450 if point_format < 6 else 440)
+    with pytest.raises(GeoStructureError, match="every point is marked withheld or noise"):
+        read_cloud(write_marked_las(tmp_path / "all.las", points, classification, np.ones(len(points), bool), 6))
 
 
 def test_e57_round_trip_applies_the_scan_pose(tmp_path, points):

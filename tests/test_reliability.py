@@ -536,3 +536,31 @@ def test_streamed_coordinates_stored_coarser_than_the_points_are_refused_or_warn
         (tiles / name).write_bytes((tmp_path / "scale_0.01.las").read_bytes())
     code, _, err = run_cli(capsys, "measure", tiles, "-o", tmp_path / "tiled", "-q", "--engine", "stream")
     assert code == 0 and err.count("noise of about 0.0029") == 1, err
+
+
+@pytest.mark.parametrize("engine", ["memory", "stream"])
+def test_points_a_las_marks_withheld_or_noise_are_not_measured(tmp_path, capsys, engine):
+    """A classified LiDAR tile: its noise (class 7, stray returns 5 m off the face) and its
+    withheld points (a copy 50 m above) were measured with the rest. They are left out, the
+    command says how many in a note (none under -q), and run.json counts the points kept."""
+    import laspy
+
+    path = _outcrop_file(tmp_path, "face.las", las_scale=0.001)
+    las = laspy.read(str(path))
+    n = len(las.points)
+    rng = np.random.default_rng(0)
+    face = np.column_stack([las.x, las.y, las.z])
+    marked = laspy.LasData(las.header)
+    marked.x, marked.y, marked.z = np.vstack([face, face[:200] + rng.normal(0, 5, (200, 3)), face[:300] + [0, 0, 50]]).T
+    marked.classification = np.r_[np.full(n, 1), np.full(200, 7), np.full(300, 1)].astype(np.uint8)
+    marked.withheld = np.r_[np.zeros(n + 200, bool), np.ones(300, bool)]
+    marked.write(str(tmp_path / "marked.las"))
+    code, _, err = run_cli(capsys, "measure", tmp_path / "marked.las", "-o", tmp_path / "o", "--engine", engine)
+    assert (
+        code == 0
+        and "note: " in err
+        and "500 point(s) left out, as the file marks them: 300 withheld, 200 noise" in err
+    )
+    assert json.loads((tmp_path / "o" / "run.json").read_text())["counts"]["input"] == n
+    code, _, err = run_cli(capsys, "measure", tmp_path / "marked.las", "-o", tmp_path / "q", "-q", "--engine", engine)
+    assert code == 0 and "left out" not in err

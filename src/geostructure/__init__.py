@@ -30,6 +30,7 @@ _PUBLIC = {
     "OutputError": "errors",
     "ParameterError": "errors",
     "GeoStructureWarning": "errors",
+    "GeoStructureNote": "errors",
     "read_cloud": "io.readers",
     "write_outputs": "io.writers",
     "verified_record": "io.outdir",

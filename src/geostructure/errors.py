@@ -73,3 +73,20 @@ class GeoStructureWarning(UserWarning):
     >>> issubclass(caught[0].category, GeoStructureWarning)
     True
     """
+
+
+class GeoStructureNote(GeoStructureWarning):
+    """Something the run did as asked or as the file asks, worth knowing but not a problem
+    (points a LAS file marks withheld or as noise, left out). The command line prints these
+    as ``geostructure: note: ...``, and not at all under ``-q``. A note is a
+    :class:`GeoStructureWarning`: code that catches those catches notes too.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warnings.warn("scan.las: 12 point(s) left out, as the file marks them: 12 withheld.", GeoStructureNote)
+    >>> issubclass(caught[0].category, GeoStructureWarning)
+    True
+    """

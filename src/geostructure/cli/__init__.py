@@ -15,7 +15,7 @@ import warnings
 from pathlib import Path
 
 from .. import __version__
-from ..errors import GeoStructureError, GeoStructureWarning
+from ..errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
 from .measure import add_measure_commands
 from .reconstruct import add_reconstruct_commands
 from .rockmass import add_rockmass_commands
@@ -31,7 +31,7 @@ def main(argv=None, parser=None) -> int:
         return EXIT_USER_ERROR
     with warnings.catch_warnings():
         warnings.simplefilter("always")
-        warnings.showwarning = _warning_printer()
+        warnings.showwarning = _warning_printer(quiet=getattr(args, "quiet", False))
         try:
             return args.run(args) or 0
         except GeoStructureError as exc:
@@ -76,16 +76,19 @@ def as_options(message: str) -> str:
     return _PARAMETER.sub(option, message)
 
 
-def _warning_printer():
+def _warning_printer(quiet: bool = False):
     """``warnings.showwarning`` for one command: each message once, however often a value is
-    checked (warnings' own "once" forgets whenever a filter changes)."""
+    checked (warnings' own "once" forgets whenever a filter changes); notes not when ``quiet``."""
     shown = set()
 
     def show(message, category, filename, lineno, file=None, line=None):
         if str(message) in shown:
             return
         shown.add(str(message))
-        if issubclass(category, GeoStructureWarning):
+        if issubclass(category, GeoStructureNote):
+            if not quiet:
+                print(f"geostructure: note: {message}", file=sys.stderr)
+        elif issubclass(category, GeoStructureWarning):
             print(f"geostructure: warning: {message}", file=sys.stderr)
         else:  # a library's own warning got past us: our defect, said as such, never passed off as advice
             print(

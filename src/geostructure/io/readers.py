@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud import Cloud
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, GeoStructureNote
 from .checks import check_las_step, check_ply_step, check_points
 from .crs import check_cloud_crs
 
@@ -210,8 +210,43 @@ def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, *, seed: int = 
     return points, normals
 
 
+#: LAS classes of the points a survey marks as noise: 7, low point (noise), and 18, high
+#: noise (LAS 1.4). They are left out, as the withheld points are, which the LAS
+#: specification says are to be treated as deleted.
+NOISE_CLASSES = (7, 18)
+
+
+def las_chunk_points(chunk) -> tuple[np.ndarray, np.ndarray]:
+    """A laspy chunk's points (N, 3) float64, without those the file marks withheld or
+    classifies as noise (:data:`NOISE_CLASSES`); and how many of each were left out (2,)."""
+    points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+    withheld = np.asarray(chunk.withheld, dtype=bool)
+    noise = np.isin(np.asarray(chunk.classification), NOISE_CLASSES) & ~withheld
+    left_out = np.array([np.count_nonzero(withheld), np.count_nonzero(noise)])
+    return (points[~(withheld | noise)] if left_out.any() else points), left_out
+
+
+def note_left_out(path, kept: int, left_out) -> None:
+    """Say which points of a LAS file were left out (:func:`las_chunk_points`), and refuse a
+    file left with none; ``kept``: the points kept."""
+    withheld, noise = (int(n) for n in left_out)
+    if not withheld + noise:
+        return
+    parts = ", ".join(
+        f"{n:,} {what}" for n, what in ((withheld, "withheld"), (noise, "noise (LAS classes 7 and 18)")) if n
+    )
+    if not kept:
+        raise GeoStructureError(f"{path}: every point is marked withheld or noise ({parts}); none is left to measure.")
+    warnings.warn(
+        f"{path}: {withheld + noise:,} point(s) left out, as the file marks them: {parts}.",
+        GeoStructureNote,
+        stacklevel=2,
+    )
+
+
 def read_las(path: Path) -> Cloud:
-    """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared."""
+    """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared;
+    points marked withheld or noise left out (:func:`las_chunk_points`)."""
     import laspy
 
     check_las_header(path)
@@ -220,13 +255,13 @@ def read_las(path: Path) -> Cloud:
         crs = las_crs(header, path)  # refused before the points are read
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
-        parts = [
-            np.column_stack([np.asarray(c.x), np.asarray(c.y), np.asarray(c.z)])
-            for c in reader.chunk_iterator(LAS_CHUNK)
-        ]
-    points = np.vstack(parts) if parts else np.empty((0, 3))
-    if len(points) < expected:
-        raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {len(points)}.")
+        chunks = [las_chunk_points(c) for c in reader.chunk_iterator(LAS_CHUNK)]
+    points = np.vstack([c[0] for c in chunks]) if chunks else np.empty((0, 3))
+    left_out = sum((c[1] for c in chunks), np.zeros(2, dtype=np.int64))
+    if len(points) + left_out.sum() < expected:
+        held = len(points) + int(left_out.sum())
+        raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {held}.")
+    note_left_out(path, len(points), left_out)
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
     check_las_step(points, grid[0], path)
     return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid)

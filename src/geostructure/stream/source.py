@@ -22,7 +22,15 @@ from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
 from ..io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
-from ..io.readers import DEFAULT_MESH_SAMPLES, check_las_header, las_crs, ply_vertices, read_cloud
+from ..io.readers import (
+    DEFAULT_MESH_SAMPLES,
+    check_las_header,
+    las_chunk_points,
+    las_crs,
+    note_left_out,
+    ply_vertices,
+    read_cloud,
+)
 from ..io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
@@ -220,15 +228,18 @@ def _las_chunks(path: Path, rows: int, steps_checked: set):
         header = reader.header
         grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
         meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header, path), source=str(path)), "grid": grid}
-        seen = 0
+        seen, kept, left_out = 0, 0, np.zeros(2, dtype=np.int64)
         for chunk in reader.chunk_iterator(rows):
-            points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+            points, chunk_left_out = las_chunk_points(chunk)
             if not seen:
                 _check_step(points, las_step(header.scales), path, steps_checked)
-            seen += len(points)
+            seen += len(points) + int(chunk_left_out.sum())
+            kept += len(points)
+            left_out += chunk_left_out
             yield points, None, meta
         if seen < header.point_count:
             raise GeoStructureError(f"{path}: the header promises {header.point_count} points, the file holds {seen}.")
+        note_left_out(path, kept, left_out)
         if seen == 0:
             yield np.zeros((0, 3)), None, meta
 
