@@ -97,6 +97,13 @@ def test_points_a_las_marks_withheld_or_noise_are_left_out(tmp_path, points, poi
     keep = ~(withheld | np.isin(classification, (7, 18)))
     np.testing.assert_allclose(cloud.points, points[keep], atol=0.0006, rtol=0)
     assert len(cloud.points) == (450 if point_format < 6 else 440)
+    noise = 30 if point_format < 6 else 40  # the noise not withheld too
+    assert cloud.left_out == {"withheld": 20, "noise": noise}  # for run.json
+    from geostructure.io.tiles import read_tiles
+
+    other = write_marked_las(tmp_path / "other.las", points + [0, 0, 100], classification, withheld, point_format)
+    with pytest.warns(GeoStructureNote):
+        assert read_tiles([path, other]).left_out == {"withheld": 40, "noise": 2 * noise}
     with pytest.raises(GeoStructureError, match="every point is marked withheld or noise"):
         read_cloud(write_marked_las(tmp_path / "all.las", points, classification, np.ones(len(points), bool), 6))
 

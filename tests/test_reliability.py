@@ -561,6 +561,7 @@ def test_points_a_las_marks_withheld_or_noise_are_not_measured(tmp_path, capsys,
         and "note: " in err
         and "500 point(s) left out, as the file marks them: 300 withheld, 200 noise" in err
     )
-    assert json.loads((tmp_path / "o" / "run.json").read_text())["counts"]["input"] == n
+    record = json.loads((tmp_path / "o" / "run.json").read_text())
+    assert record["counts"]["input"] == n and record["left_out"] == {"withheld": 300, "noise": 200}
     code, _, err = run_cli(capsys, "measure", tmp_path / "marked.las", "-o", tmp_path / "q", "-q", "--engine", engine)
     assert code == 0 and "left out" not in err

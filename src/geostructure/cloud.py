@@ -57,6 +57,9 @@ class Cloud:
     las_grid : ((3,), (3,)) float64 or None
         The scales and offsets of a LAS/LAZ input's integer coordinates, so ``regions.laz``
         stores its points back on the very integers they were read from.
+    left_out : dict or None
+        Points the input file held but marked to be left out, by why (``{"withheld": 300,
+        "noise": 200}`` for a LAS/LAZ), for ``run.json``; None when there were none.
 
     Examples
     --------
@@ -74,6 +77,7 @@ class Cloud:
     source: str = "<memory>"
     enu_origin: tuple | None = None
     las_grid: tuple | None = None
+    left_out: dict | None = None
 
     def __post_init__(self):
         self.local = as_points(self.local, "local")
@@ -90,7 +94,7 @@ class Cloud:
 
     @classmethod
     def from_points(
-        cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None, las_grid=None
+        cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None, las_grid=None, left_out=None
     ) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = as_points(points)
@@ -107,6 +111,7 @@ class Cloud:
             source=str(source),
             enu_origin=enu_origin,
             las_grid=las_grid,
+            left_out=left_out,
         )
 
     @property
@@ -120,7 +125,9 @@ class Cloud:
     def subset(self, mask: np.ndarray) -> "Cloud":
         """The cloud restricted to ``mask`` (boolean or index array)."""
         normals = None if self.normals is None else self.normals[mask]
-        return Cloud(self.local[mask], self.offset, self.crs, normals, self.source, self.enu_origin, self.las_grid)
+        return Cloud(
+            self.local[mask], self.offset, self.crs, normals, self.source, self.enu_origin, self.las_grid, self.left_out
+        )
 
     @property
     def name(self) -> str:

@@ -226,6 +226,21 @@ def las_chunk_points(chunk) -> tuple[np.ndarray, np.ndarray]:
     return (points[~(withheld | noise)] if left_out.any() else points), left_out
 
 
+def left_out_record(left_out) -> dict | None:
+    """``run.json``'s record of the points left out (:func:`las_chunk_points`'s counts), or None."""
+    record = {why: int(n) for why, n in zip(("withheld", "noise"), left_out) if n}
+    return record or None
+
+
+def merged_left_out(records) -> dict | None:
+    """Several files' :func:`left_out_record` as one."""
+    total: dict = {}
+    for record in records:
+        for why, n in (record or {}).items():
+            total[why] = total.get(why, 0) + n
+    return total or None
+
+
 def note_left_out(path, kept: int, left_out) -> None:
     """Say which points of a LAS file were left out (:func:`las_chunk_points`), and refuse a
     file left with none; ``kept``: the points kept."""
@@ -264,7 +279,7 @@ def read_las(path: Path) -> Cloud:
     note_left_out(path, len(points), left_out)
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
     check_las_step(points, grid[0], path)
-    return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid)
+    return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid, left_out=left_out_record(left_out))
 
 
 def check_las_header(path: Path) -> None:

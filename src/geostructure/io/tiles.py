@@ -18,7 +18,7 @@ import numpy as np
 from ..cloud import Cloud
 from ..errors import GeoStructureError
 from .crs import check_cloud_crs, parse_crs
-from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, read_cloud
+from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, merged_left_out, read_cloud
 
 #: Files named in a message before it says how many more there are.
 NAMED_FILES = 3
@@ -109,6 +109,7 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
         crs=clouds[0].crs,
         normals=normals,
         las_grid=grids[0] if same_grid else None,
+        left_out=merged_left_out(c.left_out for c in clouds),
     )
 
 

@@ -103,6 +103,8 @@ def run_record(result, extra: dict | None = None) -> dict:
     }
     if result.detection:
         record["detection"] = result.detection
+    if result.cloud.left_out:  # points the file marked to be left out, not in counts.input
+        record["left_out"] = dict(result.cloud.left_out)
     record.update(extra or {})
     return record
 

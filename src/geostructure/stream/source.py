@@ -27,6 +27,8 @@ from ..io.readers import (
     check_las_header,
     las_chunk_points,
     las_crs,
+    left_out_record,
+    merged_left_out,
     note_left_out,
     ply_vertices,
     read_cloud,
@@ -75,6 +77,7 @@ class Spill:
     crs: str | None = None
     las_grid: tuple | None = None
     has_normals: bool = False
+    left_out: dict | None = None
 
     @property
     def points_path(self) -> str:
@@ -91,7 +94,14 @@ class Spill:
     def cloud(self) -> Cloud:
         """A Cloud with no points that carries the survey's offset, CRS and LAS grid, for the
         writers and ``run.json``."""
-        return Cloud(np.zeros((0, 3)), self.offset, crs=self.crs, source=self.source, las_grid=self.las_grid)
+        return Cloud(
+            np.zeros((0, 3)),
+            self.offset,
+            crs=self.crs,
+            source=self.source,
+            las_grid=self.las_grid,
+            left_out=self.left_out,
+        )
 
     def chunks(self, rows: int) -> list[Chunk]:
         """The spill cut into chunks of at most ``rows`` points."""
@@ -144,7 +154,7 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     remove_stale_spills(folder)
     folder = Path(tempfile.mkdtemp(prefix=f"{SPILL_PREFIX}{os.getpid()}-", dir=folder))
     spill = Spill(folder, 0, np.full(3, np.inf), np.full(3, -np.inf), describe(paths))
-    grids, first, steps_checked = [], None, set()
+    grids, left_outs, first, steps_checked = [], [], None, set()
     try:
         with open(spill.folder / "points.f8", "wb") as out, open(spill.folder / "normals.f8", "wb") as out_n:
             all_normals = True
@@ -172,8 +182,10 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                 else:
                     check_same_crs(first[0], meta["cloud"], first[1], path)
                 grids.append(meta.get("grid"))
+                left_outs.append(meta["cloud"].left_out)
                 report("read", i + 1, len(paths))
         spill.has_normals = all_normals and spill.n_points > 0
+        spill.left_out = merged_left_out(left_outs)
         spill.crs = first[0].crs if first else None
         same = all(g is not None for g in grids) and all(
             np.array_equal(g[0], grids[0][0]) and np.array_equal(g[1], grids[0][1]) for g in grids
@@ -240,6 +252,7 @@ def _las_chunks(path: Path, rows: int, steps_checked: set):
         if seen < header.point_count:
             raise GeoStructureError(f"{path}: the header promises {header.point_count} points, the file holds {seen}.")
         note_left_out(path, kept, left_out)
+        meta["cloud"].left_out = left_out_record(left_out)
         if seen == 0:
             yield np.zeros((0, 3)), None, meta
 
