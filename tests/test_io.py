@@ -146,6 +146,23 @@ def test_text_layouts(tmp_path, content, header):
     np.testing.assert_allclose(read_cloud(path).points, pts)
 
 
+@pytest.mark.parametrize("separator", [";", "\t", " "])
+@pytest.mark.parametrize("header", ["", "x;y;z\n"])
+def test_decimal_commas_are_read(tmp_path, separator, header):
+    """A spreadsheet in much of Europe saves 657500,25;4984000,5;300,125: it was refused
+    ("'5;2' is not a number"), the comma taken for the separator."""
+    pts = np.array(
+        [[657_500.25, 4_984_000.5, 300.125], [657_501.0, 4_984_001.75, 300.5], [657_502.5, 4_984_000.0, 301.0]]
+    )
+    rows = [separator.join(f"{v:.3f}".replace(".", ",") for v in row) for row in pts]
+    path = tmp_path / "eu.csv"
+    path.write_text(header.replace(";", separator) + "\n".join(rows) + "\n")
+    np.testing.assert_array_equal(read_cloud(path).points, pts)
+    path.write_text(header.replace(";", separator) + "\n".join([*rows, separator.join(["1,5", "2,5", "x"])]) + "\n")
+    with pytest.raises(GeoStructureError, match="line .*: 'x' is not a number"):
+        read_cloud(path)
+
+
 @pytest.mark.real_data
 def test_real_outcrop_text_in_utm():
     cloud = read_cloud(shared_file("jfm_outcrop_test/test.txt"))

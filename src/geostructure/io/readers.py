@@ -338,32 +338,38 @@ _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$"
 
 
 def read_text(path: Path) -> Cloud:
-    """XYZ/TXT/CSV: space, comma, semicolon or tab separated; optional header; x y z first."""
+    """XYZ/TXT/CSV: space, comma, semicolon or tab separated; optional header; x y z first.
+    Decimal commas (``1,5;2,25;3,0``, as a spreadsheet in much of Europe saves its CSV) are
+    read where the separator is a semicolon, a tab or spaces."""
     first_lines = _first_data_lines(path, 2)
     if not first_lines:
         raise GeoStructureError(f"{path}: holds no points.")
-    delimiter = _sniff_delimiter(first_lines[-1][1])
-    header = not all(_NUMBER.match(f) for f in _split(first_lines[0][1], delimiter)[:3])
+    delimiter, decimal_comma = _sniff_layout(first_lines[-1][1])
+    first = _decimal_points(first_lines[0][1]) if decimal_comma else first_lines[0][1]
+    header = not all(_NUMBER.match(f) for f in _split(first, delimiter)[:3])
     skip = first_lines[0][0] if header else first_lines[0][0] - 1
     try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
-        with warnings.catch_warnings():  # "input contained no data": said below in our words
-            warnings.simplefilter("ignore", UserWarning)
+        with warnings.catch_warnings(), open(path, encoding="utf-8-sig") as fh:
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": said below in our words
             points = np.loadtxt(
-                path,
+                (_decimal_points(line) for line in fh) if decimal_comma else fh,
                 dtype=np.float64,
                 delimiter=delimiter,
                 usecols=(0, 1, 2),
                 comments=("#", "//"),
                 skiprows=skip,
                 ndmin=2,
-                encoding="utf-8-sig",
             )
     except UnicodeDecodeError:
         raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):
-        _raise_bad_line(path, delimiter, skip)
+        _raise_bad_line(path, delimiter, skip, decimal_comma)
         raise
     return Cloud.from_points(points, source=str(path))
+
+
+def _decimal_points(line: str) -> str:
+    return line.replace(",", ".")
 
 
 def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
@@ -381,11 +387,12 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
     return found
 
 
-def _raise_bad_line(path: Path, delimiter: str | None, skip: int) -> None:
+def _raise_bad_line(path: Path, delimiter: str | None, skip: int, decimal_comma: bool = False) -> None:
     with open(path, "r", encoding="utf-8-sig") as fh:
         for number, line in enumerate(fh, start=1):
             if number <= skip or not line.strip() or line.lstrip().startswith(("#", "//")):
                 continue
+            line = _decimal_points(line) if decimal_comma else line
             fields = _split(line, delimiter)[:3]
             if len(fields) < 3:
                 raise GeoStructureError(f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed.")
@@ -394,11 +401,21 @@ def _raise_bad_line(path: Path, delimiter: str | None, skip: int) -> None:
                 raise GeoStructureError(f"{path}: line {number}: '{bad}' is not a number.")
 
 
-def _sniff_delimiter(line: str) -> str | None:
-    for delim in ("\t", ",", ";"):
+def _sniff_layout(line: str) -> tuple[str | None, bool]:
+    """A data line's separator (None: any run of whitespace) and whether its decimal mark is
+    a comma. A tab or a semicolon is the separator, and a comma beside it a decimal mark;
+    commas alone separate, unless the fields they give are not numbers while the
+    whitespace's are with commas read as points (``1,5 2,25 3,0``)."""
+    for delim in ("\t", ";"):
         if delim in line:
-            return delim
-    return None  # any run of whitespace
+            return delim, "," in line
+    if "," not in line:
+        return None, False
+    by_comma, by_space = _split(line, ","), line.split()
+    if len(by_space) >= 3 and not all(_NUMBER.match(f) for f in by_comma[:3]):
+        if all(_NUMBER.match(_decimal_points(f)) for f in by_space[:3]):
+            return None, True
+    return ",", False
 
 
 def _split(line: str, delimiter: str | None) -> list[str]:
