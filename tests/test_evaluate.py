@@ -111,6 +111,24 @@ def test_truth_with_two_of_three_angles(tmp_path):
     assert truth.has_centres.tolist() == [True, False, False]
 
 
+def test_truth_saved_by_a_european_spreadsheet(tmp_path):
+    """Semicolons between cells, decimal commas: it was refused ("the header has no 'surface'
+    column"), the whole line read as one cell. Names keep their commas."""
+    us = tmp_path / "us.csv"
+    us.write_text(
+        'surface,strike,dip,dip_direction,center_x\n"a, north",,40.5,89.25,657500.5\nb,10.5,30,,\nc,350,20.5(W),,\n'
+    )
+    eu = tmp_path / "eu.csv"
+    eu.write_text(
+        "surface;strike;dip;dip_direction;center_x\na, north;;40,5;89,25;657500,5\nb;10,5;30;;\nc;350;20,5(W);;\n"
+    )
+    a, b = read_truth(us), read_truth(eu)
+    assert a.names == b.names == ["a, north", "b", "c"]
+    np.testing.assert_array_equal(a.dip, b.dip)
+    np.testing.assert_array_equal(a.dip_direction, b.dip_direction)
+    np.testing.assert_array_equal(a.centres, b.centres)
+
+
 @pytest.mark.parametrize(
     "body,message",
     [

@@ -79,6 +79,16 @@ def test_gcp_csv_errors_name_the_file_and_the_problem(tmp_path):
         read_gcp_csv(bad)
 
 
+def test_gcp_csv_with_semicolons_and_decimal_commas(tmp_path):
+    us, eu = tmp_path / "us.csv", tmp_path / "eu.csv"
+    us.write_text("name,E,N,Up,x,y,z\nA,657500.25,4984000.5,300.125,0.5,1,2\nB,657510,4984010,301,1,2.5,3\n")
+    eu.write_text("name;E;N;Up;x;y;z\nA;657500,25;4984000,5;300,125;0,5;1;2\nB;657510;4984010;301;1;2,5;3\n")
+    assert read_gcp_csv(us) == read_gcp_csv(eu)
+    eu.write_text("name;E;N;Up;x;y;z\nA;657500,25;4984000,5\n")  # a short row: named, not a traceback
+    with pytest.raises(GeoStructureError, match="line 2"):
+        read_gcp_csv(eu)
+
+
 @pytest.mark.real_data
 def test_opensfm_gcp_json_of_the_berlin_set(tmp_path):
     """WGS84 positions become local ENU metres; OpenSfM's normalised projections become pixels."""

@@ -29,6 +29,7 @@ from ..orientation import (
     normal_from_orientation,
     orientation_from_normals,
 )
+from .usercsv import read_rows
 
 QUADRANTS = {
     "N": 0,
@@ -106,7 +107,7 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
         raise GeoStructureError(f"{path}: no such ground-truth file.")
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's byte-order mark
-            rows = list(csv.reader(fh))
+            rows = read_rows(fh)
     except UnicodeDecodeError:
         raise InputError(f"{path}: is not a text CSV (not UTF-8); save the ground truth as UTF-8 CSV.") from None
     except csv.Error as exc:

@@ -26,6 +26,7 @@ import numpy as np
 from ..alignment import similarity as umeyama  # the name control-point code and its tests know
 from ..errors import GeoStructureError
 from ..geodesy import geodetic_to_enu
+from ..io.usercsv import read_rows
 from ..orientation import Frame
 
 
@@ -102,7 +103,9 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
     path = Path(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = list(csv.DictReader(fh))
+            table = [r for r in read_rows(fh) if any(c.strip() for c in r)]
+        width = len(table[0]) if table else 0  # a short row's missing cells are None, as csv.DictReader gives them
+        rows = [dict(zip(table[0], r + [None] * (width - len(r)))) for r in table[1:]]
     except FileNotFoundError:
         raise GeoStructureError(f"{path}: no such file.") from None
     except (UnicodeDecodeError, csv.Error) as exc:
