@@ -163,6 +163,33 @@ def test_decimal_commas_are_read(tmp_path, separator, header):
         read_cloud(path)
 
 
+@pytest.mark.parametrize(
+    "header,row",
+    [
+        ("id,x,y,z\n", "{i},{x},{y},{z}\n"),
+        ("Point;Easting (m);Northing (m);Elevation (m);Intensity\n", "P{i};{x};{y};{z};17\n"),
+        ("X Y Z\n", "{x} {y} {z}\n"),
+        ('"z","x","y"\n', "{z},{x},{y}\n"),
+    ],
+)
+def test_text_columns_named_by_the_header(tmp_path, header, row):
+    """A point id first (id,x,y,z) was read as x, and the true z dropped: exit 0, every
+    plane wrong. A header that names the coordinates now says where they are."""
+    pts = np.array(
+        [[657_500.25, 4_984_000.5, 300.125], [657_501.0, 4_984_001.75, 300.5], [657_502.5, 4_984_000.0, 301.0]]
+    )
+    path = tmp_path / "survey.csv"
+    path.write_text(header + "".join(row.format(i=i, x=x, y=y, z=z) for i, (x, y, z) in enumerate(pts)))
+    np.testing.assert_array_equal(read_cloud(path).points, pts)
+
+
+def test_text_in_latitude_and_longitude_is_refused(tmp_path):
+    path = tmp_path / "gps.csv"
+    path.write_text("Latitude,Longitude,Height\n45.1,7.2,300\n45.2,7.3,301\n45.3,7.1,302\n")
+    with pytest.raises(GeoStructureError, match="latitude and longitude, in degrees"):
+        read_cloud(path)
+
+
 @pytest.mark.real_data
 def test_real_outcrop_text_in_utm():
     cloud = read_cloud(shared_file("jfm_outcrop_test/test.txt"))

@@ -338,8 +338,8 @@ _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$"
 
 
 def read_text(path: Path) -> Cloud:
-    """XYZ/TXT/CSV: space, comma, semicolon or tab separated; optional header; x y z first.
-    Decimal commas (``1,5;2,25;3,0``, as a spreadsheet in much of Europe saves its CSV) are
+    """XYZ/TXT/CSV: space, comma, semicolon or tab separated; x y z first, or where a header
+    names them (:func:`_coordinate_columns`). Decimal commas (``1,5;2,25;3,0``, as a spreadsheet in much of Europe saves its CSV) are
     read where the separator is a semicolon, a tab or spaces."""
     first_lines = _first_data_lines(path, 2)
     if not first_lines:
@@ -348,6 +348,7 @@ def read_text(path: Path) -> Cloud:
     first = _decimal_points(first_lines[0][1]) if decimal_comma else first_lines[0][1]
     header = not all(_NUMBER.match(f) for f in _split(first, delimiter)[:3])
     skip = first_lines[0][0] if header else first_lines[0][0] - 1
+    columns = _coordinate_columns(_split(first, delimiter), path) if header else (0, 1, 2)
     try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
         with warnings.catch_warnings(), open(path, encoding="utf-8-sig") as fh:
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data": said below in our words
@@ -355,7 +356,7 @@ def read_text(path: Path) -> Cloud:
                 (_decimal_points(line) for line in fh) if decimal_comma else fh,
                 dtype=np.float64,
                 delimiter=delimiter,
-                usecols=(0, 1, 2),
+                usecols=columns,
                 comments=("#", "//"),
                 skiprows=skip,
                 ndmin=2,
@@ -363,9 +364,33 @@ def read_text(path: Path) -> Cloud:
     except UnicodeDecodeError:
         raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):
-        _raise_bad_line(path, delimiter, skip, decimal_comma)
+        _raise_bad_line(path, delimiter, skip, columns, decimal_comma)
         raise
     return Cloud.from_points(points, source=str(path))
+
+
+#: Header names of the coordinate columns (lower case, without quotes, spaces or a unit in
+#: brackets): x, y and z, or a surveyor's easting, northing and elevation.
+AXIS_NAMES = (
+    ("x", "easting", "east", "e"),
+    ("y", "northing", "north", "n"),
+    ("z", "elevation", "height", "h", "up", "alt", "altitude"),
+)
+_GEOGRAPHIC_NAMES = ({"lat", "latitude"}, {"lon", "long", "longitude"})
+
+
+def _coordinate_columns(names: list[str], path) -> tuple[int, int, int]:
+    """The columns a header names as x, y and z (:data:`AXIS_NAMES`; ``id,x,y,z`` gives 1, 2,
+    3), else the first three; a header of latitude and longitude is refused: degrees are not
+    lengths."""
+    keys = [re.sub(r"\(.*?\)|\[.*?\]|[\"'\s/]", "", name).lower() for name in names]
+    if all(set(keys) & group for group in _GEOGRAPHIC_NAMES):
+        raise GeoStructureError(
+            f"{path}: its columns are latitude and longitude, in degrees, which are not lengths; project the "
+            f"cloud to a metric coordinate system (UTM) and measure that."
+        )
+    found = [next((i for i, key in enumerate(keys) if key in axis), None) for axis in AXIS_NAMES]
+    return tuple(found) if None not in found and len(set(found)) == 3 else (0, 1, 2)
 
 
 def _decimal_points(line: str) -> str:
@@ -387,16 +412,19 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
     return found
 
 
-def _raise_bad_line(path: Path, delimiter: str | None, skip: int, decimal_comma: bool = False) -> None:
+def _raise_bad_line(path: Path, delimiter: str | None, skip: int, columns=(0, 1, 2), decimal_comma=False) -> None:
     with open(path, "r", encoding="utf-8-sig") as fh:
         for number, line in enumerate(fh, start=1):
             if number <= skip or not line.strip() or line.lstrip().startswith(("#", "//")):
                 continue
             line = _decimal_points(line) if decimal_comma else line
-            fields = _split(line, delimiter)[:3]
-            if len(fields) < 3:
-                raise GeoStructureError(f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed.")
-            bad = next((f for f in fields if not _NUMBER.match(f)), None)
+            fields = _split(line, delimiter)
+            if len(fields) <= max(columns):
+                raise GeoStructureError(
+                    f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed"
+                    + (f" (columns {', '.join(str(c + 1) for c in columns)})." if max(columns) > 2 else ".")
+                )
+            bad = next((fields[c] for c in columns if not _NUMBER.match(fields[c])), None)
             if bad is not None:
                 raise GeoStructureError(f"{path}: line {number}: '{bad}' is not a number.")
 
