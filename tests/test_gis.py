@@ -142,3 +142,28 @@ def test_azimuths_are_read_against_true_north(tmp_path, capsys, engine):
     if engine == "memory":  # the report's header says which north, and by how much
         assert run_cli(capsys, "report", tmp_path / "true", "-q")[0] == 0
         assert "true north (grid convergence +1.41" in (tmp_path / "true" / "report.html").read_text()
+
+
+@pytest.mark.parametrize("engine", ["memory", "stream"])
+def test_a_crs_given_over_the_files_own_is_warned_of(tmp_path, capsys, engine):
+    """A LAS declaring UTM 33N given --crs in Oregon feet was measured in feet without a
+    word (its sizes read 3.28 times too large, its planes placed in Oregon). --crs still wins,
+    as it fixes a mislabelled file, but the command now says so; the same CRS passes quietly."""
+    import laspy
+    from pyproj import CRS
+
+    points = outcrop_scene(width=6.0, height=4.0, seed=1, offset=(657_500.0, 4_984_000.0, 300.0)).cloud.points
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, [657_000.0, 4_984_000.0, 0.0]
+    header.add_crs(CRS.from_user_input(UTM_33N))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.write(str(tmp_path / "utm.las"))
+    options = ["--engine", engine, "-q"] + (["--detector", "voxel"] if engine == "stream" else [])
+    code, _, err = run_cli(capsys, "measure", tmp_path / "utm.las", "-o", tmp_path / "same", "--crs", UTM_33N, *options)
+    assert code == 0 and "warning" not in err, err
+    code, _, err = run_cli(
+        capsys, "measure", tmp_path / "utm.las", "-o", tmp_path / "other", "--crs", "EPSG:2992", *options
+    )
+    assert code == 0 and "declares WGS 84 / UTM zone 33N, but --crs gives NAD83 / Oregon GIC Lambert (ft)" in err, err
+    assert json.loads((tmp_path / "other" / "run.json").read_text())["unit"]["symbol"] == "ft"

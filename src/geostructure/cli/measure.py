@@ -11,7 +11,7 @@ from pathlib import Path
 from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.crs import metres_per_unit, true_north_frame
+from ..io.crs import given_crs, metres_per_unit, true_north_frame
 from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
@@ -154,8 +154,8 @@ def run_measure(args) -> int:
 
 def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=()) -> int:
     """Measure; write the outputs, the evaluation and the report as one set; print the planes."""
-    crs = crs_from(args)
-    if crs is not None:  # given: it is the cloud's (over any its file declared)
+    crs = given_crs(crs_from(args), cloud.crs, cloud.source)
+    if crs != cloud.crs:
         cloud = dataclasses.replace(cloud, crs=crs)
     north = None
     if cloud.crs is not None and not args.grid_north and len(cloud):

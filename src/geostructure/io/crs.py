@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError, InputError
+from ..errors import GeoStructureError, GeoStructureWarning, InputError
 
 
 @lru_cache(maxsize=16)
@@ -84,6 +84,33 @@ def check_cloud_crs(crs: str | None, source: str) -> None:
             f"{axes[0].unit_name}; dips need one unit on all three axes: convert the heights to the "
             f"positions' unit first."
         )
+
+
+def given_crs(given: str | None, declared: str | None, source: str) -> str | None:
+    """The CRS a cloud is measured in: ``--crs`` (``given``) when there is one, over the one
+    its file ``declared``, with a warning where they differ (a mislabelled file is fixed
+    this way, but its coordinates are not reprojected: a file in feet given a CRS in metres
+    would have every size off by 3.28); else the declared one.
+
+    Examples
+    --------
+    >>> given_crs("EPSG:32633", None, "scan.ply")
+    'EPSG:32633'
+    >>> given_crs(None, "EPSG:32633", "scan.las")
+    'EPSG:32633'
+    """
+    if given is None or declared is None:
+        return given or declared
+    if not parse_crs(given).equals(parse_crs(declared, source), ignore_axis_order=True):
+        import warnings  # lazy: only for a CRS given over another
+
+        warnings.warn(
+            f"{source}: declares {parse_crs(declared, source).name}, but --crs gives {parse_crs(given).name}; "
+            f"measured in the latter, as asked, with the coordinates as they are (not reprojected).",
+            GeoStructureWarning,
+            stacklevel=2,
+        )
+    return given
 
 
 def grid_convergence(crs: str, xy) -> np.ndarray:

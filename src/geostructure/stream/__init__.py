@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from ..io.crs import true_north_frame
+from ..io.crs import given_crs, true_north_frame
 from ..io.readers import DEFAULT_MESH_SAMPLES
 from ..orientation import Frame
 from ..params import Params
@@ -52,7 +52,7 @@ def measure_stream(
     """
     report = progress or (lambda stage, done, total: None)
     spill = spill_inputs(paths, chunk_points, mesh_samples=mesh_samples, progress=report, folder=spill_dir)
-    spill.crs = crs or spill.crs
+    spill.crs = given_crs(crs, spill.crs, spill.source)
     north = None
     if true_north:
         frame, north = true_north_frame(frame, spill.crs, spill.lower, spill.upper)
