@@ -308,6 +308,8 @@ def test_measure_with_kinematics_and_its_bad_options(tmp_path, capsys):
     assert "--friction" in capsys.readouterr().err and not out.exists()  # refused before any work
     assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "--friction", "30", "--slope", "95/180"]) == 2
     assert "at most 90" in capsys.readouterr().err and not out.exists()
+    assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "--friction", "30", "--slope", "75/400"]) == 2
+    assert "dip direction must be 0 to 360 degrees, not 400" in capsys.readouterr().err and not out.exists()
     assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "--friction", "30", "-q"]) == 0
     assert json.load(open(out / "run.json"))["kinematics"]["slope"]["source"] == "fitted"
     assert (out / "wedges.csv").is_file() and (out / "planes.csv").is_file()

@@ -275,6 +275,8 @@ def _dip_and_direction(option: str, text: str, example: str, alternative: str = 
         raise ParameterError(
             f"{option} takes DIP/DIPDIR in degrees (e.g. {example}){alternative}, not {text!r}."
         ) from None
+    if not 0.0 <= dip_direction <= 360.0:  # 75/400 is a slip, not 75/40
+        raise ParameterError(f"{option}: the dip direction must be 0 to 360 degrees, not {dip_direction:g}.")
     return dip, dip_direction
 
 
