@@ -183,6 +183,21 @@ def test_text_columns_named_by_the_header(tmp_path, header, row):
     np.testing.assert_array_equal(read_cloud(path).points, pts)
 
 
+def test_pts_blocks_open_with_their_point_count(tmp_path):
+    """Leica's and FARO's PTS: each scan's block starts with a line of its count. The file was
+    refused ("line 1 has 1 field(s)") although .pts is a suffix the reader claims."""
+    pts = np.array(
+        [[657_500.25, 4_984_000.5, 300.125], [657_501.0, 4_984_001.75, 300.5], [657_502.5, 4_984_000.0, 301.0]]
+    )
+    rows = [f"{x} {y} {z} -1200 10 20 30\n" for x, y, z in pts]
+    path = tmp_path / "scan.pts"
+    path.write_text("# two scans\n2\n" + "".join(rows[:2]) + "1\n" + rows[2])
+    np.testing.assert_array_equal(read_cloud(path).points, pts)
+    path.write_text("2\n" + "".join(rows[:2]) + "1\n" + rows[2].replace("300.5", "x").replace("301.0", "x"))
+    with pytest.raises(GeoStructureError, match="line 5: 'x' is not a number"):
+        read_cloud(path)
+
+
 def test_text_in_latitude_and_longitude_is_refused(tmp_path):
     path = tmp_path / "gps.csv"
     path.write_text("Latitude,Longitude,Height\n45.1,7.2,300\n45.2,7.3,301\n45.3,7.1,302\n")

@@ -338,22 +338,28 @@ _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$"
 
 
 def read_text(path: Path) -> Cloud:
-    """XYZ/TXT/CSV: space, comma, semicolon or tab separated; x y z first, or where a header
-    names them (:func:`_coordinate_columns`). Decimal commas (``1,5;2,25;3,0``, as a spreadsheet in much of Europe saves its CSV) are
+    """XYZ/TXT/CSV/PTS: space, comma, semicolon or tab separated; x y z first, or where a
+    header names them (:func:`_coordinate_columns`); a PTS file's lines of a block's point
+    count skipped. Decimal commas (``1,5;2,25;3,0``, as a spreadsheet in much of Europe saves its CSV) are
     read where the separator is a semicolon, a tab or spaces."""
     first_lines = _first_data_lines(path, 2)
     if not first_lines:
         raise GeoStructureError(f"{path}: holds no points.")
+    # A PTS file (Leica, FARO) opens each block of points with a line holding its count.
+    counted = len(first_lines) == 2 and first_lines[0][1].strip().isdigit() and len(first_lines[1][1].split()) >= 3
+    if counted:
+        first_lines = first_lines[1:]
     delimiter, decimal_comma = _sniff_layout(first_lines[-1][1])
     first = _decimal_points(first_lines[0][1]) if decimal_comma else first_lines[0][1]
     header = not all(_NUMBER.match(f) for f in _split(first, delimiter)[:3])
-    skip = first_lines[0][0] if header else first_lines[0][0] - 1
+    skip = (first_lines[0][0] if header else first_lines[0][0] - 1) - counted  # the count line is not read
     columns = _coordinate_columns(_split(first, delimiter), path) if header else (0, 1, 2)
     try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
         with warnings.catch_warnings(), open(path, encoding="utf-8-sig") as fh:
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data": said below in our words
+            lines = (line for line in fh if not line.strip().isdigit()) if counted else fh
             points = np.loadtxt(
-                (_decimal_points(line) for line in fh) if decimal_comma else fh,
+                (_decimal_points(line) for line in lines) if decimal_comma else lines,
                 dtype=np.float64,
                 delimiter=delimiter,
                 usecols=columns,
@@ -364,7 +370,7 @@ def read_text(path: Path) -> Cloud:
     except UnicodeDecodeError:
         raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):
-        _raise_bad_line(path, delimiter, skip, columns, decimal_comma)
+        _raise_bad_line(path, delimiter, skip + counted, columns, decimal_comma, counted)
         raise
     return Cloud.from_points(points, source=str(path))
 
@@ -412,10 +418,14 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
     return found
 
 
-def _raise_bad_line(path: Path, delimiter: str | None, skip: int, columns=(0, 1, 2), decimal_comma=False) -> None:
+def _raise_bad_line(
+    path: Path, delimiter: str | None, skip: int, columns=(0, 1, 2), decimal_comma=False, counted=False
+) -> None:
     with open(path, "r", encoding="utf-8-sig") as fh:
         for number, line in enumerate(fh, start=1):
             if number <= skip or not line.strip() or line.lstrip().startswith(("#", "//")):
+                continue
+            if counted and line.strip().isdigit():  # a PTS block's count
                 continue
             line = _decimal_points(line) if decimal_comma else line
             fields = _split(line, delimiter)
