@@ -1,0 +1,143 @@
+"""Text clouds: XYZ, TXT, CSV, PTS and ASC, as scanners, surveying software and spreadsheets
+write them.
+
+The layout is read from the first lines: the separator (spaces, a comma, a semicolon or a
+tab), a header (which may name the coordinate columns), decimal commas, and a PTS file's
+lines of a block's point count. The rows go through numpy's C parser.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..cloud import Cloud
+from ..errors import GeoStructureError
+
+_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.I)
+
+
+def read_text(path: Path) -> Cloud:
+    """XYZ/TXT/CSV/PTS: space, comma, semicolon or tab separated; x y z first, or where a
+    header names them (:func:`_coordinate_columns`); a PTS file's lines of a block's point
+    count skipped. Decimal commas (``1,5;2,25;3,0``, as a spreadsheet in much of Europe saves its CSV) are
+    read where the separator is a semicolon, a tab or spaces."""
+    first_lines = _first_data_lines(path, 2)
+    if not first_lines:
+        raise GeoStructureError(f"{path}: holds no points.")
+    # A PTS file (Leica, FARO) opens each block of points with a line holding its count.
+    counted = len(first_lines) == 2 and first_lines[0][1].strip().isdigit() and len(first_lines[1][1].split()) >= 3
+    if counted:
+        first_lines = first_lines[1:]
+    delimiter, decimal_comma = _sniff_layout(first_lines[-1][1])
+    first = _decimal_points(first_lines[0][1]) if decimal_comma else first_lines[0][1]
+    header = not all(_NUMBER.match(f) for f in _split(first, delimiter)[:3])
+    skip = (first_lines[0][0] if header else first_lines[0][0] - 1) - counted  # the count line is not read
+    columns = _coordinate_columns(_split(first, delimiter), path) if header else (0, 1, 2)
+    try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
+        with warnings.catch_warnings(), open(path, encoding="utf-8-sig") as fh:
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": said below in our words
+            lines = (line for line in fh if not line.strip().isdigit()) if counted else fh
+            points = np.loadtxt(
+                (_decimal_points(line) for line in lines) if decimal_comma else lines,
+                dtype=np.float64,
+                delimiter=delimiter,
+                usecols=columns,
+                comments=("#", "//"),
+                skiprows=skip,
+                ndmin=2,
+            )
+    except UnicodeDecodeError:
+        raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
+    except (ValueError, IndexError):
+        _raise_bad_line(path, delimiter, skip + counted, columns, decimal_comma, counted)
+        raise
+    return Cloud.from_points(points, source=str(path))
+
+
+#: Header names of the coordinate columns (lower case, without quotes, spaces or a unit in
+#: brackets): x, y and z, or a surveyor's easting, northing and elevation.
+AXIS_NAMES = (
+    ("x", "easting", "east", "e"),
+    ("y", "northing", "north", "n"),
+    ("z", "elevation", "height", "h", "up", "alt", "altitude"),
+)
+_GEOGRAPHIC_NAMES = ({"lat", "latitude"}, {"lon", "long", "longitude"})
+
+
+def _coordinate_columns(names: list[str], path) -> tuple[int, int, int]:
+    """The columns a header names as x, y and z (:data:`AXIS_NAMES`; ``id,x,y,z`` gives 1, 2,
+    3), else the first three; a header of latitude and longitude is refused: degrees are not
+    lengths."""
+    keys = [re.sub(r"\(.*?\)|\[.*?\]|[\"'\s/]", "", name).lower() for name in names]
+    if all(set(keys) & group for group in _GEOGRAPHIC_NAMES):
+        raise GeoStructureError(
+            f"{path}: its columns are latitude and longitude, in degrees, which are not lengths; project the "
+            f"cloud to a metric coordinate system (UTM) and measure that."
+        )
+    found = [next((i for i, key in enumerate(keys) if key in axis), None) for axis in AXIS_NAMES]
+    return tuple(found) if None not in found and len(set(found)) == 3 else (0, 1, 2)
+
+
+def _decimal_points(line: str) -> str:
+    return line.replace(",", ".")
+
+
+def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
+    """The first ``n`` non-blank, non-comment lines with their 1-based numbers."""
+    found = []
+    try:
+        with open(path, "r", encoding="utf-8-sig") as fh:  # -sig: a byte-order mark is not data
+            for number, line in enumerate(fh, start=1):
+                if line.strip() and not line.lstrip().startswith(("#", "//")):
+                    found.append((number, line))
+                    if len(found) == n:
+                        break
+    except UnicodeDecodeError:
+        raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
+    return found
+
+
+def _raise_bad_line(
+    path: Path, delimiter: str | None, skip: int, columns=(0, 1, 2), decimal_comma=False, counted=False
+) -> None:
+    with open(path, "r", encoding="utf-8-sig") as fh:
+        for number, line in enumerate(fh, start=1):
+            if number <= skip or not line.strip() or line.lstrip().startswith(("#", "//")):
+                continue
+            if counted and line.strip().isdigit():  # a PTS block's count
+                continue
+            line = _decimal_points(line) if decimal_comma else line
+            fields = _split(line, delimiter)
+            if len(fields) <= max(columns):
+                raise GeoStructureError(
+                    f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed"
+                    + (f" (columns {', '.join(str(c + 1) for c in columns)})." if max(columns) > 2 else ".")
+                )
+            bad = next((fields[c] for c in columns if not _NUMBER.match(fields[c])), None)
+            if bad is not None:
+                raise GeoStructureError(f"{path}: line {number}: '{bad}' is not a number.")
+
+
+def _sniff_layout(line: str) -> tuple[str | None, bool]:
+    """A data line's separator (None: any run of whitespace) and whether its decimal mark is
+    a comma. A tab or a semicolon is the separator, and a comma beside it a decimal mark;
+    commas alone separate, unless the fields they give are not numbers while the
+    whitespace's are with commas read as points (``1,5 2,25 3,0``)."""
+    for delim in ("\t", ";"):
+        if delim in line:
+            return delim, "," in line
+    if "," not in line:
+        return None, False
+    by_comma, by_space = _split(line, ","), line.split()
+    if len(by_space) >= 3 and not all(_NUMBER.match(f) for f in by_comma[:3]):
+        if all(_NUMBER.match(_decimal_points(f)) for f in by_space[:3]):
+            return None, True
+    return ",", False
+
+
+def _split(line: str, delimiter: str | None) -> list[str]:
+    return [f.strip() for f in line.strip().split(delimiter)] if delimiter else line.split()
