@@ -53,6 +53,21 @@ def test_ply_mesh_is_sampled_on_its_faces(tmp_path):
     assert len(read_cloud(path, mesh_samples=None)) == 4
 
 
+def test_a_mesh_of_quads_and_polygons_is_sampled_on_all_its_faces(tmp_path):
+    """Faces of four or more corners were dropped: a quad mesh was measured on its vertices."""
+    from plyfile import PlyData, PlyElement
+
+    v = np.zeros(9, dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
+    v["x"], v["y"] = [0, 2, 4, 0, 2, 4, 5, 6, 5], [0, 0, 0, 2, 2, 2, 0, 1, 2]
+    faces = np.empty(2, dtype=[("vertex_indices", "O")])
+    faces["vertex_indices"] = [np.array([0, 1, 4, 3]), np.array([1, 2, 6, 7, 8, 5, 4])]  # a quad, a heptagon
+    path = tmp_path / "quads.ply"
+    PlyData([PlyElement.describe(v, "vertex"), PlyElement.describe(faces, "face")], text=True).write(str(path))
+    p = read_cloud(path, mesh_samples=20_000).points
+    assert len(p) == 20_000 and np.allclose(p[:, 2], 0)
+    assert abs((p[:, 0] < 2).mean() - 4 / 11) < 0.02  # by area: 4 in the quad, 7 in the heptagon
+
+
 @pytest.mark.parametrize("suffix", [".las", ".laz"])
 def test_las_and_laz_scaled_coordinates(tmp_path, points, suffix):
     import laspy

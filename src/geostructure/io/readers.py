@@ -176,9 +176,13 @@ def _ply_faces(data, n_vertices: int, path) -> np.ndarray | None:
         return None
     lists = face[key]
     lengths = np.fromiter((len(f) for f in lists), dtype=np.int64, count=len(lists))
-    tris = np.vstack(
-        [np.asarray(f, dtype=np.int64) for f, n in zip(lists, lengths) if n == 3] or [np.empty((0, 3), np.int64)]
-    )
+    # Polygons of n corners as fans of n - 2 triangles from their first corner (a quad mesh's
+    # faces were all dropped, and the mesh measured on its vertices alone).
+    tris = [np.empty((0, 3), np.int64)]
+    for n in np.unique(lengths[lengths >= 3]):
+        corners = np.array([f for f, m in zip(lists, lengths) if m == n], dtype=np.int64).reshape(-1, n)
+        tris += [corners[:, [0, i, i + 1]] for i in range(1, n - 1)]
+    tris = np.vstack(tris)
     if len(tris) and (tris.min() < 0 or tris.max() >= n_vertices):
         raise GeoStructureError(f"{path}: a face refers to a vertex that does not exist.")
     return tris
