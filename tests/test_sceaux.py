@@ -103,3 +103,11 @@ def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split_dir):
     # the rest, joined by the merge, lies across the bay from the largest piece
     assert np.median(along[largest]) * np.median(along[~largest]) < 0
     assert np.ptp(along[largest]) < 0.7 * length  # the largest piece spans half of the wall
+
+
+def test_sets_of_an_unscaled_reconstruction_say_their_unit(sceaux_dir, capsys):
+    """Levelled from the cameras, the cloud has SfM's arbitrary scale: the joint spacings and
+    intensities were reported as metres without a word. (Last in this file: it adds the sets
+    to the run's folder.)"""
+    assert main(["sets", str(sceaux_dir), "-q"]) == 0
+    assert "in model units, not metres" in capsys.readouterr().err

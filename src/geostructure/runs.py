@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import os
 import shutil
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from .errors import GeoStructureWarning
 from .evaluate import Evaluation, evaluate
 from .exposure import exposure
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
@@ -34,6 +36,7 @@ from .io.writers import (
 )
 from .orientation import Frame
 from .planes import Planes, plane_rows, reoriented
+from .reconstruct.georef import unscaled
 from .rockmass import RockMass, rock_mass, with_rock_mass
 from .sets import JointSets, find_sets
 from .uncertainty import normal_standard_errors, with_correlated_tilt
@@ -254,6 +257,13 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         planes = read_planes(outputs.outdir)
         points, region = read_regions(outputs.outdir, planes.offset)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
+        if unscaled(outputs.record):
+            warnings.warn(
+                f"{outdir}: the cloud's scale is the reconstruction's own (no control points, GPS or --scale), so "
+                f"its spacings, traces, areas and intensities are in model units, not metres.",
+                GeoStructureWarning,
+                stacklevel=2,
+            )
         sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, spacing=spacing,
                                         metres_per_unit=metres_per_unit(outputs.record.get("crs")))  # fmt: skip
         planes = with_rock_mass(planes, sets, rock)

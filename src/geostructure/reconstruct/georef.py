@@ -68,6 +68,13 @@ def describe_georeference(record: dict) -> str:
     return text + (" (approximate)" if record.get("approximate") else "")
 
 
+def unscaled(run_record: dict) -> bool:
+    """Whether a run's cloud is in the reconstruction's own units, not metres: levelled from
+    the cameras, or set up by hand, at scale 1 (no control points, GPS or ``--scale``)."""
+    georef = (run_record.get("reconstruction") or {}).get("georef") or {}
+    return georef.get("source") in ("cameras-level", "manual") and georef.get("scale") == 1.0
+
+
 def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
     """Similarity from control points seen in the model; residual per point."""
     names = sorted(set(model_points) & set(world_points))
