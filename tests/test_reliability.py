@@ -565,3 +565,22 @@ def test_points_a_las_marks_withheld_or_noise_are_not_measured(tmp_path, capsys,
     assert record["counts"]["input"] == n and record["left_out"] == {"withheld": 300, "noise": 200}
     code, _, err = run_cli(capsys, "measure", tmp_path / "marked.las", "-o", tmp_path / "q", "-q", "--engine", engine)
     assert code == 0 and "left out" not in err
+
+
+def test_a_cloud_of_repeated_points_is_measured_as_its_distinct_points(tmp_path, capsys):
+    """Merged copies of one scan: every point written ten times. Each point's 8th neighbour
+    was a copy of itself, the point spacing read 0, and the facet detector's grid of edge 0
+    ended in an IndexError traceback. Now the spacing is the distinct points', and the
+    planes are the single copy's."""
+    from geostructure.synthetic import outcrop_scene
+
+    points = outcrop_scene(width=4.0, height=3.0, seed=1).cloud.points
+    once, repeated = write_xyz(tmp_path / "once.xyz", points), write_xyz(tmp_path / "ten.xyz", np.repeat(points, 10, 0))
+    counts = {}
+    for name, path in (("once", once), ("ten", repeated)):
+        code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / name, "-q")
+        assert code == 0 and "Traceback" not in err and "internal warning" not in err, err
+        record = json.loads((tmp_path / name / "run.json").read_text())
+        counts[name] = (record["counts"]["planes"], record["detection"]["facet_thresholds"]["spacing"])
+    assert counts["ten"][1] == pytest.approx(counts["once"][1], rel=0.02)
+    assert abs(counts["ten"][0] - counts["once"][0]) <= 0.15 * counts["once"][0], counts

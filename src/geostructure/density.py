@@ -29,15 +29,29 @@ def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 
     unlike the nearest-neighbour distance, it reads a random (Poisson) scatter right too,
     whose nearest neighbours lie at half its spacing.
 
+    Where most points are written nine times or more (merged copies of one scan), their 8th
+    neighbours are copies of themselves, at distance 0: the spacing is then read on the
+    distinct points (a spacing of 0 sized the facet detector's grid at 0, and crashed it).
+
     Examples
     --------
     >>> g = np.mgrid[0:10:0.1, 0:10:0.1].reshape(2, -1).T  # a square grid 0.1 apart
-    >>> round(point_spacing(np.c_[g, np.zeros(len(g))]) / 0.1, 2)
-    0.89
+    >>> grid = np.c_[g, np.zeros(len(g))]
+    >>> round(point_spacing(grid) / 0.1, 2), point_spacing(np.repeat(grid, 10, axis=0)) == point_spacing(grid)
+    (0.89, True)
     >>> xy = np.random.default_rng(0).random((10_000, 2)) * 10  # 100 points a square unit
     >>> round(point_spacing(np.c_[xy, np.zeros(len(xy))]), 2)
     0.1
     """
+    spacing = _spacing_of(points, sample, seed)
+    if spacing > 0 or len(points) < 2:
+        return spacing
+    distinct = np.unique(points, axis=0)
+    return _spacing_of(distinct, sample, seed) if len(distinct) < len(points) else spacing
+
+
+def _spacing_of(points: np.ndarray, sample: int, seed: int) -> float:
+    """:func:`point_spacing` as the points give it, copies and all."""
     k = min(9, len(points))
     if len(points) > SPACING_TREE_POINTS:
         r8 = _block_sampled_r8(points, sample, seed)
