@@ -584,3 +584,15 @@ def test_a_cloud_of_repeated_points_is_measured_as_its_distinct_points(tmp_path,
         counts[name] = (record["counts"]["planes"], record["detection"]["facet_thresholds"]["spacing"])
     assert counts["ten"][1] == pytest.approx(counts["once"][1], rel=0.02)
     assert abs(counts["ten"][0] - counts["once"][0]) <= 0.15 * counts["once"][0], counts
+
+
+def test_sets_and_a_report_of_a_cloud_without_planes(tmp_path, capsys):
+    """Random scatter (vegetation, noise) measured with --sets: no plane, and the set column
+    of regions.laz indexed the empty plane table, an IndexError traceback. Now the usual
+    warning, every file written, no set."""
+    cloud = write_xyz(tmp_path / "scatter.xyz", np.random.default_rng(0).random((5000, 3)) * 10)
+    out = tmp_path / "o"
+    args = ["measure", cloud, "-o", out, "-q", "--sets", "--report", "--kinematics", "--friction", "30"]
+    code, _, err = run_cli(capsys, *args)
+    assert code == 0 and "no plane found" in err and "Traceback" not in err and "internal warning" not in err, err
+    assert (out / "sets.csv").read_text().count("\n") == 1 and (out / "report.html").is_file()  # a header, no set

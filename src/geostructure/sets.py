@@ -178,6 +178,8 @@ def find_sets(
     (2, [150, 100], 'bic')
     """
     x = _unit(normals)
+    if not len(x):  # no plane: no set (the weights' mean below would be 0 / 0)
+        return _empty(0)
     w = np.ones(len(x)) if weights is None else np.asarray(weights, dtype=np.float64).reshape(len(x))
     if not np.all(np.isfinite(w)) or (w < 0).any():
         raise ParameterError("set weights must be finite and not negative.")

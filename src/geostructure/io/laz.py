@@ -78,6 +78,8 @@ def point_sets(region: np.ndarray, planes) -> np.ndarray:
     [-1, 1, -1, 1]
     """
     rows = plane_rows(region, planes.region_id)
+    if not len(planes):  # no plane, no set: every point -1 (there is no row 0 to index)
+        return np.full(len(rows), -1, dtype=np.int16)
     return np.where(rows >= 0, planes.extra["set"][np.maximum(rows, 0)], -1).astype(np.int16)
 
 

@@ -50,7 +50,7 @@ def figure_3d(scene: ReportScene) -> dict:
             z=p[:, 2],
             mode="markers",
             name="filtered cloud",
-            visible=False,
+            visible=not labelled.any(),  # shown when no plane was found: the cloud, not an empty box
             marker=dict(size=1.5, color=(p @ up).astype(np.float32), colorscale="Earth", showscale=False),
             hoverinfo="skip",
         )

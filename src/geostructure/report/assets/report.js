@@ -37,6 +37,8 @@
   ];
 
   document.querySelectorAll("#layers input").forEach(box => {
+    const trace = P.scene.data[TRACE[box.dataset.layer]];
+    if (trace) box.checked = trace.visible !== false;  // as the figure opens (the cloud when no plane)
     box.addEventListener("change", () =>
       Plotly.restyle(scene, { visible: box.checked }, [TRACE[box.dataset.layer]]));
   });
