@@ -206,7 +206,8 @@ def find_sets(
     if not fits:
         if n_sets is not None:
             warnings.warn(
-                f"{len(x)} planes make at most {len(x) // MIN_SET_PLANES} sets of {MIN_SET_PLANES} planes, not the "
+                f"{len(x)} {'plane makes' if len(x) == 1 else 'planes make'} at most {len(x) // MIN_SET_PLANES} "
+                f"sets of {MIN_SET_PLANES} planes, not the "
                 f"{n_sets} asked for: no set was fitted; ask for fewer, or leave the number to BIC.",
                 GeoStructureWarning,
                 stacklevel=2,
