@@ -125,6 +125,20 @@ def test_las_header_promising_more_points(capsys, tmp_path):
     assert_user_error(capsys, tmp_path, path)
 
 
+@pytest.mark.parametrize("scale", [0.0, float("nan")])
+def test_las_header_with_a_scale_of_zero(capsys, tmp_path, scale):
+    """A damaged x scale of 0 put every point at x = offset: measured, exit 0, with an
+    internal divide-by-zero warning from the LAZ writer."""
+    import struct
+
+    path = tmp_path / "flat.las"
+    make_las(path)
+    data = bytearray(path.read_bytes())
+    data[131:139] = struct.pack("<d", scale)  # the x scale
+    path.write_bytes(bytes(data))
+    assert_user_error(capsys, tmp_path, path, "the x scale is")
+
+
 def test_nan_coordinates(capsys, tmp_path):
     path = tmp_path / "nan.xyz"
     path.write_text("0 0 0\n1 0 0\nnan 1 0\n0 1 1\n")

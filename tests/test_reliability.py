@@ -517,6 +517,26 @@ def test_coordinates_stored_coarser_than_the_points_are_refused_or_warned_of(tmp
         assert code == 0 and ("geostructure: warning:" in err and "noise of about 0.0029" in err) == warned, err
 
 
+def test_integer_ply_coordinates_are_judged_by_their_step_of_one(tmp_path, capsys):
+    """Integer PLY axes step by 1: in millimetres a 2.5 cm outcrop is measured quietly; in
+    metres it is a lattice of 1 m and refused (it was measured on that lattice, exit 0)."""
+    from plyfile import PlyData, PlyElement
+
+    from geostructure.synthetic import outcrop_scene
+
+    points = outcrop_scene(width=6.0, height=4.0, seed=1).cloud.points
+    for name, factor, refused in (("mm.ply", 1000.0, False), ("m.ply", 1.0, True)):
+        vertex = np.empty(len(points), dtype=[(a, "i4") for a in "xyz"])
+        vertex["x"], vertex["y"], vertex["z"] = np.round(points * factor).T
+        PlyData([PlyElement.describe(vertex, "vertex")], text=False).write(str(tmp_path / name))
+        code, _, err = run_cli(capsys, "measure", tmp_path / name, "-o", tmp_path / name[:-4], "-q")
+        assert (
+            (code == 2 and "stored as integers, in steps of 1," in err)
+            if refused
+            else code == 0 and "warning" not in err
+        ), err
+
+
 def test_streamed_coordinates_stored_coarser_than_the_points_are_refused_or_warned_of(tmp_path, capsys):
     """The same check streamed, where each file is judged on its first chunk: the 32-bit
     UTM PLY is refused (it used to be measured on its rounding grid, exit 0), the 1 cm LAS

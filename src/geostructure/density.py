@@ -22,7 +22,7 @@ SPACING_TREE_POINTS = 2_000_000
 SPACING_BLOCKS_ACROSS = 64
 
 
-def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 0) -> float:
+def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 0, *, distinct: bool = True) -> float:
     """The cloud's point spacing, 1 / sqrt(surface density), from the distance r_8 of a
     random sample of its points to their 8th nearest neighbour: 8 points in a disc of
     radius r_8 give density 8 / (pi r_8^2). On a square grid of spacing s it reads 0.89 s;
@@ -31,7 +31,8 @@ def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 
 
     Where most points are written nine times or more (merged copies of one scan), their 8th
     neighbours are copies of themselves, at distance 0: the spacing is then read on the
-    distinct points (a spacing of 0 sized the facet detector's grid at 0, and crashed it).
+    distinct points (a spacing of 0 sized the facet detector's grid at 0, and crashed it),
+    unless ``distinct`` is False.
 
     Examples
     --------
@@ -44,7 +45,7 @@ def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 
     0.1
     """
     spacing = _spacing_of(points, sample, seed)
-    if spacing > 0 or len(points) < 2:
+    if spacing > 0 or len(points) < 2 or not distinct:
         return spacing
     distinct = np.unique(points, axis=0)
     return _spacing_of(distinct, sample, seed) if len(distinct) < len(points) else spacing

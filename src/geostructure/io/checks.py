@@ -51,11 +51,15 @@ MAX_STEP_SPACINGS = 4.0
 
 
 def ply_step(points: np.ndarray, vertex_dtype: np.dtype) -> tuple[float, str] | None:
-    """The step PLY vertices are stored in, and how, for :func:`check_coordinate_step`: the
-    32-bit float spacing at the largest coordinate among ``points``; None when every axis is
-    a double."""
+    """The step PLY vertices are stored in, and how, for :func:`check_coordinate_step`: 1 for
+    integer axes; else the 32-bit float spacing at the largest coordinate among ``points``;
+    None when every axis is a double."""
+    if not len(points):
+        return None
+    if any(np.issubdtype(vertex_dtype[a], np.integer) for a in "xyz"):
+        return 1.0, "as integers, in steps of"
     single = [i for i, a in enumerate("xyz") if vertex_dtype[a] == np.float32]
-    if not single or not len(points):
+    if not single:
         return None
     largest = float(np.max(np.abs(np.r_[column_min(points)[single], column_max(points)[single]])))
     return float(np.spacing(np.float32(largest))), f"as 32-bit floats, which at {largest:,.0f} round to steps of"
@@ -94,13 +98,19 @@ def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) ->
         return
     from ..density import point_spacing  # lazy: only for a coarsely stored cloud
 
-    spacing = point_spacing(points - points.mean(axis=0))
-    if step > MAX_STEP_SPACINGS * spacing:
+    local = points - points.mean(axis=0)
+    spacing = point_spacing(local, distinct=False)
+    # Most points nine or more to a spot: copies of a scan, or the storage grid's nodes. The
+    # grid's, when the distinct points lie no farther apart than two steps.
+    heaped = spacing == 0 and point_spacing(local) < 2 * step
+    if heaped or step > MAX_STEP_SPACINGS * spacing > 0:
+        ratio = "" if heaped else f", {step / spacing:.0f} times its point spacing ({spacing:.3g})"
         raise GeoStructureError(
-            f"{path}: its coordinates are stored {stored} {step:g}, {step / spacing:.0f} times its point spacing "
-            f"({spacing:.3g}), so its points are heaped on that grid, not on their surfaces; save it with finer "
-            f"coordinates (double precision, a finer LAS scale, or shifted near the origin) and measure that."
+            f"{path}: its coordinates are stored {stored} {step:g}{ratio}, so its points are heaped on that grid, not "
+            f"on their surfaces; save it with finer coordinates (double precision, a finer LAS scale, or shifted "
+            f"near the origin) and measure that."
         )
+    spacing = spacing or point_spacing(local)  # copies of a scan: judged on its distinct points
     if step > spacing / 4:
         warnings.warn(
             f"{path}: its coordinates are stored {stored} {step:g}, {step / spacing:.2g} times its point "

@@ -289,13 +289,21 @@ def read_las(path: Path) -> Cloud:
 
 def check_las_header(path: Path) -> None:
     """Catch a header whose counts cannot be true before laspy loops over them (a flipped
-    byte in the VLR count would have it read four billion records)."""
+    byte in the VLR count would have it read four billion records), and one with a scale of
+    0 or not a number (every coordinate on that axis would read its offset, or NaN)."""
     import struct
 
     with open(path, "rb") as fh:
-        head = fh.read(104)
-    if len(head) < 104 or head[:4] != b"LASF":
+        head = fh.read(155)
+    if len(head) < 155 or head[:4] != b"LASF":
         raise GeoStructureError(f"{path}: not a LAS/LAZ file (no 'LASF' signature).")
+    scales = struct.unpack_from("<3d", head, 131)
+    bad = next((axis for axis, scale in zip("xyz", scales) if not (np.isfinite(scale) and scale != 0)), None)
+    if bad is not None:
+        raise GeoStructureError(
+            f"{path}: the header is damaged: the {bad} scale is {scales['xyz'.index(bad)]:g}, where a LAS "
+            f"file's coordinates are integers times a scale that is not 0."
+        )
     header_size, point_offset, n_vlrs = struct.unpack_from("<HII", head, 94)
     size = path.stat().st_size
     if not header_size <= point_offset <= size or n_vlrs * 54 > point_offset - header_size:
