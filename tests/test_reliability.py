@@ -616,3 +616,6 @@ def test_sets_and_a_report_of_a_cloud_without_planes(tmp_path, capsys):
     code, _, err = run_cli(capsys, *args)
     assert code == 0 and "no plane found" in err and "Traceback" not in err and "internal warning" not in err, err
     assert (out / "sets.csv").read_text().count("\n") == 1 and (out / "report.html").is_file()  # a header, no set
+    assert "--detector voxel fits coarser planes" in err  # the facet detector's advice, not the voxels'
+    code, _, err = run_cli(capsys, "measure", cloud, "-o", tmp_path / "s", "-q", "--engine", "stream")
+    assert code == 0 and "no plane found; if the cloud is sparse, try a larger --zeta" in err, err  # was silent

@@ -40,6 +40,7 @@ from .options import (
     folder,
     frame_from,
     kinematic_settings,
+    no_plane_advice,
     params_from,
     positive_float,
     wants_sets,
@@ -195,11 +196,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics)
         paths.update(kinematic_paths)
     if not len(result):
-        print(
-            "geostructure: warning: no plane found; if the cloud is sparse, try a larger --zeta "
-            "(voxels need at least 5 points each to fit a plane).",
-            file=sys.stderr,
-        )
+        print(f"geostructure: warning: {no_plane_advice(result.params.detector)}", file=sys.stderr)
     if cloud.crs is None and cloud.enu_origin is None:
         print(f"geostructure: note: {NO_CRS_NOTE}", file=sys.stderr)
     if not args.quiet:

@@ -369,3 +369,13 @@ def check_before_work(args, inputs) -> None:
     """Everything cheap, before reading a cloud: the output folder, and inputs it would overwrite."""
     check_outdir(args.outdir)
     check_inputs_not_outputs(args.outdir, [p for p in inputs if p is not None])
+
+
+def no_plane_advice(detector: str) -> str:
+    """What to try when a run finds no plane, for the detector it ran."""
+    if detector == "voxel":
+        return "no plane found; if the cloud is sparse, try a larger --zeta (voxels need at least 5 points each to fit a plane)."
+    return (
+        "no plane found: no part of the cloud is flat over a few point spacings (vegetation, scatter, or noise as "
+        "large as the spacing); --detector voxel fits coarser planes, and a larger --zeta coarser still."
+    )
