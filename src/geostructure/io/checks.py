@@ -101,8 +101,10 @@ def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) ->
     local = points - points.mean(axis=0)
     spacing = point_spacing(local, distinct=False)
     # Most points nine or more to a spot: copies of a scan, or the storage grid's nodes. The
-    # grid's, when the distinct points lie no farther apart than two steps.
-    heaped = spacing == 0 and point_spacing(local) < 2 * step
+    # grid's, when the distinct points lie no farther apart than two steps; a scan's copies
+    # are judged on their distinct points.
+    distinct = spacing or point_spacing(local)
+    heaped = spacing == 0 and distinct < 2 * step
     if heaped or step > MAX_STEP_SPACINGS * spacing > 0:
         ratio = "" if heaped else f", {step / spacing:.0f} times its point spacing ({spacing:.3g})"
         raise GeoStructureError(
@@ -110,7 +112,7 @@ def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) ->
             f"on their surfaces; save it with finer coordinates (double precision, a finer LAS scale, or shifted "
             f"near the origin) and measure that."
         )
-    spacing = spacing or point_spacing(local)  # copies of a scan: judged on its distinct points
+    spacing = distinct
     if step > spacing / 4:
         warnings.warn(
             f"{path}: its coordinates are stored {stored} {step:g}, {step / spacing:.2g} times its point "

@@ -8,6 +8,7 @@ has a CRS.
 
 from __future__ import annotations
 
+import warnings
 from functools import lru_cache
 from pathlib import Path
 
@@ -102,8 +103,6 @@ def given_crs(given: str | None, declared: str | None, source: str) -> str | Non
     if given is None or declared is None:
         return given or declared
     if not parse_crs(given).equals(parse_crs(declared, source), ignore_axis_order=True):
-        import warnings  # lazy: only for a CRS given over another
-
         warnings.warn(
             f"{source}: declares {parse_crs(declared, source).name}, but --crs gives {parse_crs(given).name}; "
             f"measured in the latter, as asked, with the coordinates as they are (not reprojected).",

@@ -264,6 +264,29 @@ def note_left_out(path, kept: int, left_out) -> None:
     )
 
 
+class LasTally:
+    """What reading a LAS/LAZ file chunk by chunk found (:func:`las_chunk_points`): the
+    records read, the points kept and those left out; :meth:`finish` checks the header's
+    count, says what was left out and gives ``run.json``'s record of it."""
+
+    def __init__(self) -> None:
+        self.read, self.kept, self.left_out = 0, 0, np.zeros(2, dtype=np.int64)
+
+    def add(self, points: np.ndarray, left_out: np.ndarray) -> np.ndarray:
+        """Count a chunk's kept ``points`` and ``left_out`` (as :func:`las_chunk_points`
+        gives them); the points back."""
+        self.read += len(points) + int(left_out.sum())
+        self.kept += len(points)
+        self.left_out += left_out
+        return points
+
+    def finish(self, path, expected: int) -> dict | None:
+        if self.read < expected:
+            raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {self.read}.")
+        note_left_out(path, self.kept, self.left_out)
+        return left_out_record(self.left_out)
+
+
 def read_las(path: Path) -> Cloud:
     """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared;
     points marked withheld or noise left out (:func:`las_chunk_points`)."""
@@ -275,16 +298,13 @@ def read_las(path: Path) -> Cloud:
         crs = las_crs(header, path)  # refused before the points are read
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
-        chunks = [las_chunk_points(c) for c in reader.chunk_iterator(LAS_CHUNK)]
-    points = np.vstack([c[0] for c in chunks]) if chunks else np.empty((0, 3))
-    left_out = sum((c[1] for c in chunks), np.zeros(2, dtype=np.int64))
-    if len(points) + left_out.sum() < expected:
-        held = len(points) + int(left_out.sum())
-        raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {held}.")
-    note_left_out(path, len(points), left_out)
+        tally = LasTally()
+        parts = [tally.add(*las_chunk_points(c)) for c in reader.chunk_iterator(LAS_CHUNK)]
+    points = np.vstack(parts) if parts else np.empty((0, 3))
+    left_out = tally.finish(path, expected)
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
     check_las_step(points, grid[0], path)
-    return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid, left_out=left_out_record(left_out))
+    return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid, left_out=left_out)
 
 
 def check_las_header(path: Path) -> None:

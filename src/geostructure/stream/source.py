@@ -24,12 +24,11 @@ from ..errors import GeoStructureError
 from ..io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
 from ..io.readers import (
     DEFAULT_MESH_SAMPLES,
+    LasTally,
     check_las_header,
     las_chunk_points,
     las_crs,
-    left_out_record,
     merged_left_out,
-    note_left_out,
     ply_vertices,
     read_cloud,
 )
@@ -240,20 +239,15 @@ def _las_chunks(path: Path, rows: int, steps_checked: set):
         header = reader.header
         grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
         meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header, path), source=str(path)), "grid": grid}
-        seen, kept, left_out = 0, 0, np.zeros(2, dtype=np.int64)
+        tally = LasTally()
         for chunk in reader.chunk_iterator(rows):
-            points, chunk_left_out = las_chunk_points(chunk)
-            if not seen:
+            first = not tally.read
+            points = tally.add(*las_chunk_points(chunk))
+            if first:
                 _check_step(points, las_step(header.scales), path, steps_checked)
-            seen += len(points) + int(chunk_left_out.sum())
-            kept += len(points)
-            left_out += chunk_left_out
             yield points, None, meta
-        if seen < header.point_count:
-            raise GeoStructureError(f"{path}: the header promises {header.point_count} points, the file holds {seen}.")
-        note_left_out(path, kept, left_out)
-        meta["cloud"].left_out = left_out_record(left_out)
-        if seen == 0:
+        meta["cloud"].left_out = tally.finish(path, header.point_count)
+        if not tally.read:
             yield np.zeros((0, 3)), None, meta
 
 
