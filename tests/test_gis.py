@@ -15,6 +15,7 @@ from pyogrio import read_info
 from pyogrio.raw import read as read_layer
 from pyproj import Transformer
 
+from geostructure.io.gis import NO_CRS_NOTE
 from geostructure.synthetic import outcrop_scene
 
 UTM_33N = "EPSG:32633"
@@ -38,12 +39,17 @@ def centroids_csv(out):
     return np.array([[float(r[f"centroid_{a}"]) for a in "xyz"] for r in rows])
 
 
-def test_without_a_crs_no_gis_file_and_one_line_saying_how(utm_run, capsys):
+def test_without_a_crs_no_gis_file_and_one_line_saying_how(utm_run, capsys, tmp_path):
+    """A note, in memory and streamed alike, and, as every note, not under ``-q``."""
     cloud, out, _ = utm_run
     code, _, err = run_cli(capsys, "measure", cloud, "-o", out, "-q")
-    assert code == 0
+    assert code == 0 and err == ""
     assert not (out / "planes.geojson").exists() and not (out / "planes.gpkg").exists()
-    assert err.count("\n") == 1 and "--crs EPSG:XXXX" in err
+    for options in ([], ["--engine", "stream", "--detector", "voxel"]):
+        code, _, err = run_cli(capsys, "measure", cloud, "-o", tmp_path / f"o{len(options)}", *options)
+        assert code == 0
+        assert [line for line in err.splitlines() if "note:" in line] == [f"geostructure: note: {NO_CRS_NOTE}"]
+        assert not (tmp_path / f"o{len(options)}" / "planes.geojson").exists()
 
 
 def test_with_crs_the_geopackage_is_native_and_the_geojson_wgs84(utm_run, capsys):

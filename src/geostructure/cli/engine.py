@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import sys
 import time
 
 from ..errors import GeoStructureError
@@ -20,7 +19,7 @@ from ..stream.engine import DEFAULT_CHUNK_POINTS
 from ..stream.output import RegionsLaz, RegionsPly
 from ..stream.source import estimate_points
 from ..tables import print_evaluation, print_planes
-from .options import base_params, crs_from, crs_record, given_factors, no_plane_advice, wants_sets
+from .options import base_params, crs_from, crs_record, given_factors, say_what_was_left, wants_sets
 
 ENGINES = ("auto", "memory", "stream", "dask")
 #: A run in memory with the default options peaked at 1.10 GB for a 1M-point LAZ and 1.12 GB
@@ -160,8 +159,7 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
                 written.update(stage_report(outputs, outputs.staging, None))
     finally:
         executor.close()
-    if not len(result):
-        print(f"geostructure: warning: {no_plane_advice('voxel')}", file=sys.stderr)
+    say_what_was_left(len(result), "voxel", result.cloud.crs is not None, args.quiet)
     if not args.quiet:
         print_planes(result)
         if evaluation is not None:

@@ -12,7 +12,6 @@ from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
 from ..io.crs import given_crs, metres_per_unit, true_north_frame
-from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
@@ -40,9 +39,9 @@ from .options import (
     folder,
     frame_from,
     kinematic_settings,
-    no_plane_advice,
     params_from,
     positive_float,
+    say_what_was_left,
     wants_sets,
     whole,
 )
@@ -195,10 +194,9 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
     if kinematics is not None:  # a set of its own, added to the measured folder
         kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics)
         paths.update(kinematic_paths)
-    if not len(result):
-        print(f"geostructure: warning: {no_plane_advice(result.params.detector)}", file=sys.stderr)
-    if cloud.crs is None and cloud.enu_origin is None:
-        print(f"geostructure: note: {NO_CRS_NOTE}", file=sys.stderr)
+    say_what_was_left(
+        len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None, args.quiet
+    )
     if not args.quiet:
         print_planes(result)
         if sets is not None:

@@ -13,6 +13,7 @@ from ..auto import choose_params
 from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
 from ..io.crs import check_cloud_crs, describe_north, metres_per_unit, parse_crs, unit_symbol
+from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import check_inputs_not_outputs, check_outdir
 from ..io.truth import read_truth
 from ..kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
@@ -369,6 +370,16 @@ def check_before_work(args, inputs) -> None:
     """Everything cheap, before reading a cloud: the output folder, and inputs it would overwrite."""
     check_outdir(args.outdir)
     check_inputs_not_outputs(args.outdir, [p for p in inputs if p is not None])
+
+
+def say_what_was_left(n_planes: int, detector: str, has_place: bool, quiet: bool) -> None:
+    """After a run, on stderr: the advice when no plane was found (a warning, even under
+    ``-q``), and the note that no GIS file was written when the cloud has no CRS (a note:
+    not under ``-q``). In memory and streamed alike."""
+    if not n_planes:
+        print(f"geostructure: warning: {no_plane_advice(detector)}", file=sys.stderr)
+    if not has_place and not quiet:
+        print(f"geostructure: note: {NO_CRS_NOTE}", file=sys.stderr)
 
 
 def no_plane_advice(detector: str) -> str:
