@@ -2,8 +2,9 @@
 
 import numpy as np
 
-from geostructure.cells import CENTRE, OFFSETS, cell_planes, smallest_eigenpair
+from geostructure.cells import CENTRE, OFFSETS, cell_planes
 from geostructure.density import point_spacing
+from geostructure.eigen import smallest_eigenpair
 from geostructure.facets import detect_facets
 
 

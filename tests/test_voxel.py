@@ -57,7 +57,7 @@ def test_codes_grouped_by_their_columns_are_numpys_unique(seed):
     """group_codes with a minor part (a grid key's z under its x-y column) must give
     np.unique's sorted codes and inverse exactly, whichever of its ways it takes: one table,
     the columns' ranges in a second table, or a sort of those when they are sparse too."""
-    from geostructure.voxel import group_codes
+    from geostructure.gridkeys import group_codes
 
     rng = np.random.default_rng(seed)
     minor = int(rng.choice([7, 1000, 100_000]))

@@ -46,9 +46,9 @@ from .cells import (
     with_sparse_cells_filled,
 )
 from .density import point_spacing
+from .gridkeys import binned_sums
 from .sampling import sampled_blocks
 from .threads import run_blocks, run_tasks
-from .voxel import binned_sums
 
 #: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
 DETECTORS = ("facets", "voxel")

@@ -12,10 +12,10 @@ from functools import partial
 import numpy as np
 
 from .facets import MIN_FACET_CELLS_ACROSS
+from .gridkeys import label_order
 from .merge import MERGE_MIN_POINTS, absorbing_planes
 from .rectangle import region_plane, region_planes_of_segments
 from .threads import run_tasks
-from .voxel import label_order
 
 #: Facets sampled at under this fraction of the cloud's density (1 / spacing^2) may join a
 #: large plane they lie on (:func:`absorb_sparse_facets`).

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from .bounds import column_max, column_min
+from .gridkeys import floor_rows
 from .threads import MIN_ROWS_PER_THREAD, run_blocks
-from .voxel import floor_rows
 
 _MULTIPLIERS = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xC2B2AE3D27D4EB4F), np.uint64(0x165667B19E3779F9))
 

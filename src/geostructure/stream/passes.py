@@ -18,10 +18,11 @@ import numpy as np
 from ..auto import noise_sample
 from ..bounds import column_max, column_min
 from ..filter import Neighbourhoods, mahalanobis_distance
+from ..gridkeys import label_order
 from ..rectangle import hull_2d
 from ..sampling import coordinate_hash
 from ..uncertainty import BlockSums, block_sums, plane_coordinates
-from ..voxel import VoxelMoments, accumulate_moments, add_moments, label_order, voxel_keys
+from ..voxel import VoxelMoments, accumulate_moments, add_moments, voxel_keys
 from .source import Chunk
 
 #: Bits of one voxel index in a lookup code (three pack into an int64).
