@@ -205,7 +205,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             print_kinematics(kinematic_summary)
         if evaluation is not None:
             print_evaluation(evaluation)
-        took = sum(result.seconds.values())  # a small cloud's 0.04 s is not "0.0 s"
+        # From reading to the last file written: what the user waited, less Python's start.
+        took = seconds.get("read", 0.0) + time.perf_counter() - t
         print(
             f"{len(result)} planes from {len(cloud):,} points in {took:{'.2f' if took < 1 else '.1f'}} s; "
             f"wrote {', '.join(str(p) for p in paths.values())}"
