@@ -181,6 +181,30 @@ def test_decimal_commas_are_read(tmp_path, separator, header):
 @pytest.mark.parametrize(
     "header,row",
     [
+        ('"x","y","z"\n', '"{x}","{y}","{z}"\n'),
+        ('"id";"x";"y";"z"\n', '"P{i}";"{x:.3f}";"{y:.3f}";"{z:.3f}"\n'),
+        ("", '"{x}" "{y}" "{z}" "r"\n'),
+    ],
+)
+def test_quoted_fields_are_read(tmp_path, header, row):
+    """Some spreadsheets and scripts quote every field: it was refused ("'"657500.25"' is
+    not a number"). Quoted, with decimal commas, and a quoted header naming the columns."""
+    pts = np.array(
+        [[657_500.25, 4_984_000.5, 300.125], [657_501.0, 4_984_001.75, 300.5], [657_502.5, 4_984_000.0, 301.0]]
+    )
+    path = tmp_path / "quoted.csv"
+    rows = [row.format(i=i, x=x, y=y, z=z) for i, (x, y, z) in enumerate(pts)]
+    rows = [r.replace(".", ",") for r in rows] if ";" in row else rows
+    path.write_text(header + "".join(rows))
+    np.testing.assert_array_equal(read_cloud(path).points, pts)
+    path.write_text(header + "".join(rows) + rows[0].replace("657", "6o7"))
+    with pytest.raises(GeoStructureError, match="line .*: .* is not a number"):
+        read_cloud(path)
+
+
+@pytest.mark.parametrize(
+    "header,row",
+    [
         ("id,x,y,z\n", "{i},{x},{y},{z}\n"),
         ("Point;Easting (m);Northing (m);Elevation (m);Intensity\n", "P{i};{x};{y};{z};17\n"),
         ("X Y Z\n", "{x} {y} {z}\n"),

@@ -2,8 +2,8 @@
 write them.
 
 The layout is read from the first lines: the separator (spaces, a comma, a semicolon or a
-tab), a header (which may name the coordinate columns), decimal commas, and a PTS file's
-lines of a block's point count. The rows go through numpy's C parser.
+tab), a header (which may name the coordinate columns), decimal commas, fields in double quotes,
+and a PTS file's lines of a block's point count. The rows go through numpy's C parser.
 """
 
 from __future__ import annotations
@@ -32,6 +32,11 @@ def read_text(path: Path) -> Cloud:
     counted = len(first_lines) == 2 and first_lines[0][1].strip().isdigit() and len(first_lines[1][1].split()) >= 3
     if counted:
         first_lines = first_lines[1:]
+    # "1.5","2.25","3.0": some spreadsheets and scripts quote every field. numpy's parser
+    # takes quotes only with a single comment mark, so the lines lose theirs on the way in.
+    quoted = '"' in first_lines[-1][1]
+    if quoted:
+        first_lines = [(number, _unquoted(line)) for number, line in first_lines]
     delimiter, decimal_comma = _sniff_layout(first_lines[-1][1])
     first = _decimal_points(first_lines[0][1]) if decimal_comma else first_lines[0][1]
     header = not all(_NUMBER.match(f) for f in _split(first, delimiter)[:3])
@@ -41,6 +46,7 @@ def read_text(path: Path) -> Cloud:
         with warnings.catch_warnings(), open(path, encoding="utf-8-sig") as fh:
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data": said below in our words
             lines = (line for line in fh if not line.strip().isdigit()) if counted else fh
+            lines = (_unquoted(line) for line in lines) if quoted else lines
             points = np.loadtxt(
                 (_decimal_points(line) for line in lines) if decimal_comma else lines,
                 dtype=np.float64,
@@ -53,7 +59,7 @@ def read_text(path: Path) -> Cloud:
     except UnicodeDecodeError:
         raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):
-        _raise_bad_line(path, delimiter, skip + counted, columns, decimal_comma, counted)
+        _raise_bad_line(path, delimiter, skip + counted, columns, decimal_comma, counted, quoted)
         raise
     return Cloud.from_points(points, source=str(path))
 
@@ -82,6 +88,10 @@ def _coordinate_columns(names: list[str], path) -> tuple[int, int, int]:
     return tuple(found) if None not in found and len(set(found)) == 3 else (0, 1, 2)
 
 
+def _unquoted(line: str) -> str:
+    return line.replace('"', "")
+
+
 def _decimal_points(line: str) -> str:
     return line.replace(",", ".")
 
@@ -102,7 +112,7 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
 
 
 def _raise_bad_line(
-    path: Path, delimiter: str | None, skip: int, columns=(0, 1, 2), decimal_comma=False, counted=False
+    path: Path, delimiter: str | None, skip: int, columns=(0, 1, 2), decimal_comma=False, counted=False, quoted=False
 ) -> None:
     with open(path, "r", encoding="utf-8-sig") as fh:
         for number, line in enumerate(fh, start=1):
@@ -110,6 +120,7 @@ def _raise_bad_line(
                 continue
             if counted and line.strip().isdigit():  # a PTS block's count
                 continue
+            line = _unquoted(line) if quoted else line
             line = _decimal_points(line) if decimal_comma else line
             fields = _split(line, delimiter)
             if len(fields) <= max(columns):
