@@ -42,6 +42,18 @@ def test_ply_ascii_and_binary_float_and_double(tmp_path, points, text, dtype):
         assert np.abs(cloud.local).max() < 30  # centred on an offset before any arithmetic
 
 
+def test_a_ply_without_x_y_z_names_what_it_has(tmp_path):
+    """PLY names its coordinates x, y and z; a file with other names is refused, saying
+    which it has, so that the user sees the cause at once."""
+    from plyfile import PlyData, PlyElement
+
+    vertex = np.zeros(5, dtype=[("X", "f8"), ("Y", "f8"), ("Z", "f8")])
+    path = tmp_path / "upper.ply"
+    PlyData([PlyElement.describe(vertex, "vertex")]).write(str(path))
+    with pytest.raises(GeoStructureError, match=r"upper.ply: vertex has no 'x' property \(it has: X, Y, Z\)"):
+        read_cloud(path)
+
+
 def test_ply_mesh_is_sampled_on_its_faces(tmp_path):
     v = np.array([[0, 0, 0], [4, 0, 0], [4, 2, 0], [0, 2, 0]], float)
     path = tmp_path / "m.ply"

@@ -118,7 +118,8 @@ def ply_vertices(path: Path):
     vertex = data["vertex"].data
     missing = [axis for axis in "xyz" if axis not in (vertex.dtype.names or ())]
     if missing:
-        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property.")
+        present = ", ".join(vertex.dtype.names or ()) or "none"
+        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property (it has: {present}).")
     return data, vertex
 
 
