@@ -144,17 +144,17 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         )
         console.print(f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median.")
     wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
-    console.print(f"Wedges: {wedge['critical_pairs']} critical pairs of {wedge['pairs_tested']:,} tested.")
+    console.print(f"Wedges: {wedge['critical_pairs']:,} critical pairs of {wedge['pairs_tested']:,} tested.")
     console.print(
-        f"Direct toppling: {direct['intersections_in_zone']} intersections in the zone, "
-        f"{direct['base_planes']} base planes ({direct['sliding_base_planes']} steeper than friction): "
+        f"Direct toppling: {direct['intersections_in_zone']:,} intersections in the zone, "
+        f"{direct['base_planes']:,} base planes ({direct['sliding_base_planes']:,} steeper than friction): "
         + ("critical." if direct["critical"] else "not critical.")
     )
     oblique = direct.get("oblique")
     if oblique and oblique["intersections_in_zone"]:
         console.print(
-            f"Oblique toppling (Dips' secondary zone): {oblique['intersections_in_zone']} intersections, "
-            f"{oblique['base_planes']} oblique base planes: "
+            f"Oblique toppling (Dips' secondary zone): {oblique['intersections_in_zone']:,} intersections, "
+            f"{oblique['base_planes']:,} oblique base planes: "
             + ("critical." if oblique["critical"] else "not critical.")
         )
 
