@@ -2,6 +2,7 @@
 
 import csv
 import json
+import re
 
 import numpy as np
 import pytest
@@ -265,6 +266,7 @@ def test_an_outcrops_sets_out_of_and_into_the_face(outcrop_folder, friction, cri
     for row, result in zip(sets, summary["sets"]):
         normal = normal_from_orientation(float(row["dip_direction"]), float(row["dip"]))
         by_truth[int(np.abs(scene.set_normals @ normal).argmax())] = result
+    assert abs(by_truth[0]["mean_dip"] - 45.0) < 3.0 and abs(by_truth[0]["mean_dip_direction"] - 180.0) < 3.0
     assert by_truth[0]["mean_planar_sliding"] is critical  # J1 45/180, out of the face
     assert by_truth[1]["mean_flexural_toppling"] is critical  # J2 70/000, into it
     assert not by_truth[2]["mean_planar_sliding"] and not by_truth[2]["mean_flexural_toppling"]
@@ -272,6 +274,9 @@ def test_an_outcrops_sets_out_of_and_into_the_face(outcrop_folder, friction, cri
 
 def test_the_kinematics_command(outcrop_folder, capsys):
     _, out = outcrop_folder
+    assert main(["kinematics", str(out), "--friction", "30", "--slope", "65/180"]) == 0
+    table = capsys.readouterr().out.split("Sets against the slope")[1]  # a row per set, J1 45/180 sliding
+    assert re.search(r"│ +\d │ +4\d/1[78]\d │ critical │", table) and table.count("critical") >= 2
     assert main(["kinematics", str(out), "--friction", "35", "--slope", "65/180", "-q"]) == 0
     rows = list(csv.DictReader(open(out / "kinematics.csv")))
     assert {"region_id", "planar_sliding", "flexural_toppling", "planar_fs"} <= set(rows[0])

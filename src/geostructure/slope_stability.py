@@ -329,6 +329,8 @@ def _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, fric
         out.append(
             {
                 "set": s,
+                "mean_dip": float(mean_dip[i]),
+                "mean_dip_direction": float(mean_dd[i]),
                 "mean_planar_sliding": bool(mean_planar[i]),
                 "mean_flexural_toppling": bool(mean_toppling[i]),
                 "mean_wedges_with_sets": partners(w.a, w.b),

@@ -157,6 +157,33 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
             f"{oblique['base_planes']:,} oblique base planes: "
             + ("critical." if oblique["critical"] else "not critical.")
         )
+    if summary.get("sets"):
+        print_set_kinematics(summary["sets"], console)
+
+
+def print_set_kinematics(sets: list[dict], console: Console) -> None:
+    """Per set (``kinematics.json``'s ``sets``): what its mean plane does, alone and with the
+    other sets' means, and the share of its planes critical in each mode."""
+    table = Table(title="Sets against the slope: the mean plane's tests, and the set's planes critical")
+    for column in ("set", "mean dip/dd", "planar", "% planar", "flexural toppling", "% toppling", "wedges with sets",
+                   "% in wedges"):  # fmt: skip
+        table.add_column(column, justify="right")
+
+    def yes(flag: bool) -> str:
+        return "critical" if flag else "—"
+
+    for row in sets:
+        table.add_row(
+            str(row["set"]),
+            f"{row['mean_dip']:.0f}/{round(row['mean_dip_direction']) % 360:03d}",  # 359.7: 000, not 360
+            yes(row["mean_planar_sliding"]),
+            f"{row['planar_percent_by_count']:.0f}",
+            yes(row["mean_flexural_toppling"]),
+            f"{row['toppling_percent_by_count']:.0f}",
+            ", ".join(str(s) for s in row["mean_wedges_with_sets"]) or "—",
+            f"{row['wedge_percent_by_count']:.0f}",
+        )
+    console.print(table)
 
 
 def print_evaluation(evaluation, console: Console | None = None) -> None:
