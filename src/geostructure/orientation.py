@@ -248,6 +248,18 @@ def normal_from_orientation(dip_direction, dip, frame: Frame = Frame()) -> np.nd
     return enu @ frame.matrix  # rows of the matrix are E, N, U in cloud axes
 
 
+def whole_azimuth(azimuth: float) -> str:
+    """An azimuth to the whole degree, three digits, as a compass gives it: 359.7 is 000,
+    not 360.
+
+    Examples
+    --------
+    >>> whole_azimuth(359.7), whole_azimuth(5.2), whole_azimuth(180.0)
+    ('000', '005', '180')
+    """
+    return f"{round(float(azimuth)) % 360:03d}"
+
+
 def azimuth_difference(a, b) -> np.ndarray:
     """Smallest difference between azimuths in degrees, in [0, 180]: 359 and 1 are 2 apart.
 

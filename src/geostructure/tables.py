@@ -8,6 +8,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from .orientation import whole_azimuth
 from .rockmass import jv_scope, unmeasured_spacing
 from .sets import MIN_SET_PLANES
 
@@ -175,7 +176,7 @@ def print_set_kinematics(sets: list[dict], console: Console) -> None:
     for row in sets:
         table.add_row(
             str(row["set"]),
-            f"{row['mean_dip']:.0f}/{round(row['mean_dip_direction']) % 360:03d}",  # 359.7: 000, not 360
+            f"{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}",
             yes(row["mean_planar_sliding"]),
             f"{row['planar_percent_by_count']:.0f}",
             yes(row["mean_flexural_toppling"]),

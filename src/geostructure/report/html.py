@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path, plain
+from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
 from ..rockmass import jv_scope, unmeasured_spacing
@@ -111,7 +112,7 @@ def _net_title(scene: ReportScene) -> list[str]:
     slope = scene.kinematics["slope"]
     return [
         "Poles and kinematic envelopes",
-        f"slope {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, friction {scene.kinematics['friction_deg']:g}°, "
+        f"slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])}, friction {scene.kinematics['friction_deg']:g}°, "
         "lower hemisphere",
     ]
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..orientation import whole_azimuth
 from ..projection import quiet_mplstereonet
 
 
@@ -85,5 +86,5 @@ def kinematics_figure(
               label="oblique toppling intersections")  # fmt: skip
     ax.grid(True)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.04), fontsize=8, frameon=False, ncol=2)
-    ax.set_title(f"Kinematics: slope {psi_f:.0f}/{alpha_f:03.0f}, friction {friction:g}°", y=1.08)
+    ax.set_title(f"Kinematics: slope {psi_f:.0f}/{whole_azimuth(alpha_f)}, friction {friction:g}°", y=1.08)
     return fig
