@@ -54,6 +54,17 @@ def test_a_ply_without_x_y_z_names_what_it_has(tmp_path):
         read_cloud(path)
 
 
+def test_a_bad_point_is_named_counting_from_1(tmp_path):
+    """A user counts points (and lines) from 1: the third point is point number 3."""
+    path = tmp_path / "c.xyz"
+    path.write_text("0 0 0\n1 0 0\nnan 1 0\n0 1 0\n")
+    with pytest.raises(GeoStructureError, match=r"1 point\(s\) have NaN .* point number 3, counting from 1"):
+        read_cloud(path)
+    path.write_text("0 0 0\n1 0 0\n0 1 0\n0 1 1e300\n")
+    with pytest.raises(GeoStructureError, match=r"point number 4 \(counting from 1\) has a coordinate beyond"):
+        read_cloud(path)
+
+
 def test_ply_mesh_is_sampled_on_its_faces(tmp_path):
     v = np.array([[0, 0, 0], [4, 0, 0], [4, 2, 0], [0, 2, 0]], float)
     path = tmp_path / "m.ply"

@@ -109,7 +109,8 @@ def check_measurable(cloud: Cloud) -> None:
     problem = first_bad_coordinates(cloud.local, MAX_COORDINATE)
     if problem is not None and problem[0] == "not finite":
         raise InputError(
-            f"{cloud.source}: {problem[1]} point(s) have NaN or infinite coordinates (the first is point {problem[2]})."
+            f"{cloud.source}: {problem[1]:,} point(s) have NaN or infinite coordinates (the first is point number "
+            f"{problem[2] + 1:,}, counting from 1)."
         )
     if len(cloud) < 3:
         raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")

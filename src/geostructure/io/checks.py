@@ -35,10 +35,11 @@ def check_coordinates(points: np.ndarray, path, first: int = 0, offset=None) -> 
     kind, count, row = problem
     if kind == "not finite":
         raise GeoStructureError(
-            f"{path}: {count} point(s) have NaN or infinite coordinates (the first is point {first + row})."
+            f"{path}: {count:,} point(s) have NaN or infinite coordinates (the first is point number "
+            f"{first + row + 1:,}, counting from 1)."
         )
     raise GeoStructureError(
-        f"{path}: point {first + row} has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
+        f"{path}: point number {first + row + 1:,} (counting from 1) has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
         f"uses (float64 keeps no millimetres there); the file may be damaged."
     )
 
