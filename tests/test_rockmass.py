@@ -215,6 +215,36 @@ def test_a_cloud_in_feet_gives_its_rock_mass_in_metres():
     assert ft_rock.summary(ft_sets.mean_normal)["metres_per_cloud_unit"] == 0.3048
 
 
+def test_a_cloud_in_millimetres_without_a_crs_is_given_its_unit(tmp_path, capsys):
+    """A text cloud in millimetres has no CRS to say so: taken as metres, its sets' areas
+    came out a million times too large, with exit 0. ``--unit mm`` gives the rock mass in
+    metres, as for the same face in metres; without it, a note says what the spacing
+    suggests; and a unit the CRS contradicts is refused before any work."""
+    scene = outcrop_scene(width=8.0, height=5.0, seed=5)
+    clouds = {"m": tmp_path / "face_m.xyz", "mm": tmp_path / "face_mm.xyz"}
+    np.savetxt(clouds["m"], scene.cloud.points, fmt="%.5f")
+    np.savetxt(clouds["mm"], scene.cloud.points * 1000.0, fmt="%.2f")
+    runs = {}
+    for name, cloud, options in (("m", "m", []), ("mm", "mm", ["--unit", "mm"]), ("mm_unstated", "mm", [])):
+        out = tmp_path / name
+        code, _, err = run_cli(capsys, "measure", clouds[cloud], "-o", out, "--sets", *options)
+        assert code == 0
+        runs[name] = (list(csv.DictReader(open(out / "sets.csv"))), json.loads((out / "run.json").read_text()), err)
+    (m_sets, m_run, m_err), (mm_sets, mm_run, mm_err) = runs["m"], runs["mm"]
+    assert len(m_sets) == len(mm_sets) == 3 and "--unit mm" not in m_err + mm_err
+    assert mm_run["unit"] == {"symbol": "mm", "metres": 0.001} and "unit" not in m_run
+    area = {name: sorted(float(r["area_m2"]) for r in rows[0]) for name, rows in runs.items()}
+    np.testing.assert_allclose(area["mm"], area["m"], rtol=0.1)
+    np.testing.assert_allclose(area["mm_unstated"], 1e6 * np.array(area["mm"]), rtol=1e-9)
+    assert "taken to be the metre; if the cloud is in millimetres" in runs["mm_unstated"][2]
+    code, _, err = run_cli(
+        capsys, "measure", clouds["mm"], "-o", tmp_path / "no", "--unit", "ft", "--crs", "EPSG:32633"
+    )
+    assert code == 2 and "--crs EPSG:32633: its CRS is in m, not ft" in err and not (tmp_path / "no").exists()
+    assert main(["report", str(tmp_path / "mm"), "-q"]) == 0
+    assert "Area (mm" in (tmp_path / "mm" / "report.html").read_text()  # the plane table keeps the cloud's unit
+
+
 def test_a_set_along_the_exposed_face_says_why_it_has_no_spacing():
     """Bedding on a level exposure: no scanline on the face crosses it (the blind zone).
     Its spacing is NaN in sets.csv; the table shows a dash and says why, and Jv names the

@@ -21,7 +21,7 @@ from .errors import GeoStructureWarning
 from .evaluate import Evaluation, evaluate
 from .exposure import exposure
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
-from .io.crs import in_metres, metres_per_unit
+from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_regions, read_sets
@@ -264,8 +264,10 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
                 GeoStructureWarning,
                 stacklevel=2,
             )
+        if not outputs.record.get("unit") and not outputs.record.get("crs"):
+            note_unstated_unit(spacing, outdir)
         sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, spacing=spacing,
-                                        metres_per_unit=metres_per_unit(outputs.record.get("crs")))  # fmt: skip
+                                        metres_per_unit=recorded_unit(outputs.record)["metres"])  # fmt: skip
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)

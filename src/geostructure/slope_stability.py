@@ -13,7 +13,7 @@ import numpy as np
 from .errors import ParameterError
 from .exposure import exposure
 from .io.atomic import write_figure, write_json, write_table_csv
-from .io.crs import metres_per_unit
+from .io.crs import recorded_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
 from .io.results import read_planes, read_regions, read_sets
 from .kinematics import (
@@ -126,7 +126,7 @@ def add_kinematics(
             points, _ = read_regions(outputs.outdir, planes.offset)
             slope = fit_slope(points, frame) if slope is None else slope
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
-                height = float(np.ptp(frame.to_enu(points)[:, 2])) * metres_per_unit(outputs.record.get("crs"))
+                height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
                 strength["height_source"] = "the cloud's height"
         if cohesion:
             strength["height_m"] = float(height)

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..bounds import column_max, column_min
 from ..errors import GeoStructureError
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.crs import given_crs, metres_per_unit, true_north_frame
+from ..io.crs import check_unit, cloud_unit, given_crs, note_unstated_unit, true_north_frame
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
@@ -33,6 +33,7 @@ from .options import (
     base_params,
     check_before_work,
     check_outdir,
+    check_unit_given,
     crs_from,
     crs_record,
     finite_float,
@@ -130,6 +131,7 @@ def run_measure(args) -> int:
     check_outdir(args.outdir)  # the folder first: it says nothing of the inputs
     paths = expand_inputs(args.input)
     check_before_work(args, [*paths, args.truth])
+    check_unit_given(args, paths)
     engine = chosen_engine(args, paths)
     if engine != "memory":
         check_streamable(args, engine)
@@ -155,6 +157,8 @@ def run_measure(args) -> int:
 def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=()) -> int:
     """Measure; write the outputs, the evaluation and the report as one set; print the planes."""
     crs = given_crs(crs_from(args), cloud.crs, cloud.source)
+    unit = getattr(args, "unit", None)  # a reconstruction has none: its scale is its own
+    check_unit(unit, crs, cloud.source)  # a CRS no header gave (an E57's): after reading
     if crs != cloud.crs:
         cloud = dataclasses.replace(cloud, crs=crs)
     north = None
@@ -174,11 +178,13 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         evaluation = evaluate(result.planes, truth) if truth is not None else None
         sets = rock = None
         if wants_sets(args):
+            if crs is None and unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
+                note_unstated_unit(detected_spacing(result.detection), cloud.source)
             sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
                                             args.n_sets, lambda stage: progress(stage, 0, None),
                                             errors=result.planes.standard_errors(),  # as measured: no tilt yet
                                             spacing=detected_spacing(result.detection),
-                                            metres_per_unit=metres_per_unit(cloud.crs))  # fmt: skip
+                                            metres_per_unit=cloud_unit(crs, unit)["metres"])  # fmt: skip
         progress("write", 0, None)
         paths = save_measurement(
             result,

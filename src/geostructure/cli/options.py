@@ -12,9 +12,10 @@ from pathlib import Path
 from ..auto import choose_params
 from ..errors import GeoStructureError, ParameterError
 from ..facets import DETECTORS
-from ..io.crs import check_cloud_crs, describe_north, metres_per_unit, parse_crs, unit_symbol
+from ..io.crs import UNITS, check_cloud_crs, check_unit, cloud_unit, describe_north, parse_crs
 from ..io.gis import NO_CRS_NOTE
 from ..io.outdir import check_inputs_not_outputs, check_outdir
+from ..io.tiles import check_headers
 from ..io.truth import read_truth
 from ..kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
 from ..orientation import Frame
@@ -95,6 +96,12 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
         metavar="EPSG:XXXX|WKT_FILE",
         help="the cloud's coordinate reference system, for one that declares none (text, PLY, E57, or a "
         "reconstruction with ground control): planes.geojson and planes.gpkg are written only with one",
+    )
+    g.add_argument(
+        "--unit",
+        choices=sorted(UNITS),
+        help="the length unit of a cloud without a CRS (default m): the plane table keeps it, and the rock mass "
+        "(spacing, traces, intensities) is turned into metres",
     )
     g.add_argument(
         "--declination",
@@ -355,8 +362,9 @@ def crs_record(args, crs: str | None, north: dict | None, frame: Frame, truth):
     on stderr too unless quiet, and the ground truth read in the turned frame (its azimuths
     are true, as a compass's). In memory and streamed alike."""
     record = {}
-    if crs is not None:
-        record["unit"] = {"symbol": unit_symbol(crs), "metres": metres_per_unit(crs)}
+    unit = getattr(args, "unit", None)
+    if crs is not None or unit is not None:
+        record["unit"] = cloud_unit(crs, unit)
     if north:
         record["north"] = north
         if not args.quiet:
@@ -370,6 +378,20 @@ def check_before_work(args, inputs) -> None:
     """Everything cheap, before reading a cloud: the output folder, and inputs it would overwrite."""
     check_outdir(args.outdir)
     check_inputs_not_outputs(args.outdir, [p for p in inputs if p is not None])
+
+
+def check_unit_given(args, paths) -> None:
+    """``--unit`` refused before any work where a CRS says otherwise: ``--crs``, or the one
+    the LAS/LAZ headers declare."""
+    unit = getattr(args, "unit", None)
+    if unit is None:
+        return
+    if getattr(args, "crs", None):
+        check_unit(unit, crs_from(args), f"--crs {args.crs}")
+        return
+    declared = check_headers(paths)
+    if declared is not None:
+        check_unit(unit, *declared)
 
 
 def say_what_was_left(n_planes: int, detector: str, has_place: bool, quiet: bool) -> None:

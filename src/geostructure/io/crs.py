@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError, GeoStructureWarning, InputError
+from ..errors import GeoStructureError, GeoStructureNote, GeoStructureWarning, InputError
 
 
 @lru_cache(maxsize=16)
@@ -202,7 +202,74 @@ def describe_north(north: dict) -> str:
 
 
 #: Symbols of the linear units clouds come in, by metres per unit.
-UNIT_SYMBOLS = {1.0: "m", 0.3048: "ft", 1200.0 / 3937.0: "US ft"}
+UNIT_SYMBOLS = {1.0: "m", 0.3048: "ft", 1200.0 / 3937.0: "US ft", 0.01: "cm", 0.001: "mm"}
+#: The units ``--unit`` names for a cloud without a CRS, by metres per unit.
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "us-ft": 1200.0 / 3937.0}
+
+
+def cloud_unit(crs: str | None, unit: str | None = None) -> dict:
+    """A cloud's length unit as ``run.json`` records it, ``{"symbol", "metres"}``: the unit
+    named (:data:`UNITS`, for a cloud without a CRS), else its CRS's, else metres.
+
+    Examples
+    --------
+    >>> cloud_unit(None, "mm"), cloud_unit("EPSG:2992")
+    ({'symbol': 'mm', 'metres': 0.001}, {'symbol': 'ft', 'metres': 0.3048})
+    """
+    if unit is not None:
+        metres = UNITS[unit]
+        return {"symbol": UNIT_SYMBOLS[metres], "metres": metres}
+    return {"symbol": unit_symbol(crs), "metres": metres_per_unit(crs)}
+
+
+def recorded_unit(record: dict) -> dict:
+    """The unit a measured folder's ``run.json`` gives its cloud (:func:`cloud_unit`): its
+    ``unit`` entry, or, in a folder written before there was one, its CRS's.
+
+    Examples
+    --------
+    >>> recorded_unit({"unit": {"symbol": "mm", "metres": 0.001}})["metres"], recorded_unit({})["symbol"]
+    (0.001, 'm')
+    """
+    return dict(record["unit"]) if record.get("unit") else cloud_unit(record.get("crs"))
+
+
+#: A cloud with neither a CRS nor a stated unit is taken in metres; its points this far
+#: apart (a point spacing in its units) are more likely millimetres or centimetres.
+SUSPECT_SPACING = 5.0
+
+
+def note_unstated_unit(spacing: float | None, source) -> None:
+    """A note (:class:`~.errors.GeoStructureNote`) where a cloud taken to be in metres has
+    points over :data:`SUSPECT_SPACING` apart: its rock mass would be off by the unit's
+    factor (a cloud in millimetres: spacings a thousand times too long)."""
+    if spacing is not None and spacing > SUSPECT_SPACING:
+        warnings.warn(
+            f"{source}: its points lie {spacing:.3g} units apart, and with no CRS and no --unit its unit is taken "
+            f"to be the metre; if the cloud is in millimetres or centimetres, measure it with --unit mm (or cm), "
+            f"so that its spacings and intensities are in metres.",
+            GeoStructureNote,
+            stacklevel=2,
+        )
+
+
+def check_unit(unit: str | None, crs: str | None, source) -> None:
+    """Refuse ``--unit`` that contradicts the CRS: the CRS gives the unit.
+
+    Examples
+    --------
+    >>> check_unit("ft", "EPSG:32633", "scan.las")
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.InputError: scan.las: its CRS is in m, not ft; the CRS gives the unit: drop --unit.
+    """
+    if unit is None or crs is None:
+        return
+    declared = cloud_unit(crs)
+    if abs(declared["metres"] - UNITS[unit]) > 1e-9 * UNITS[unit]:
+        raise InputError(
+            f"{source}: its CRS is in {declared['symbol']}, not {unit}; the CRS gives the unit: drop --unit."
+        )
 
 
 def unit_symbol(crs: str | None) -> str:

@@ -113,8 +113,9 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
     )
 
 
-def check_headers(paths) -> None:
-    """Refuse LAS/LAZ tiles that declare different CRSs from their headers alone."""
+def check_headers(paths) -> tuple[str, Path] | None:
+    """Refuse LAS/LAZ tiles that declare different CRSs from their headers alone; the CRS
+    they declare and the first tile declaring it, or None."""
     import laspy  # lazy: only tiles read LAS headers here
 
     from .readers import las_crs
@@ -134,6 +135,7 @@ def check_headers(paths) -> None:
             first = (cloud, path)
         else:
             check_same_crs(first[0], cloud, first[1], path)
+    return (first[0].crs, first[1]) if first is not None and first[0].crs else None
 
 
 def check_same_crs(first: Cloud, other: Cloud, first_path: Path, path: Path) -> None:

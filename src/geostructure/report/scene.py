@@ -49,12 +49,13 @@ class ReportScene:
     kinematics: dict = field(default_factory=dict)  # kinematics.json, when the tests were run
     georeference: dict | None = None  # how a reconstruction was tied to the world
     north: dict | None = None  # run.json's north: the grid convergence the azimuths were turned by
+    length_unit: dict | None = None  # run.json's unit ({"symbol", "metres"}), when it gives one
 
     @property
     def unit(self) -> str:
         """The symbol of the cloud's length unit (``"m"``, ``"ft"``): the plane table's sizes
         are in it, the rock mass's in metres."""
-        return unit_symbol(self.crs)
+        return self.length_unit["symbol"] if self.length_unit else unit_symbol(self.crs)
 
 
 def load_scene(
@@ -88,6 +89,7 @@ def load_scene(
         frame=Frame.from_dict(run["frame"]),
         offset=offset,
         crs=run.get("crs"),
+        length_unit=run.get("unit"),
         source=str(run.get("input", "")),
         truth=_read_truth(outdir / "evaluation.csv"),
         sets=read_sets(outdir) if "set" in planes.extra else [],
