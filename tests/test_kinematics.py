@@ -362,3 +362,24 @@ def test_the_planar_factor_of_safety_with_cohesion_from_the_command(outcrop_fold
     for option, value in (("--cohesion", "-5"), ("--unit-weight", "0"), ("--height", "nan")):
         assert main(["kinematics", str(out), "--friction", "35", option, value, "-q"]) == 2
         assert option in capsys.readouterr().err
+
+
+def test_the_figure_draws_a_sample_of_a_million_intersections_and_says_so():
+    """An outcrop's 1,500 planes make a million pairs; a quarter of a million crosses drew a
+    solid band over the envelopes. The figure draws a seeded sample and its legend says how
+    many of how many; a few are all drawn."""
+    from geostructure.kinematics import Slope
+    from geostructure.report.kinematics_plot import MAX_DRAWN_LINES, kinematics_figure
+
+    rng = np.random.default_rng(0)
+    dip, dd = rng.uniform(10, 80, 50), rng.uniform(0, 360, 50)
+    many = (rng.uniform(0, 360, 50_000), rng.uniform(0, 90, 50_000))
+    few = (rng.uniform(0, 360, 30), rng.uniform(0, 90, 30))
+    figure = kinematics_figure(dip, dd, slope=Slope(65.0, 180.0), friction=30.0, lateral_limit=20.0,
+                               planar=dd < 0, toppling=dd < 0, wedge_lines=many, toppling_lines=few)  # fmt: skip
+    ax = next(a for a in figure.axes if a.get_legend() is not None)
+    labels = {text.get_text() for text in ax.get_legend().get_texts()}
+    assert f"critical wedges (intersections): {MAX_DRAWN_LINES:,} of 50,000 drawn" in labels
+    assert "direct toppling intersections" in labels  # all 30 drawn: no count
+    drawn = [line for line in ax.get_lines() if line.get_label().startswith("critical wedges")]
+    assert len(drawn) == 1 and len(drawn[0].get_xdata()) == MAX_DRAWN_LINES

@@ -7,6 +7,25 @@ import numpy as np
 from ..orientation import whole_azimuth
 from ..projection import quiet_mplstereonet
 
+#: Intersection lines drawn at most per kind: an outcrop's 1,500 planes make a million pairs,
+#: and a quarter of a million crosses drew a solid band over the envelopes. A random draw of
+#: this many shows where they lie; the legend says how many of how many.
+MAX_DRAWN_LINES = 4000
+
+
+def drawn_lines(n: int, seed: int = 0) -> np.ndarray:
+    """Which of ``n`` intersection lines the figure draws: all of them, or a seeded random
+    :data:`MAX_DRAWN_LINES`, in their order.
+
+    Examples
+    --------
+    >>> len(drawn_lines(10)), len(drawn_lines(10**6)), bool(np.all(np.diff(drawn_lines(10**6)) > 0))
+    (10, 4000, True)
+    """
+    if n <= MAX_DRAWN_LINES:
+        return np.arange(n)
+    return np.sort(np.random.default_rng(seed).choice(n, MAX_DRAWN_LINES, replace=False))
+
 
 def kinematics_figure(
     dip,
@@ -72,18 +91,18 @@ def kinematics_figure(
     ax.pole(strike[other], dip[other], "o", color="0.55", markersize=4, label="poles")
     ax.pole(strike[toppling], dip[toppling], "o", color="darkorange", markersize=5, label="flexural toppling")
     ax.pole(strike[planar], dip[planar], "o", color="red", markersize=5, label="planar sliding")
-    trend, plunge = (np.asarray(v, float) for v in wedge_lines)
-    if len(trend):  # one artist for all of them (ax.line makes one per line)
-        curve(plunge, trend, "x", color="purple", markersize=3, alpha=0.5, zorder=1,
-              label="critical wedges (intersections)")  # fmt: skip
-    trend, plunge = (np.asarray(v, float) for v in toppling_lines)
-    if len(trend):
-        curve(plunge, trend, "+", color="saddlebrown", markersize=4, alpha=0.6, zorder=1,
-              label="direct toppling intersections")  # fmt: skip
-    trend, plunge = (np.asarray(v, float) for v in oblique_lines)
-    if len(trend):
-        curve(plunge, trend, "+", color="goldenrod", markersize=3, alpha=0.35, zorder=1,
-              label="oblique toppling intersections")  # fmt: skip
+    for lines, name, style in (
+        (wedge_lines, "critical wedges (intersections)", dict(marker="x", color="purple", markersize=3, alpha=0.5)),
+        (toppling_lines, "direct toppling intersections", dict(marker="+", color="saddlebrown", markersize=4,
+                                                               alpha=0.6)),
+        (oblique_lines, "oblique toppling intersections", dict(marker="+", color="goldenrod", markersize=3,
+                                                               alpha=0.35)),
+    ):  # fmt: skip
+        trend, plunge = (np.asarray(v, float) for v in lines)
+        if len(trend):  # one artist for all of them (ax.line makes one per line)
+            drawn = drawn_lines(len(trend))
+            label = name if len(drawn) == len(trend) else f"{name}: {len(drawn):,} of {len(trend):,} drawn"
+            curve(plunge[drawn], trend[drawn], linestyle="none", zorder=1, label=label, **style)
     ax.grid(True)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.04), fontsize=8, frameon=False, ncol=2)
     ax.set_title(f"Kinematics: slope {psi_f:.0f}/{whole_azimuth(alpha_f)}, friction {friction:g}°", y=1.08)
