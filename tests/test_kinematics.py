@@ -383,3 +383,17 @@ def test_the_figure_draws_a_sample_of_a_million_intersections_and_says_so():
     assert "direct toppling intersections" in labels  # all 30 drawn: no count
     drawn = [line for line in ax.get_lines() if line.get_label().startswith("critical wedges")]
     assert len(drawn) == 1 and len(drawn[0].get_xdata()) == MAX_DRAWN_LINES
+
+
+def test_kinematics_and_sets_on_a_folder_tell_their_stages(outcrop_folder):
+    """``geostructure kinematics`` and ``sets`` took seconds with nothing on screen: both say
+    each stage as it starts, as ``measure`` does (the command draws them as progress)."""
+    from geostructure.runs import add_sets
+
+    _, out = outcrop_folder
+    stages = []
+    add_kinematics(out, 30.0, progress=lambda stage, done, total: stages.append(stage))
+    assert stages == ["slope", "kinematics", "write"]  # the slope fitted to the cloud first
+    stages.clear()
+    add_sets(out, progress=lambda stage, done, total: stages.append(stage))
+    assert stages == ["read", "sets", "spacing and persistence", "write"]

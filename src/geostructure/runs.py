@@ -223,7 +223,7 @@ def detected_spacing(detection: dict | None) -> float | None:
     return float(spacing) if spacing else None
 
 
-def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass, dict[str, Path]]:
+def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[JointSets, RockMass, dict[str, Path]]:
     """Find the joint sets of a measured folder and add them with their spacing, persistence
     and intensity: ``sets.csv``, and ``set``, trace and ``censored`` columns in ``planes.csv``
     (``set`` in ``planes_dips.csv`` and ``regions.laz``); a report there is drawn again.
@@ -234,6 +234,8 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
         A measured folder.
     n_sets : int, optional
         The number of sets; chosen by BIC when not given.
+    progress : callable, optional
+        ``progress(stage, done, total)``, called as each stage starts.
 
     Returns
     -------
@@ -251,9 +253,11 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
     >>> len(sets), paths["sets"].name  # the outcrop's three joint sets
     (3, 'sets.csv')
     """
+    report = progress or (lambda stage, done, total: None)
     with output_set(outdir, replace=False, rewrites=SETS_FILES + REPORT_FILES) as outputs:
         frame = Frame.from_dict(outputs.record.get("frame") or {})
         had_report = (outputs.outdir / "report.html").is_file()
+        report("read", 0, None)
         planes = read_planes(outputs.outdir)
         points, region = read_regions(outputs.outdir, planes.offset)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
@@ -266,8 +270,9 @@ def add_sets(outdir, *, n_sets: int | None = None) -> tuple[JointSets, RockMass,
             )
         if not outputs.record.get("unit") and not outputs.record.get("crs"):
             note_unstated_unit(spacing, outdir)
-        sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, spacing=spacing,
-                                        metres_per_unit=recorded_unit(outputs.record)["metres"])  # fmt: skip
+        sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, lambda name: report(name, 0, None),
+                                        spacing=spacing, metres_per_unit=recorded_unit(outputs.record)["metres"])  # fmt: skip
+        report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)

@@ -73,6 +73,7 @@ def add_kinematics(
     unit_weight: float = UNIT_WEIGHT,
     height: float | None = None,
     upper_slope: tuple[float, float] | None = None,
+    progress=None,
 ):
     """Run the kinematic tests on a measured folder and add their files (see the module).
 
@@ -97,6 +98,9 @@ def add_kinematics(
         The ground above the crest (degrees), for the wedges with cohesion; level when not
         given. It must dip less than the face. (A planar block's factor of safety does not
         depend on it: see :func:`~.kinematics.planar_factor_of_safety`.)
+    progress : callable, optional
+        ``progress(stage, done, total)``, called as each stage starts (the slope's fit, the
+        tests, the files).
 
     Returns
     -------
@@ -117,12 +121,14 @@ def add_kinematics(
     """
     from .runs import redraw_report  # lazy: runs imports the report's modules when drawing
 
+    report = progress or (lambda stage, done, total: None)
     with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES + REPORT_FILES) as outputs:
         frame = Frame.from_dict(outputs.record.get("frame") or {})
         had_report = (outputs.outdir / "report.html").is_file()
         planes = read_planes(outputs.outdir)
         strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
         if slope is None or (cohesion and height is None):
+            report("slope", 0, None)
             points, _ = read_regions(outputs.outdir, planes.offset)
             slope = fit_slope(points, frame) if slope is None else slope
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
@@ -138,9 +144,11 @@ def add_kinematics(
                     f"there is no crest otherwise."
                 )
             strength["upper_slope_dip"], strength["upper_slope_dip_direction"] = map(float, upper_slope)
+        report("kinematics", 0, None)
         summary, rows, wedge_rows, figure = kinematics_of(
             planes, read_sets(outputs.outdir), slope, friction, lateral_limit, strength
         )
+        report("write", 0, None)
         write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
         write_table_csv(wedge_rows, outputs.path("wedges.csv"), columns=WEDGE_COLUMNS)
         write_json(summary, outputs.path("kinematics.json"))

@@ -198,7 +198,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         )
     kinematics = kinematic_settings(args)
     if kinematics is not None:  # a set of its own, added to the measured folder
-        kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics)
+        with StageProgress(enabled=not args.quiet) as progress:
+            kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics, progress=progress)
         paths.update(kinematic_paths)
     say_what_was_left(
         len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None, args.quiet

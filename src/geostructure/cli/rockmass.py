@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..progress import StageProgress
 from ..runs import add_sets
 from ..slope_stability import add_kinematics
 from ..tables import print_kinematics, print_sets
@@ -30,7 +31,8 @@ def add_rockmass_commands(sub) -> None:
 
 
 def run_sets(args) -> int:
-    sets, rock, paths = add_sets(args.outdir, n_sets=args.n_sets)
+    with StageProgress(enabled=not args.quiet) as progress:
+        sets, rock, paths = add_sets(args.outdir, n_sets=args.n_sets, progress=progress)
     if not args.quiet:
         print_sets(sets, rock=rock)
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
@@ -38,7 +40,8 @@ def run_sets(args) -> int:
 
 
 def run_kinematics(args: argparse.Namespace) -> int:
-    summary, paths = add_kinematics(args.outdir, **kinematic_settings(args))
+    with StageProgress(enabled=not args.quiet) as progress:
+        summary, paths = add_kinematics(args.outdir, **kinematic_settings(args), progress=progress)
     if not args.quiet:
         print_kinematics(summary)
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
