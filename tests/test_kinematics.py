@@ -296,6 +296,11 @@ def test_the_kinematics_command(outcrop_folder, capsys):
     assert main(["report", str(out), "-q"]) == 0  # the folder verifies as one set
     html = (out / "report.html").read_text()
     assert "planar daylight envelope" in html and "Poles and kinematic envelopes<br>slope 65/180" in html
+    # the tables beside the set table: a row per failure mode, a row per set
+    modes = html.split('<table id="kinematics">')[1].split("</table>")[0]
+    assert "Kinematics: slope 65/180 (given), friction 35°" in modes and modes.count("<tr>") == 4
+    per_set = html.split('<table id="kinematic-sets">')[1].split("</table>")[0]
+    assert per_set.count("<tr>") == 1 + len(summary["sets"]) and "critical" in per_set
     assert main(["kinematics", str(out), "--friction", "40", "--slope", "65/180", "-q"]) == 0
     assert "friction 40" in (out / "report.html").read_text()  # a report there is drawn again
     assert main(["kinematics", str(out), "--friction", "35", "--slope", "steep", "-q"]) == 2

@@ -100,7 +100,7 @@ def render(scene: ReportScene, title: str) -> str:
         page.replace("{{TITLE}}", _escape(title))
         .replace("{{CSS}}", (assets / "report.css").read_text(encoding="utf-8"))
         .replace("{{PLOTLY}}", get_plotlyjs())
-        .replace("{{SETS}}", set_table(scene))
+        .replace("{{SETS}}", set_table(scene) + kinematic_table(scene))
         .replace("{{PAYLOAD}}", data)
         .replace("{{APP}}", (assets / "report.js").read_text(encoding="utf-8"))
     )
@@ -314,6 +314,66 @@ def set_table(scene: ReportScene) -> str:
     return (
         f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead>'
         f"<tbody>{''.join(rows)}</tbody></table>{notes}"
+    )
+
+
+def kinematic_table(scene: ReportScene) -> str:
+    """The kinematic tests as an HTML table (empty before ``geostructure kinematics``): a
+    row per failure mode, the planes critical and their share, and, with sets, a row per set
+    (its mean plane's tests, the sets it forms a critical wedge with, its planes' shares)."""
+    kinematics = scene.kinematics
+    if not kinematics:
+        return ""
+    slope = kinematics["slope"]
+    caption = (
+        f"Kinematics: slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])} ({slope['source']}), "
+        f"friction {kinematics['friction_deg']:g}°, lateral limits {kinematics['lateral_limit_deg']:g}°"
+    )
+    modes = [("planar_sliding", "Planar sliding"), ("wedge_sliding", "Wedge sliding"),
+             ("flexural_toppling", "Flexural toppling")]  # fmt: skip
+    rows = "".join(
+        f"<tr><td>{name}</td><td>{kinematics[key]['planes']:,}</td><td>{kinematics[key]['percent_by_count']:.1f}</td>"
+        f"<td>{kinematics[key]['percent_by_area']:.1f}</td></tr>"
+        for key, name in modes
+    )
+    html = (
+        f'<table id="kinematics"><caption>{caption}</caption><thead><tr><th>Failure mode</th><th>Planes critical</th>'
+        f"<th>% by count</th><th>% by area</th></tr></thead><tbody>{rows}</tbody></table>"
+    )
+    if not kinematics.get("sets"):
+        return html
+
+    def critical(flag: bool) -> str:
+        return "critical" if flag else "—"
+
+    rows = "".join(
+        f'<tr><td><span class="swatch" style="background:{set_color(int(row["set"]))}"></span>{row["set"]}</td>'
+        f"<td>{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}</td>"
+        f"<td>{critical(row['mean_planar_sliding'])}</td><td>{row['planar_percent_by_count']:.0f}</td>"
+        f"<td>{critical(row['mean_flexural_toppling'])}</td><td>{row['toppling_percent_by_count']:.0f}</td>"
+        f"<td>{', '.join(str(s) for s in row['mean_wedges_with_sets']) or '—'}</td>"
+        f"<td>{row['wedge_percent_by_count']:.0f}</td></tr>"
+        for row in kinematics["sets"]
+        if "mean_dip" in row  # kinematics.json of an older run lacks the means' orientation
+    )
+    head = "".join(
+        f"<th>{h}</th>"
+        for h in (
+            "Set",
+            "Mean dip/dd",
+            "Mean plane slides",
+            "% planar",
+            "Mean plane topples",
+            "% toppling",
+            "Wedges with sets",
+            "% in wedges",
+        )  # fmt: skip
+    )
+    return html + (
+        f'<table id="kinematic-sets"><caption>Sets against the slope: the mean plane\'s tests, and the share of '
+        f"the set's planes critical</caption><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
+        if rows
+        else ""
     )
 
 
