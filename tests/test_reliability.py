@@ -617,5 +617,10 @@ def test_sets_and_a_report_of_a_cloud_without_planes(tmp_path, capsys):
     assert code == 0 and "no plane found" in err and "Traceback" not in err and "internal warning" not in err, err
     assert (out / "sets.csv").read_text().count("\n") == 1 and (out / "report.html").is_file()  # a header, no set
     assert "--detector voxel fits coarser planes" in err  # the facet detector's advice, not the voxels'
+    # No plane, so no share of planes critical: dashes in the report's kinematic table (it
+    # failed on kinematics.json's null) and on the console, not "nan".
+    assert "<td>Planar sliding</td><td>0</td><td>—</td>" in (out / "report.html").read_text()
+    code, printed, _ = run_cli(capsys, "kinematics", out, "--friction", "30", "--slope", "60/180")
+    assert code == 0 and "nan" not in printed.lower() and "—" in printed
     code, _, err = run_cli(capsys, "measure", cloud, "-o", tmp_path / "s", "-q", "--engine", "stream")
     assert code == 0 and "no plane found; if the cloud is sparse, try a larger --zeta" in err, err  # was silent

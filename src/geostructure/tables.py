@@ -97,7 +97,7 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     for column in columns + (["spacing m", "P32 1/m", "censored"] if rock is not None else []):
         table.add_column(column, justify="right")
     for row, more in zip(sets.rows(), rock_rows):
-        extra = [_figure(more["spacing_m"]), _figure(more["p32_per_m"]), str(more["n_censored"])] if more else []
+        extra = [shown(more["spacing_m"]), shown(more["p32_per_m"]), str(more["n_censored"])] if more else []
         table.add_row(
             str(row["set"]),
             str(row["n_planes"]),
@@ -114,9 +114,16 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         console.print(note)
 
 
-def _figure(value: float) -> str:
-    """A table's figure to two decimals, or a dash where it was not measured (NaN)."""
-    return f"{value:.2f}" if np.isfinite(value) else "—"
+def shown(value, digits: int = 2) -> str:
+    """A table's figure to ``digits`` decimals, or a dash where it was not measured (NaN, or
+    None as ``run.json`` and ``kinematics.json`` write NaN).
+
+    Examples
+    --------
+    >>> shown(0.456), shown(float("nan")), shown(None, 1), shown(12.0, 0)
+    ('0.46', '—', '—', '12')
+    """
+    return f"{value:.{digits}f}" if value is not None and np.isfinite(value) else "—"
 
 
 def print_kinematics(summary: dict, console: Console | None = None) -> None:
@@ -133,7 +140,9 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
     for key, name in (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge sliding"),
                       ("flexural_toppling", "flexural toppling")):  # fmt: skip
         mode = summary[key]
-        table.add_row(name, str(mode["planes"]), f"{mode['percent_by_count']:.1f}", f"{mode['percent_by_area']:.1f}")
+        table.add_row(
+            name, f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1)
+        )
     console.print(table)
     planar, strength = summary["planar_sliding"], summary.get("strength", {})
     if planar["planes"]:
@@ -178,11 +187,11 @@ def print_set_kinematics(sets: list[dict], console: Console) -> None:
             str(row["set"]),
             f"{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}",
             yes(row["mean_planar_sliding"]),
-            f"{row['planar_percent_by_count']:.0f}",
+            shown(row["planar_percent_by_count"], 0),
             yes(row["mean_flexural_toppling"]),
-            f"{row['toppling_percent_by_count']:.0f}",
+            shown(row["toppling_percent_by_count"], 0),
             ", ".join(str(s) for s in row["mean_wedges_with_sets"]) or "—",
-            f"{row['wedge_percent_by_count']:.0f}",
+            shown(row["wedge_percent_by_count"], 0),
         )
     console.print(table)
 

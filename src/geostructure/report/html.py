@@ -19,6 +19,7 @@ from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
 from ..rockmass import jv_scope, unmeasured_spacing
+from ..tables import shown
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .spacing_plot import figure_spacing
@@ -332,8 +333,8 @@ def kinematic_table(scene: ReportScene) -> str:
     modes = [("planar_sliding", "Planar sliding"), ("wedge_sliding", "Wedge sliding"),
              ("flexural_toppling", "Flexural toppling")]  # fmt: skip
     rows = "".join(
-        f"<tr><td>{name}</td><td>{kinematics[key]['planes']:,}</td><td>{kinematics[key]['percent_by_count']:.1f}</td>"
-        f"<td>{kinematics[key]['percent_by_area']:.1f}</td></tr>"
+        f"<tr><td>{name}</td><td>{kinematics[key]['planes']:,}</td><td>{shown(kinematics[key]['percent_by_count'], 1)}</td>"
+        f"<td>{shown(kinematics[key]['percent_by_area'], 1)}</td></tr>"
         for key, name in modes
     )
     html = (
@@ -349,10 +350,10 @@ def kinematic_table(scene: ReportScene) -> str:
     rows = "".join(
         f'<tr><td><span class="swatch" style="background:{set_color(int(row["set"]))}"></span>{row["set"]}</td>'
         f"<td>{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}</td>"
-        f"<td>{critical(row['mean_planar_sliding'])}</td><td>{row['planar_percent_by_count']:.0f}</td>"
-        f"<td>{critical(row['mean_flexural_toppling'])}</td><td>{row['toppling_percent_by_count']:.0f}</td>"
+        f"<td>{critical(row['mean_planar_sliding'])}</td><td>{shown(row['planar_percent_by_count'], 0)}</td>"
+        f"<td>{critical(row['mean_flexural_toppling'])}</td><td>{shown(row['toppling_percent_by_count'], 0)}</td>"
         f"<td>{', '.join(str(s) for s in row['mean_wedges_with_sets']) or '—'}</td>"
-        f"<td>{row['wedge_percent_by_count']:.0f}</td></tr>"
+        f"<td>{shown(row['wedge_percent_by_count'], 0)}</td></tr>"
         for row in kinematics["sets"]
         if "mean_dip" in row  # kinematics.json of an older run lacks the means' orientation
     )
