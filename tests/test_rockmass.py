@@ -2,6 +2,7 @@
 
 import csv
 import json
+import re
 
 import numpy as np
 import pytest
@@ -272,6 +273,9 @@ def test_airborne_lidar_in_feet_its_level_roofs_and_the_metric_rock_mass(tmp_pat
     assert "lies along the exposed face" in " ".join(printed.split())
     page = (out / "report.html").read_text()
     assert "lies along the exposed face" in page and "Area (ft" in page and "Roughness (ft)" in page
+    # a terrain: the 3D view opens from the south and above, north up the screen as on a map
+    eye = [float(v) for v in re.search(r'"eye":\{"x":([-\d.e]+),"y":([-\d.e]+),"z":([-\d.e]+)\}', page).groups()]
+    assert eye[1] < 0 < eye[2] and abs(eye[0]) < 0.1 * abs(eye[1])
     run = json.loads((out / "run.json").read_text())
     assert run["sets"]["rock_mass"]["metres_per_cloud_unit"] == 0.3048
     assert run["unit"] == {"symbol": "ft", "metres": 0.3048}  # what planes.csv's sizes are in
