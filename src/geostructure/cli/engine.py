@@ -19,7 +19,8 @@ from ..stream.engine import DEFAULT_CHUNK_POINTS
 from ..stream.output import RegionsLaz, RegionsPly
 from ..stream.source import estimate_points
 from ..tables import print_evaluation, print_planes
-from .options import base_params, crs_from, crs_record, given_factors, say_what_was_left, wants_sets
+from .options import base_params, crs_from, crs_record, given_factors, say_what_was_left
+from .rockmass import wants_sets
 
 ENGINES = ("auto", "memory", "stream", "dask")
 #: A run in memory with the default options peaked at 1.10 GB for a 1M-point LAZ and 1.12 GB

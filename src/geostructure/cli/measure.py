@@ -27,9 +27,7 @@ from ..synthetic import observatory_scene
 from ..tables import print_evaluation, print_kinematics, print_match, print_planes, print_sets, print_sweep
 from .engine import add_engine_options, check_streamable, chosen_engine, run_streamed
 from .options import (
-    add_kinematic_options,
     add_measure_options,
-    add_set_options,
     base_params,
     check_before_work,
     check_outdir,
@@ -39,13 +37,12 @@ from .options import (
     finite_float,
     folder,
     frame_from,
-    kinematic_settings,
     params_from,
     positive_float,
     say_what_was_left,
-    wants_sets,
     whole,
 )
+from .rockmass import add_kinematic_options, add_set_options, kinematic_settings, wants_sets
 
 
 def add_measure_commands(sub) -> None:
