@@ -276,7 +276,7 @@ def test_the_kinematics_command(outcrop_folder, capsys):
     _, out = outcrop_folder
     assert main(["kinematics", str(out), "--friction", "30", "--slope", "65/180"]) == 0
     table = capsys.readouterr().out.split("Sets against the slope")[1]  # a row per set, J1 45/180 sliding
-    assert re.search(r"│ +\d │ +4\d/1[78]\d │ critical │", table) and table.count("critical") >= 2
+    assert re.search(r"│ +\d │ +4\d/1[78]\d │ +critical │", table) and table.count("critical") >= 2
     assert main(["kinematics", str(out), "--friction", "35", "--slope", "65/180", "-q"]) == 0
     rows = list(csv.DictReader(open(out / "kinematics.csv")))
     assert {"region_id", "planar_sliding", "flexural_toppling", "planar_fs"} <= set(rows[0])

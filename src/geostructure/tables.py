@@ -137,12 +137,8 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
     table = Table(title=title)
     for column in ("failure mode", "planes", "% by count", "% by area"):
         table.add_column(column, justify="right")
-    for key, name in (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge sliding"),
-                      ("flexural_toppling", "flexural toppling")):  # fmt: skip
-        mode = summary[key]
-        table.add_row(
-            name, f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1)
-        )
+    for key, name in FAILURE_MODES:
+        table.add_row(name, *failure_mode_cells(summary, key))
     console.print(table)
     planar, strength = summary["planar_sliding"], summary.get("strength", {})
     if planar["planes"]:
@@ -171,28 +167,57 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         print_set_kinematics(summary["sets"], console)
 
 
-def print_set_kinematics(sets: list[dict], console: Console) -> None:
-    """Per set (``kinematics.json``'s ``sets``): what its mean plane does, alone and with the
-    other sets' means, and the share of its planes critical in each mode."""
-    table = Table(title="Sets against the slope: the mean plane's tests, and the set's planes critical")
-    for column in ("set", "mean dip/dd", "planar", "% planar", "flexural toppling", "% toppling", "wedges with sets",
-                   "% in wedges"):  # fmt: skip
-        table.add_column(column, justify="right")
+#: The failure modes of a kinematics summary (``kinematics.json``), in table order.
+FAILURE_MODES = (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge sliding"),
+                 ("flexural_toppling", "flexural toppling"))  # fmt: skip
+#: The per-set kinematics table's columns (:func:`set_kinematic_cells`).
+SET_KINEMATIC_COLUMNS = ("set", "mean dip/dd", "mean slides", "% planar", "mean topples", "% toppling",
+                         "wedges with sets", "% in wedges")  # fmt: skip
 
-    def yes(flag: bool) -> str:
+
+def failure_mode_cells(summary: dict, key: str) -> list[str]:
+    """One failure mode's planes critical, and their share by count and by area."""
+    mode = summary[key]
+    return [f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1)]
+
+
+def set_kinematic_cells(row: dict) -> list[str]:
+    """A row of the per-set kinematics table (``kinematics.json``'s ``sets``): the set, its
+    mean plane's dip/dip direction, whether that plane slides or topples, the share of the
+    set's planes critical in each mode, and the sets its mean forms a critical wedge with.
+
+    Examples
+    --------
+    >>> row = {"set": 2, "mean_dip": 41.3, "mean_dip_direction": 359.7, "mean_planar_sliding": True,
+    ...        "planar_percent_by_count": 99.4, "mean_flexural_toppling": False, "toppling_percent_by_count": 0.0,
+    ...        "mean_wedges_with_sets": [0, 1], "wedge_percent_by_count": float("nan")}
+    >>> set_kinematic_cells(row)
+    ['2', '41/000', 'critical', '99', '—', '0', '0, 1', '—']
+    """
+
+    def critical(flag: bool) -> str:
         return "critical" if flag else "—"
 
+    return [
+        str(row["set"]),
+        f"{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}",
+        critical(row["mean_planar_sliding"]),
+        shown(row["planar_percent_by_count"], 0),
+        critical(row["mean_flexural_toppling"]),
+        shown(row["toppling_percent_by_count"], 0),
+        ", ".join(str(s) for s in row["mean_wedges_with_sets"]) or "—",
+        shown(row["wedge_percent_by_count"], 0),
+    ]
+
+
+def print_set_kinematics(sets: list[dict], console: Console) -> None:
+    """Per set: what its mean plane does, alone and with the other sets' means, and the share
+    of its planes critical in each mode."""
+    table = Table(title="Sets against the slope: the mean plane's tests, and the set's planes critical")
+    for column in SET_KINEMATIC_COLUMNS:
+        table.add_column(column, justify="right")
     for row in sets:
-        table.add_row(
-            str(row["set"]),
-            f"{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}",
-            yes(row["mean_planar_sliding"]),
-            shown(row["planar_percent_by_count"], 0),
-            yes(row["mean_flexural_toppling"]),
-            shown(row["toppling_percent_by_count"], 0),
-            ", ".join(str(s) for s in row["mean_wedges_with_sets"]) or "—",
-            shown(row["wedge_percent_by_count"], 0),
-        )
+        table.add_row(*set_kinematic_cells(row))
     console.print(table)
 
 

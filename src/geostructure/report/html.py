@@ -19,7 +19,7 @@ from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
 from ..rockmass import jv_scope, unmeasured_spacing
-from ..tables import shown
+from ..tables import FAILURE_MODES, SET_KINEMATIC_COLUMNS, failure_mode_cells, set_kinematic_cells
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .spacing_plot import figure_spacing
@@ -297,7 +297,7 @@ def set_table(scene: ReportScene) -> str:
     head = "".join(f"<th>{label}</th>" for _, label, _ in columns)
     rows = []
     for row in scene.sets:
-        swatch = f'<span class="swatch" style="background:{set_color(int(row["set"]))}"></span>'
+        swatch = _set_swatch(int(row["set"]))
         cells = ["—" if not np.isfinite(row[key]) else f"{row[key]:,.{digits}f}" for key, _, digits in columns]
         rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
     unassigned = int((scene.planes.extra["set"] < 0).sum())
@@ -330,52 +330,38 @@ def kinematic_table(scene: ReportScene) -> str:
         f"Kinematics: slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])} ({slope['source']}), "
         f"friction {kinematics['friction_deg']:g}°, lateral limits {kinematics['lateral_limit_deg']:g}°"
     )
-    modes = [("planar_sliding", "Planar sliding"), ("wedge_sliding", "Wedge sliding"),
-             ("flexural_toppling", "Flexural toppling")]  # fmt: skip
     rows = "".join(
-        f"<tr><td>{name}</td><td>{kinematics[key]['planes']:,}</td><td>{shown(kinematics[key]['percent_by_count'], 1)}</td>"
-        f"<td>{shown(kinematics[key]['percent_by_area'], 1)}</td></tr>"
-        for key, name in modes
+        f"<tr><td>{name.capitalize()}</td>"
+        + "".join(f"<td>{c}</td>" for c in failure_mode_cells(kinematics, key))
+        + "</tr>"
+        for key, name in FAILURE_MODES
     )
     html = (
         f'<table id="kinematics"><caption>{caption}</caption><thead><tr><th>Failure mode</th><th>Planes critical</th>'
         f"<th>% by count</th><th>% by area</th></tr></thead><tbody>{rows}</tbody></table>"
     )
-    if not kinematics.get("sets"):
+    # kinematics.json of an older run lacks the set means' orientation: no per-set table then
+    sets = [row for row in kinematics.get("sets") or [] if "mean_dip" in row]
+    if not sets:
         return html
-
-    def critical(flag: bool) -> str:
-        return "critical" if flag else "—"
-
     rows = "".join(
-        f'<tr><td><span class="swatch" style="background:{set_color(int(row["set"]))}"></span>{row["set"]}</td>'
-        f"<td>{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}</td>"
-        f"<td>{critical(row['mean_planar_sliding'])}</td><td>{shown(row['planar_percent_by_count'], 0)}</td>"
-        f"<td>{critical(row['mean_flexural_toppling'])}</td><td>{shown(row['toppling_percent_by_count'], 0)}</td>"
-        f"<td>{', '.join(str(s) for s in row['mean_wedges_with_sets']) or '—'}</td>"
-        f"<td>{shown(row['wedge_percent_by_count'], 0)}</td></tr>"
-        for row in kinematics["sets"]
-        if "mean_dip" in row  # kinematics.json of an older run lacks the means' orientation
+        "<tr>"
+        + "".join(
+            f"<td>{_set_swatch(int(row['set'])) if i == 0 else ''}{cell}</td>"
+            for i, cell in enumerate(set_kinematic_cells(row))
+        )
+        + "</tr>"
+        for row in sets
     )
-    head = "".join(
-        f"<th>{h}</th>"
-        for h in (
-            "Set",
-            "Mean dip/dd",
-            "Mean plane slides",
-            "% planar",
-            "Mean plane topples",
-            "% toppling",
-            "Wedges with sets",
-            "% in wedges",
-        )  # fmt: skip
-    )
-    return html + (
-        f'<table id="kinematic-sets"><caption>Sets against the slope: the mean plane\'s tests, and the share of '
+    head = "".join(f"<th>{column.capitalize()}</th>" for column in SET_KINEMATIC_COLUMNS)
+    return (
+        f'{html}<table id="kinematic-sets"><caption>Sets against the slope: the mean plane\'s tests, and the share of '
         f"the set's planes critical</caption><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
-        if rows
-        else ""
     )
+
+
+def _set_swatch(number: int) -> str:
+    return f'<span class="swatch" style="background:{set_color(number)}"></span>'
 
 
 def table_rows(scene: ReportScene) -> list[dict]:
