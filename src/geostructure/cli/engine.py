@@ -160,7 +160,7 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
                 written.update(stage_report(outputs, outputs.staging, None))
     finally:
         executor.close()
-    say_what_was_left(len(result), "voxel", result.cloud.crs is not None, args.quiet)
+    say_what_was_left(len(result), "voxel", result.cloud.crs is not None)
     if not args.quiet:
         print_planes(result)
         if evaluation is not None:

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import time
+import warnings
 from pathlib import Path
 
 from ..bounds import column_max, column_min
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, GeoStructureNote
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.crs import check_unit, cloud_unit, given_crs, note_unstated_unit, true_north_frame
+from ..io.crs import cloud_unit, given_crs, note_unstated_unit, true_north_frame
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
@@ -134,11 +134,12 @@ def run_measure(args) -> int:
         check_streamable(args, engine)
     truth = read_truth(args.truth, frame) if args.truth else None
     if engine != "memory":
-        if args.engine == "auto" and not args.quiet:
-            print(
-                f"geostructure: note: {describe(paths)} holds more points than fit in --max-memory; measuring it "
-                f"streamed, in chunks, with the voxel detector.",
-                file=sys.stderr,
+        if args.engine == "auto":
+            warnings.warn(
+                f"{describe(paths)} holds more points than fit in --max-memory; measuring it streamed, in chunks, "
+                f"with the voxel detector.",
+                GeoStructureNote,
+                stacklevel=2,
             )
         extra = {"inputs": [str(p) for p in paths]} if len(paths) > 1 else None
         return run_streamed(args, paths, frame, engine, extra, truth=truth, inputs=[*paths, args.truth])
@@ -154,8 +155,7 @@ def run_measure(args) -> int:
 def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=()) -> int:
     """Measure; write the outputs, the evaluation and the report as one set; print the planes."""
     crs = given_crs(crs_from(args), cloud.crs, cloud.source)
-    unit = getattr(args, "unit", None)  # a reconstruction has none: its scale is its own
-    check_unit(unit, crs, cloud.source)  # a CRS no header gave (an E57's): after reading
+    unit = getattr(args, "unit", None)  # checked against the CRS before reading (a reconstruction has none)
     if crs != cloud.crs:
         cloud = dataclasses.replace(cloud, crs=crs)
     north = None
@@ -198,9 +198,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         with StageProgress(enabled=not args.quiet) as progress:
             kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics, progress=progress)
         paths.update(kinematic_paths)
-    say_what_was_left(
-        len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None, args.quiet
-    )
+    say_what_was_left(len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None)
     if not args.quiet:
         print_planes(result)
         if sets is not None:

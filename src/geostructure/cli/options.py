@@ -7,10 +7,11 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import warnings
 from pathlib import Path
 
 from ..auto import choose_params
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
 from ..facets import DETECTORS
 from ..io.crs import UNITS, check_cloud_crs, check_unit, cloud_unit, describe_north, parse_crs
 from ..io.gis import NO_CRS_NOTE
@@ -236,17 +237,16 @@ def crs_from(args) -> str | None:
 
 def crs_record(args, crs: str | None, north: dict | None, frame: Frame, truth):
     """What ``run.json`` says of a measured cloud's CRS beyond its name (``unit``: what
-    planes.csv's sizes are in; ``north``: the convergence its azimuths were turned by), said
-    on stderr too unless quiet, and the ground truth read in the turned frame (its azimuths
-    are true, as a compass's). In memory and streamed alike."""
+    planes.csv's sizes are in; ``north``: the convergence its azimuths were turned by, said
+    as a note too), and the ground truth read in the turned frame (its azimuths are true, as
+    a compass's). In memory and streamed alike."""
     record = {}
     unit = getattr(args, "unit", None)
     if crs is not None or unit is not None:
         record["unit"] = cloud_unit(crs, unit)
     if north:
         record["north"] = north
-        if not args.quiet:
-            print(f"geostructure: note: {describe_north(north)}", file=sys.stderr)
+        warnings.warn(describe_north(north), GeoStructureNote, stacklevel=2)
         if truth is not None:
             truth = read_truth(args.truth, frame)
     return record, truth
@@ -272,14 +272,14 @@ def check_unit_given(args, paths) -> None:
         check_unit(unit, *declared)
 
 
-def say_what_was_left(n_planes: int, detector: str, has_place: bool, quiet: bool) -> None:
-    """After a run, on stderr: the advice when no plane was found (a warning, even under
-    ``-q``), and the note that no GIS file was written when the cloud has no CRS (a note:
-    not under ``-q``). In memory and streamed alike."""
+def say_what_was_left(n_planes: int, detector: str, has_place: bool) -> None:
+    """After a run: the advice when no plane was found (a warning), and the note that no GIS
+    file was written when the cloud has no CRS (a note, which ``-q`` silences). In memory
+    and streamed alike."""
     if not n_planes:
-        print(f"geostructure: warning: {no_plane_advice(detector)}", file=sys.stderr)
-    if not has_place and not quiet:
-        print(f"geostructure: note: {NO_CRS_NOTE}", file=sys.stderr)
+        warnings.warn(no_plane_advice(detector), GeoStructureWarning, stacklevel=2)
+    if not has_place:
+        warnings.warn(NO_CRS_NOTE, GeoStructureNote, stacklevel=2)
 
 
 def no_plane_advice(detector: str) -> str:

@@ -71,29 +71,18 @@ def las_step(scales) -> tuple[float, str]:
     return float(np.max(scales)), "on the LAS scale, in steps of"
 
 
-def check_ply_step(points: np.ndarray, vertex_dtype: np.dtype, path) -> None:
-    """:func:`check_coordinate_step` for PLY vertices (:func:`ply_step`)."""
-    step = ply_step(points, vertex_dtype)
-    if step is not None:
-        check_coordinate_step(points, step[0], path, step[1])
-
-
-def check_las_step(points: np.ndarray, scales, path) -> None:
-    """:func:`check_coordinate_step` for LAS/LAZ points (:func:`las_step`)."""
-    step, stored = las_step(scales)
-    check_coordinate_step(points, step, path, stored)
-
-
-def check_coordinate_step(points: np.ndarray, step: float, path, stored: str) -> None:
+def check_coordinate_step(points: np.ndarray, stored_step: tuple[float, str] | None, path) -> None:
     """Refuse a cloud whose stored coordinates are rounded to steps of more than four times
     its point spacing (32-bit floats at UTM northings round to 0.5 m): its points are heaped
     on that grid, a dozen or more to a node, and the planes found would be the grid's. Warn
     from a quarter of the spacing (a drone LAZ stored to 1 cm at 6 mm spacing): the rounding
     is noise of step / sqrt(12) on every plane, and facets a few steps across are lost. The
-    spacing is read only when the step is coarse for the cloud's extent. ``stored`` says
-    how, before the step ("on the LAS scale, in steps of")."""
-    if len(points) < 10:
+    spacing is read only when the step is coarse for the cloud's extent. ``stored_step``: the
+    step and how it is stored, said before it (:func:`ply_step`, :func:`las_step`: "on the
+    LAS scale, in steps of"), or None (doubles: nothing to check)."""
+    if stored_step is None or len(points) < 10:
         return
+    step, stored = stored_step
     extent = float(np.max(column_max(points) - column_min(points)))  # NaN for non-finite rows: not checked
     if not step > STEP_CHECK_SHARE * extent:
         return

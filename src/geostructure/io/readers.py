@@ -14,7 +14,7 @@ import numpy as np
 
 from ..cloud import Cloud
 from ..errors import GeoStructureError, GeoStructureNote
-from .checks import check_las_step, check_ply_step, check_points
+from .checks import check_coordinate_step, check_points, las_step, ply_step
 from .crs import check_cloud_crs
 from .text import read_text
 
@@ -90,7 +90,7 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     data, vertex = ply_vertices(path)
     names = vertex.dtype.names
     points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
-    check_ply_step(points, vertex.dtype, path)
+    check_coordinate_step(points, ply_step(points, vertex.dtype), path)
     normals = None
     if all(n in names for n in ("nx", "ny", "nz")):
         normals = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in ("nx", "ny", "nz")])
@@ -304,7 +304,7 @@ def read_las(path: Path) -> Cloud:
     points = np.vstack(parts) if parts else np.empty((0, 3))
     left_out = tally.finish(path, expected)
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
-    check_las_step(points, grid[0], path)
+    check_coordinate_step(points, las_step(grid[0]), path)
     return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid, left_out=left_out)
 
 

@@ -227,7 +227,7 @@ def _check_step(points: np.ndarray, step: tuple[float, str] | None, path: Path, 
     """:func:`~.io.checks.check_coordinate_step` on a file's first chunk, unless an earlier
     file stored its coordinates in the same step."""
     if step is not None and step[0] not in steps_checked:
-        check_coordinate_step(points, step[0], path, step[1])
+        check_coordinate_step(points, step, path)
         steps_checked.add(step[0])
 
 
