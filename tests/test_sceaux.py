@@ -86,23 +86,27 @@ def test_the_facade_walls_are_vertical_and_share_one_orientation(sceaux_dir):
 
 
 def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split_dir):
-    """Point by point: the merged wall's points are, without the merge, in one region on one
-    side of the bay and in others on the other side. (Judged on the points, not on the split
-    run's planes: region growing cuts the half across the bay into two to five pieces, some
-    under 1,000 points, depending on the cloud SfM gave; repeated runs differ.)"""
+    """Point by point: the merged wall's points lie on both sides of the bay (a gap along the
+    wall, where the bay's points belong to its own plane), and without the merge no region
+    holds points on both sides. (Judged on the points and the gap, not on the pieces: region
+    growing cuts each half into one to five pieces depending on the cloud SfM gave, and the
+    largest piece held 21% to 44% of the wall over the runs seen.)"""
     facade = read_planes(sceaux_dir)[0]
     points, merged = read_regions(sceaux_dir)
     split_points, split = read_regions(split_dir)
     assert np.array_equal(points, split_points)  # the same filtered cloud, in the same order
     on_wall = merged == facade["region_id"]
-    pieces = split[on_wall]
-    largest = pieces == np.bincount(pieces[pieces >= 0]).argmax()
     axis, length = long_axis(facade)
     along = (points[on_wall] - vector(facade, "rect_center")) @ axis
-    assert 0.25 < largest.mean() < 0.75  # measured 0.37 to 0.44 over 3 runs: about half the wall
-    # the rest, joined by the merge, lies across the bay from the largest piece
-    assert np.median(along[largest]) * np.median(along[~largest]) < 0
-    assert np.ptp(along[largest]) < 0.7 * length  # the largest piece spans half of the wall
+    ordered = np.sort(along)
+    widest = np.diff(ordered).argmax()
+    assert ordered[widest + 1] - ordered[widest] > 0.1 * length  # measured 1.6 m of a 6.4 m wall
+    beyond = along > ordered[widest]
+    assert 0.25 < beyond.mean() < 0.75  # measured 0.53: about half the wall either side
+    pieces = split[on_wall]
+    for piece in np.unique(pieces[pieces >= 0]):
+        side = beyond[pieces == piece]
+        assert side.all() or not side.any(), f"region {piece} crosses the bay without the merge"
 
 
 def test_sets_of_an_unscaled_reconstruction_say_their_unit(sceaux_dir, capsys):
