@@ -114,6 +114,17 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         console.print(note)
 
 
+def counted(n: int, noun: str) -> str:
+    """``n`` with thousands separators and ``noun``, plural unless it is one.
+
+    Examples
+    --------
+    >>> counted(1, "critical pair"), counted(2040, "critical pair")
+    ('1 critical pair', '2,040 critical pairs')
+    """
+    return f"{n:,} {noun}" + ("" if n == 1 else "s")
+
+
 def shown(value, digits: int = 2) -> str:
     """A table's figure to ``digits`` decimals, or a dash where it was not measured (NaN, or
     None as ``run.json`` and ``kinematics.json`` write NaN).
@@ -150,17 +161,17 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         )
         console.print(f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median.")
     wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
-    console.print(f"Wedges: {wedge['critical_pairs']:,} critical pairs of {wedge['pairs_tested']:,} tested.")
+    console.print(f"Wedges: {counted(wedge['critical_pairs'], 'critical pair')} of {wedge['pairs_tested']:,} tested.")
     console.print(
-        f"Direct toppling: {direct['intersections_in_zone']:,} intersections in the zone, "
-        f"{direct['base_planes']:,} base planes ({direct['sliding_base_planes']:,} steeper than friction): "
+        f"Direct toppling: {counted(direct['intersections_in_zone'], 'intersection')} in the zone, "
+        f"{counted(direct['base_planes'], 'base plane')} ({direct['sliding_base_planes']:,} steeper than friction): "
         + ("critical." if direct["critical"] else "not critical.")
     )
     oblique = direct.get("oblique")
     if oblique and oblique["intersections_in_zone"]:
         console.print(
-            f"Oblique toppling (Dips' secondary zone): {oblique['intersections_in_zone']:,} intersections, "
-            f"{oblique['base_planes']:,} oblique base planes: "
+            f"Oblique toppling (Dips' secondary zone): {counted(oblique['intersections_in_zone'], 'intersection')}, "
+            f"{counted(oblique['base_planes'], 'oblique base plane')}: "
             + ("critical." if oblique["critical"] else "not critical.")
         )
     if summary.get("sets"):
