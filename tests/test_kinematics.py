@@ -402,3 +402,34 @@ def test_kinematics_and_sets_on_a_folder_tell_their_stages(outcrop_folder):
     stages.clear()
     add_sets(out, progress=lambda stage, done, total: stages.append(stage))
     assert stages == ["read", "sets", "spacing and persistence", "write"]
+
+
+def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder):
+    """The set table on the net, as a geologist reads a kinematic analysis: each set's mean
+    plane a great circle in its colour, and a star where two means cut in a critical wedge,
+    on the line both great circles share."""
+    import mplstereonet
+
+    from geostructure.io.results import read_planes, read_sets
+    from geostructure.kinematics import Slope
+    from geostructure.slope_stability import kinematics_of
+
+    _, out = outcrop_folder
+    sets = read_sets(out)
+    summary, _, _, figure = kinematics_of(read_planes(out), sets, Slope(65.0, 180.0), 30.0)
+    ax = next(a for a in figure.axes if a.get_legend() is not None)
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert sum(label.startswith("set ") and " mean " in label for label in labels) == len(sets) == 3
+    pairs = {(r["set"], s) for r in summary["sets"] for s in r["mean_wedges_with_sets"]}
+    stars = [line for line in ax.get_lines() if line.get_label().startswith("wedge of set means")]
+    assert pairs and len(stars) == len(pairs) // 2  # each pair named from both sides in the table
+    for star in stars:
+        a, b = map(int, re.findall(r"means (\d+) and (\d+)", star.get_label())[0])
+        means = {r["set"]: r for r in summary["sets"]}
+        normals = [normal_from_orientation(means[s]["mean_dip_direction"], means[s]["mean_dip"]) for s in (a, b)]
+        line = np.cross(*normals)
+        line = -line if line[2] > 0 else line  # downward
+        trend = np.degrees(np.arctan2(line[0], line[1])) % 360.0
+        plunge = np.degrees(np.arcsin(np.clip(-line[2] / np.linalg.norm(line), -1.0, 1.0)))
+        lon, lat = mplstereonet.line(plunge, trend)
+        assert np.hypot(star.get_xdata()[0] - lon[0], star.get_ydata()[0] - lat[0]) < 1e-6

@@ -224,6 +224,9 @@ def kinematics_of(
     oblique_base[tested] = direct.oblique_base
     pairs = w.pairs_tested
     ids = planes.region_id
+    # The sets' mean planes tested as planes are: what a geologist reads off the set table.
+    mean_wedges = wedges(np.array([r["dip"] for r in sets]), np.array([r["dip_direction"] for r in sets]), slope,
+                         friction)  # fmt: skip
     rows = [
         {
             "region_id": int(ids[i]),
@@ -304,26 +307,33 @@ def kinematics_of(
                 "base_planes": int(direct.oblique_base.sum()),
             },
         },
-        "sets": _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit),
+        "sets": _set_summary(
+            sets, mean_wedges, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit
+        ),  # fmt: skip
     }
     figure = kinematics_figure(
         dip, dd, slope=slope, friction=friction, lateral_limit=lateral_limit, planar=planar, toppling=toppling,
         wedge_lines=(w.trend, w.plunge), toppling_lines=(direct.trend, direct.plunge),
         oblique_lines=(direct.oblique_trend, direct.oblique_plunge),
+        set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
+        set_wedges=[(int(sets[a]["set"]), int(sets[b]["set"]), t, p)
+                    for a, b, t, p in zip(mean_wedges.a, mean_wedges.b, mean_wedges.trend, mean_wedges.plunge)],
     )  # fmt: skip
     return summary, rows, wedge_rows, figure
 
 
-def _set_summary(sets, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit) -> list[dict]:
+def _set_summary(
+    sets, mean_wedges, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit
+) -> list[dict]:
     """Per set: its mean's tests, the share of its planes critical per mode, and the wedges
-    its mean forms with the other sets' means."""
+    its mean forms with the other sets' means (``mean_wedges``, on the means in ``sets``'s order)."""
     if not sets:
         return []
     mean_dip = np.array([r["dip"] for r in sets])
     mean_dd = np.array([r["dip_direction"] for r in sets])
     mean_planar = planar_sliding(mean_dip, mean_dd, slope, friction, lateral_limit)
     mean_toppling = flexural_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
-    w = wedges(mean_dip, mean_dd, slope, friction)
+    w = mean_wedges
     direct = direct_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
     out = []
     for i, row in enumerate(sets):

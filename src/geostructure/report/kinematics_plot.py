@@ -6,6 +6,7 @@ import numpy as np
 
 from ..orientation import whole_azimuth
 from ..projection import quiet_mplstereonet
+from .view3d import set_color
 
 #: Intersection lines drawn at most per kind: an outcrop's 1,500 planes make a million pairs,
 #: and a quarter of a million crosses drew a solid band over the envelopes. A random draw of
@@ -39,13 +40,17 @@ def kinematics_figure(
     wedge_lines=((), ()),
     toppling_lines=((), ()),
     oblique_lines=((), ()),
+    set_means=(),
+    set_wedges=(),
 ):
     """Poles (critical for planar sliding red, for flexural toppling orange), the slope's great
     circle (the wedges' daylight envelope), the planar daylight envelope and lateral limits,
     the friction cones of poles and of lines, the toppling envelope, and the critical wedges'
     intersection lines (crosses), and the intersections in the direct toppling zones (inside the
     circle of lines plunging 90 - slope dip: within the lateral limits, and Dips' secondary
-    zone outside them)."""
+    zone outside them). With joint sets, each set's mean plane (``set_means``: set, dip, dip
+    direction) is drawn as a great circle in the set's colour, and the critical wedges their
+    means form (``set_wedges``: set, set, trend, plunge) as stars: the set table on the net."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(7.0, 8.0))
@@ -103,6 +108,12 @@ def kinematics_figure(
             drawn = drawn_lines(len(trend))
             label = name if len(drawn) == len(trend) else f"{name}: {len(drawn):,} of {len(trend):,} drawn"
             curve(plunge[drawn], trend[drawn], linestyle="none", zorder=1, label=label, **style)
+    for s, mean_dip, mean_dd in set_means:
+        ax.plane((mean_dd - 90.0) % 360.0, mean_dip, "--", color=set_color(s), linewidth=2.0,
+                 label=f"set {s} mean {mean_dip:.0f}/{whole_azimuth(mean_dd)}")  # fmt: skip
+    for a, b, trend, plunge in set_wedges:
+        curve(plunge, trend, marker="*", linestyle="none", color="black", markersize=12, zorder=4,
+              label=f"wedge of set means {a} and {b}: {plunge:.0f}° toward {whole_azimuth(trend)}")  # fmt: skip
     ax.grid(True)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.04), fontsize=8, frameon=False, ncol=2)
     ax.set_title(f"Kinematics: slope {psi_f:.0f}/{whole_azimuth(alpha_f)}, friction {friction:g}°", y=1.08)
