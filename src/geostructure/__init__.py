@@ -46,7 +46,7 @@ _PUBLIC = {
     "measure": "pipeline",
     "save_measurement": "runs",
     "add_report": "runs",
-    "add_evaluation": "runs",
+    "add_evaluation": "scoring",
     "measure_stream": "stream",
 }
 

@@ -1,4 +1,4 @@
-"""Saving a measurement and what is made from it (evaluation, report), each as one set.
+"""Saving a measurement and what is made from it (joint sets, report), each as one set.
 
 These are the functions the command line calls after measuring, and a Python user can call
 the same: every one writes through :func:`~geostructure.io.outdir.output_set`, so the
@@ -15,29 +15,24 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
 from .errors import GeoStructureWarning
-from .evaluate import Evaluation, evaluate
 from .exposure import exposure
-from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
-from .io.outdir import EVALUATION_FILES, REPORT_FILES, SETS_FILES, OutputSet, output_set
+from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_regions, read_sets
-from .io.truth import GroundTruth, read_truth
 from .io.writers import (
     sets_record,
-    write_evaluation_files,
     write_plane_tables,
     write_result,
     write_sets_csv,
     write_spacing_csv,
 )
 from .orientation import Frame
-from .planes import Planes, plane_rows, reoriented
+from .planes import Planes, plane_rows
 from .reconstruct.georef import unscaled
 from .rockmass import RockMass, rock_mass, with_rock_mass
+from .scoring import Evaluation, stage_evaluation
 from .sets import JointSets, find_sets
 from .uncertainty import normal_standard_errors, with_correlated_tilt
 
@@ -110,6 +105,7 @@ def plane_sets(
 
     Examples
     --------
+    >>> import numpy as np
     >>> from geostructure.synthetic import fisher_directions
     >>> rng = np.random.default_rng(0)
     >>> normals = np.vstack([fisher_directions(n, 60.0, 40, rng) for n in ([0, -0.7, 0.7], [0.9, 0, 0.4])])
@@ -336,76 +332,6 @@ def add_report(outdir, *, max_points: int | None = None) -> dict[str, Path]:
     with output_set(outdir, replace=False, rewrites=REPORT_FILES) as outputs:
         paths = stage_report(outputs, outputs.outdir, max_points)
     return paths
-
-
-def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Evaluation, dict, dict[str, Path]]:
-    """Score a measured folder against a ground-truth CSV and add the evaluation files.
-
-    With ``fit_frame`` (an unreferenced cloud), the frame is first fitted to the truth
-    planes and the scores are taken in that frame; the fit is returned and recorded.
-
-    Parameters
-    ----------
-    outdir : str or Path
-        A measured folder.
-    truth_path : str or Path
-        The ground-truth CSV (:mod:`geostructure.io.truth`).
-    fit_frame : bool
-        Fit the frame to the truth first (an SfM model without georeference).
-
-    Returns
-    -------
-    evaluation, fit record (empty without ``fit_frame``), paths
-
-    Examples
-    --------
-    >>> import pathlib, tempfile
-    >>> from geostructure import measure
-    >>> from geostructure.synthetic import observatory_scene
-    >>> out = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = save_measurement(measure(observatory_scene(30_000, seed=1).cloud), out)
-    >>> _ = (out.parent / "truth.csv").write_text("surface,dip,dip_direction\\nslope,40,89\\n")
-    >>> evaluation, _, _ = add_evaluation(out, out.parent / "truth.csv")
-    >>> evaluation.n_found
-    1
-    """
-    with output_set(outdir, replace=False, rewrites=EVALUATION_FILES, inputs=[truth_path]) as outputs:
-        frame = Frame.from_dict(outputs.record.get("frame") or {})
-        planes = read_planes(outputs.outdir)
-        truth = read_truth(truth_path, frame)
-        extra, matched = {}, None
-        if fit_frame:
-            planes, truth, extra = refit_frame(planes, truth, frame, truth_path)
-            matched = extra["frame_fit"]["matched_regions"]
-        evaluation = evaluate(planes, truth, matched=matched)
-        paths = stage_evaluation(outputs, evaluation, extra)
-    return evaluation, extra, paths
-
-
-def refit_frame(planes: Planes, truth: GroundTruth, frame: Frame, truth_path):
-    """Planes and truth re-expressed in the frame fitted from the truth itself (see framefit)."""
-    order = np.argsort(-planes.n_points, kind="stable")
-    fit = fit_frame_to_truth(planes.normal[order], truth.normals, candidates=30)
-    fit.matched = order[fit.matched]
-    new = fitted_frame(frame, fit)
-    planes = reoriented(planes, new, frame)
-    truth = read_truth(truth_path, new)
-    pairwise = pairwise_angle_error(planes.normal[fit.matched], truth.normals)
-    record = {
-        "rotation_deg": fit.rotation_angle,
-        "residuals_deg": fit.residuals.tolist(),
-        "mean_residual_deg": fit.mean_residual,
-        "matched_regions": fit.matched.tolist(),
-        "pairwise_mean_deg": float(pairwise.mean()),
-        "pairwise_max_deg": float(pairwise.max()),
-        "frame_rotation": [list(r) for r in new.rotation],
-    }
-    return planes, truth, {"frame_fit": record}
-
-
-def stage_evaluation(outputs: OutputSet, evaluation: Evaluation, extra: dict | None) -> dict[str, Path]:
-    write_evaluation_files(evaluation, outputs.staging, extra)
-    return {"evaluation_csv": outputs.final("evaluation.csv"), "evaluation_json": outputs.final("evaluation.json")}
 
 
 def stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> dict[str, Path]:

@@ -13,7 +13,8 @@ from ..evaluate import evaluate
 from ..io.outdir import output_set
 from ..io.writers import write_result
 from ..progress import StageProgress
-from ..runs import stage_evaluation, stage_report
+from ..runs import stage_report
+from ..scoring import stage_evaluation
 from ..stream import DaskExecutor, SerialExecutor, measure_stream
 from ..stream.engine import DEFAULT_CHUNK_POINTS
 from ..stream.output import RegionsLaz, RegionsPly

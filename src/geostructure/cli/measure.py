@@ -19,7 +19,8 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
-from ..runs import add_evaluation, add_report, detected_spacing, save_measurement, sets_and_rock_mass
+from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
+from ..scoring import add_evaluation
 from ..slope_stability import add_kinematics
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
