@@ -8,7 +8,7 @@ from geostructure.evaluate import match_facets
 from geostructure.orientation import angle_between_normals, normal_from_orientation, orientation_from_normals
 from geostructure.runs import plane_rock_mass, plane_sets, with_rock_mass
 from geostructure.synthetic import outcrop_scene
-from geostructure.synthetic.outcrop import _smooth_field
+from geostructure.synthetic.surface import smooth_field
 from geostructure.uncertainty import normal_standard_errors
 
 
@@ -24,7 +24,7 @@ def noisy_planes(rng, *, size, spacing, white, correlated=0.0, wavelength=0.0, n
         ab = rng.uniform(-size / 2, size / 2, (m, 2))
         h = white * rng.standard_normal(m)
         if correlated:
-            h += _smooth_field(ab, correlated, (0.7 * wavelength, 1.4 * wavelength), rng)
+            h += smooth_field(ab, correlated, (0.7 * wavelength, 1.4 * wavelength), rng)
         q = ab[:, :1] * u + ab[:, 1:] * v + h[:, None] * normal + [10.0 * p, 0.0, 0.0]
         centre = q.mean(axis=0)
         vectors = np.linalg.eigh(np.cov((q - centre).T))[1]

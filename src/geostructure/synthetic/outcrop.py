@@ -40,6 +40,7 @@ from scipy.spatial import cKDTree
 from ..cloud import Cloud
 from ..orientation import normal_from_orientation
 from .scanlines import scanline_crossings
+from .surface import facet_seeds, jittered_grid, smooth_field, visible_points
 
 
 @dataclass(frozen=True)
@@ -236,8 +237,8 @@ def outcrop_scene(
     along = along / np.linalg.norm(along) if np.linalg.norm(along) > 1e-9 else np.array([1.0, 0.0, 0.0])
     up_dip = np.cross(face_normal, along)
 
-    ab = _jittered_grid(width, height, point_spacing, rng)
-    seeds = _facet_seeds(width, height, facet_size, rng)
+    ab = jittered_grid(width, height, point_spacing, rng)
+    seeds = facet_seeds(width, height, facet_size, rng)
     cell = cKDTree(seeds).query(ab, workers=-1)[1]
     seeds3 = seeds[:, :1] * along + seeds[:, 1:] * up_dip
 
@@ -272,15 +273,15 @@ def outcrop_scene(
     clean = base + depth[:, None] * face_normal
 
     wobble = (
-        _smooth_field(ab, roughness, (0.05, 0.5), rng)
-        + _smooth_field(ab, correlated_noise, (0.5, 3.0), rng)
+        smooth_field(ab, roughness, (0.05, 0.5), rng)
+        + smooth_field(ab, correlated_noise, (0.5, 3.0), rng)
         + rng.normal(0.0, noise, len(ab))
     )
     floaters = rng.random(len(ab)) < outlier_fraction
     wobble[floaters] += rng.choice([-1.0, 1.0], floaters.sum()) * rng.uniform(0.05, 0.3, floaters.sum())
     points = clean + wobble[:, None] * face_normal
 
-    seen = _visible(clean, n_cell, face_normal, along, width, height, point_spacing, cameras, camera_distance)
+    seen = visible_points(clean, n_cell, face_normal, along, width, height, point_spacing, cameras, camera_distance)
     # A cell is cut short by the cloud's edge (censored) where the face ends, or where part of
     # it is hidden and nothing seen lies in front of that part: a hole in the cloud. (Where a
     # step in front hides it, the cloud has no edge there and the cut is not the cloud's.)
@@ -361,59 +362,3 @@ def _join_coplanar_cells(ab, cell, plane_key, step) -> np.ndarray:
     lowest = np.full(component.max() + 1, n)
     np.minimum.at(lowest, component, np.arange(n))
     return lowest[component[cell]]
-
-
-def _jittered_grid(width, height, step, rng) -> np.ndarray:
-    """Points about ``step`` apart over the face, as regular as SfM's pixels but not a lattice."""
-    a, b = np.meshgrid(np.arange(0.0, width, step), np.arange(0.0, height, step), indexing="ij")
-    ab = np.column_stack([a.ravel(), b.ravel()])
-    return ab + rng.uniform(-0.4 * step, 0.4 * step, ab.shape)
-
-
-def _facet_seeds(width, height, facet_size, rng) -> np.ndarray:
-    """Voronoi seeds whose density varies smoothly over the face (log-normally, sigma 0.7)."""
-    # Density lam = 4 / (pi d^2) would give Poisson-Voronoi cells of median equivalent diameter
-    # near d; the varying density and the occlusion's splitting make them smaller, by a
-    # factor measured on the default face (about 1.2 in diameter).
-    lam = 4.0 / (np.pi * facet_size**2)
-    peak = lam * np.exp(2.0 * 0.7)
-    n = rng.poisson(peak * width * height)
-    candidates = rng.random((n, 2)) * [width, height]
-    field = _smooth_field(candidates, 0.7, (2.0, 8.0), rng)
-    keep = rng.random(n) < np.exp(field - 2.0 * 0.7)
-    return candidates[keep]
-
-
-def _smooth_field(ab, rms: float, wavelengths, rng, waves: int = 24) -> np.ndarray:
-    """A random smooth field over the face of RMS ``rms``: a sum of plane waves."""
-    if rms <= 0:
-        return np.zeros(len(ab))
-    wavelength = np.exp(rng.uniform(np.log(wavelengths[0]), np.log(wavelengths[1]), waves))
-    angle = rng.uniform(0.0, np.pi, waves)
-    k = (2 * np.pi / wavelength)[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
-    phase = rng.uniform(0.0, 2 * np.pi, waves)
-    return rms * np.sqrt(2.0 / waves) * np.cos(ab @ k.T + phase).sum(axis=1)
-
-
-def _visible(points, normals, face_normal, along, width, height, step, cameras, distance) -> np.ndarray:
-    """Points facing at least two of the cameras and nearest to them in their pixel."""
-    if cameras <= 0:
-        return np.ones(len(points), dtype=bool)
-    up_dip = np.cross(face_normal, along)
-    centre = along * width / 2 + up_dip * height / 2
-    seen = np.zeros(len(points), dtype=np.int64)
-    pixel = 1.5 * step / distance  # radians: a pixel about 1.5 point spacings wide on the face
-    for x in np.linspace(0.1 * width, 0.9 * width, cameras):
-        camera = centre + (x - width / 2) * along + distance * face_normal
-        ray = points - camera
-        depth = np.linalg.norm(ray, axis=1)
-        facing = np.einsum("ij,ij->i", normals, -ray) > 0.1 * depth
-        forward = -face_normal
-        u = np.arctan2(ray @ along, ray @ forward)
-        v = np.arctan2(ray @ up_dip, ray @ forward)
-        key = np.floor(u / pixel).astype(np.int64) * 1_000_003 + np.floor(v / pixel).astype(np.int64)
-        _, slot = np.unique(key, return_inverse=True)
-        nearest = np.full(slot.max() + 1, np.inf)
-        np.minimum.at(nearest, slot[facing], depth[facing])
-        seen += facing & (depth <= nearest[slot] + 2.0 * step)
-    return seen >= 2
