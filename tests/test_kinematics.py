@@ -404,6 +404,13 @@ def test_kinematics_and_sets_on_a_folder_tell_their_stages(outcrop_folder):
     assert stages == ["read", "sets", "spacing and persistence", "write"]
 
 
+def distance_to_polyline(point, vertices) -> float:
+    """The least distance from ``point`` (2,) to the segments between ``vertices`` (n, 2)."""
+    start, step = vertices[:-1], np.diff(vertices, axis=0)
+    along = np.clip(np.einsum("ij,ij->i", point - start, step) / np.einsum("ij,ij->i", step, step), 0.0, 1.0)
+    return float(np.linalg.norm(start + along[:, None] * step - point, axis=1).min())
+
+
 def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder):
     """The set table on the net, as a geologist reads a kinematic analysis: each set's mean
     plane a great circle in its colour, and a star where two means cut in a critical wedge,
@@ -412,6 +419,8 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
 
     from geostructure.io.results import read_planes, read_sets
     from geostructure.kinematics import Slope
+    from geostructure.projection import great_circle_xy
+    from geostructure.report.kinematics_net import kinematic_traces
     from geostructure.slope_stability import kinematics_of
 
     _, out = outcrop_folder
@@ -433,3 +442,13 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
         plunge = np.degrees(np.arcsin(np.clip(-line[2] / np.linalg.norm(line), -1.0, 1.0)))
         lon, lat = mplstereonet.line(plunge, trend)
         assert np.hypot(star.get_xdata()[0] - lon[0], star.get_ydata()[0] - lat[0]) < 1e-6
+    # kinematics.json gives the same wedges, and the report's net draws a star on each, on
+    # both means' great circles
+    assert len(summary["set_mean_wedges"]) == len(stars)
+    report_stars = [t for t in kinematic_traces(summary) if t.name.startswith("wedge of set means")]
+    assert len(report_stars) == len(stars)
+    means = {r["set"]: r for r in summary["sets"]}
+    for wedge, trace in zip(summary["set_mean_wedges"], report_stars):
+        for s in wedge["sets"]:
+            circle = np.column_stack(great_circle_xy(means[s]["mean_dip_direction"], means[s]["mean_dip"]))
+            assert distance_to_polyline(np.array([trace.x[0], trace.y[0]]), circle) < 2e-3  # chords' sag: 2e-4

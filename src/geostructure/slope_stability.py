@@ -309,15 +309,25 @@ def kinematics_of(
         },
         "sets": _set_summary(
             sets, mean_wedges, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit
-        ),  # fmt: skip
+        ),
+        "set_mean_wedges": [
+            {
+                "sets": [int(sets[a]["set"]), int(sets[b]["set"])],
+                "trend": float(t),
+                "plunge": float(p),
+                "wedge_fs": float(fs),
+            }
+            for a, b, t, p, fs in zip(
+                mean_wedges.a, mean_wedges.b, mean_wedges.trend, mean_wedges.plunge, mean_wedges.factor_of_safety
+            )
+        ],
     }
     figure = kinematics_figure(
         dip, dd, slope=slope, friction=friction, lateral_limit=lateral_limit, planar=planar, toppling=toppling,
         wedge_lines=(w.trend, w.plunge), toppling_lines=(direct.trend, direct.plunge),
         oblique_lines=(direct.oblique_trend, direct.oblique_plunge),
         set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
-        set_wedges=[(int(sets[a]["set"]), int(sets[b]["set"]), t, p)
-                    for a, b, t, p in zip(mean_wedges.a, mean_wedges.b, mean_wedges.trend, mean_wedges.plunge)],
+        set_wedges=[(*w["sets"], w["trend"], w["plunge"]) for w in summary["set_mean_wedges"]],
     )  # fmt: skip
     return summary, rows, wedge_rows, figure
 

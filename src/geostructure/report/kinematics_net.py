@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..orientation import whole_azimuth
 from ..projection import enu_vectors, equal_area_xy, great_circle_xy, pole_xy, small_circle_xy
 
 
@@ -47,7 +48,8 @@ def envelope_curves(kinematics: dict) -> list[tuple[str, str, str, np.ndarray, n
 
 
 def kinematic_traces(kinematics: dict) -> list:
-    """Plotly traces of :func:`envelope_curves`; [] without kinematics."""
+    """Plotly traces of :func:`envelope_curves`, and a star on each critical wedge the sets'
+    means form; [] without kinematics."""
     import plotly.graph_objects as go
 
     if not kinematics:
@@ -68,4 +70,18 @@ def kinematic_traces(kinematics: dict) -> list:
             )
         )
         seen.add(name)
+    for wedge in kinematics.get("set_mean_wedges", []):  # the critical wedges of the sets' means
+        a, b = wedge["sets"]
+        x, y = _line_xy([wedge["trend"]], [wedge["plunge"]])
+        traces.append(
+            go.Scatter(
+                x=x,
+                y=y,
+                mode="markers",
+                name=f"wedge of set means {a} and {b}",
+                marker=dict(symbol="star", size=16, color="black", line=dict(color="white", width=1)),
+                hovertemplate=f"wedge of set means {a} and {b}<br>plunge {wedge['plunge']:.0f}° toward "
+                f"{whole_azimuth(wedge['trend'])}<extra></extra>",
+            )
+        )
     return traces
