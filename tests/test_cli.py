@@ -194,6 +194,25 @@ def test_bad_parameter_is_one_sentence(capsys, tmp_path, good_ply):
     assert not (tmp_path / "o" / "planes.csv").exists()
 
 
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["measure", "cloud.ply"], "the following arguments are required: -o/--outdir"),
+        (["measure", "cloud.ply", "-o", "o", "--n-sets", "0"], "argument --n-sets: 0 is less than 1"),
+        (["measur", "cloud.ply"], "invalid choice: 'measur'"),
+    ],
+)
+def test_an_option_slip_is_one_line_that_says_where_to_read_more(capsys, argv, said):
+    """argparse printed the whole usage (25 lines for measure) above the line that says what
+    is wrong: now that line alone, and the command's --help."""
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and err.count("\n") == 1 and said in err
+    command = "geostructure measure" if argv[0] == "measure" else "geostructure"
+    assert err.startswith(f"{command}: error: ") and err.endswith(f"see '{command} --help'.\n")
+
+
 @pytest.mark.parametrize("value", ["400", "-181"])
 def test_a_declination_beyond_half_a_turn_is_refused(capsys, tmp_path, good_ply, value):
     """400 degrees was read as 40 without a word: a slip, not a declination."""

@@ -100,8 +100,16 @@ def _warning_printer(quiet: bool = False):
     return show
 
 
+class BriefParser(argparse.ArgumentParser):
+    """argparse, whose slips are one line and where to read more: its default printed the
+    whole usage (some 25 lines for ``measure``) above the one line that says what is wrong."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}; see '{self.prog} --help'.\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = BriefParser(
         prog="geostructure",
         description=("Measure strike, dip and dip direction of the planar surfaces in a point cloud."),
     )
