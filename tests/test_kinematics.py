@@ -424,8 +424,13 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
     from geostructure.slope_stability import kinematics_of
 
     _, out = outcrop_folder
-    sets = read_sets(out)
-    summary, _, _, figure = kinematics_of(read_planes(out), sets, Slope(65.0, 180.0), 30.0)
+    sets, planes = read_sets(out), read_planes(out)
+    summary, _, _, figure = kinematics_of(planes, sets, Slope(65.0, 180.0), 30.0)
+    # with cohesion, the means' wedges are the same and hold better, as the planes' do
+    strength = {"cohesion_kpa": 20.0, "unit_weight_kn_m3": 26.0, "height_m": 6.0}
+    strong = kinematics_of(planes, sets, Slope(65.0, 180.0), 30.0, strength=strength)[0]["set_mean_wedges"]
+    assert [w["sets"] for w in strong] == [w["sets"] for w in summary["set_mean_wedges"]]
+    assert all(s["wedge_fs"] > w["wedge_fs"] for s, w in zip(strong, summary["set_mean_wedges"]))
     ax = next(a for a in figure.axes if a.get_legend() is not None)
     labels = [line.get_label() for line in ax.get_lines()]
     assert sum(label.startswith("set ") and " mean " in label for label in labels) == len(sets) == 3

@@ -204,19 +204,15 @@ def kinematics_of(
         unit_weight=strength["unit_weight_kn_m3"],
     )
     tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
-    w = wedges(
-        dip[tested],
-        dd[tested],
-        slope,
-        friction,
-        max_planes=MAX_WEDGE_PLANES,
-        cohesion=strength["cohesion_kpa"],
-        height=strength.get("height_m"),
-        unit_weight=strength["unit_weight_kn_m3"],
-        upper_normal=normal_from_orientation(strength["upper_slope_dip_direction"], strength["upper_slope_dip"])
+    block = {  # the wedges' strength and the block under the face, for their factors of safety
+        "cohesion": strength["cohesion_kpa"],
+        "height": strength.get("height_m"),
+        "unit_weight": strength["unit_weight_kn_m3"],
+        "upper_normal": normal_from_orientation(strength["upper_slope_dip_direction"], strength["upper_slope_dip"])
         if "upper_slope_dip" in strength
         else (0.0, 0.0, 1.0),
-    )
+    }
+    w = wedges(dip[tested], dd[tested], slope, friction, max_planes=MAX_WEDGE_PLANES, **block)
     direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
     base = np.zeros(len(planes), dtype=bool)
     base[tested] = direct.base
@@ -225,8 +221,9 @@ def kinematics_of(
     pairs = w.pairs_tested
     ids = planes.region_id
     # The sets' mean planes tested as planes are: what a geologist reads off the set table.
-    mean_wedges = wedges(np.array([r["dip"] for r in sets]), np.array([r["dip_direction"] for r in sets]), slope,
-                         friction)  # fmt: skip
+    mean_wedges = wedges(
+        np.array([r["dip"] for r in sets]), np.array([r["dip_direction"] for r in sets]), slope, friction, **block
+    )
     rows = [
         {
             "region_id": int(ids[i]),
@@ -327,7 +324,7 @@ def kinematics_of(
         wedge_lines=(w.trend, w.plunge), toppling_lines=(direct.trend, direct.plunge),
         oblique_lines=(direct.oblique_trend, direct.oblique_plunge),
         set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
-        set_wedges=[(*w["sets"], w["trend"], w["plunge"]) for w in summary["set_mean_wedges"]],
+        set_wedges=[(*wedge["sets"], wedge["trend"], wedge["plunge"]) for wedge in summary["set_mean_wedges"]],
     )  # fmt: skip
     return summary, rows, wedge_rows, figure
 
