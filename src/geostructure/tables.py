@@ -176,6 +176,8 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         )
     if summary.get("sets"):
         print_set_kinematics(summary["sets"], console)
+    for wedge in summary.get("set_mean_wedges", []):
+        console.print(set_mean_wedge_line(wedge))
 
 
 #: The failure modes of a kinematics summary (``kinematics.json``), in table order.
@@ -219,6 +221,21 @@ def set_kinematic_cells(row: dict) -> list[str]:
         ", ".join(str(s) for s in row["mean_wedges_with_sets"]) or "—",
         shown(row["wedge_percent_by_count"], 0),
     ]
+
+
+def set_mean_wedge_line(wedge: dict) -> str:
+    """One critical wedge of two sets' means (``kinematics.json``'s ``set_mean_wedges``).
+
+    Examples
+    --------
+    >>> set_mean_wedge_line({"sets": [0, 2], "trend": 168.9, "plunge": 41.2, "wedge_fs": 0.636})
+    'The means of sets 0 and 2 form a critical wedge: its line plunges 41° toward 169, factor of safety 0.64.'
+    """
+    a, b = wedge["sets"]
+    return (
+        f"The means of sets {a} and {b} form a critical wedge: its line plunges {wedge['plunge']:.0f}° toward "
+        f"{whole_azimuth(wedge['trend'])}, factor of safety {shown(wedge['wedge_fs'])}."
+    )
 
 
 def print_set_kinematics(sets: list[dict], console: Console) -> None:
