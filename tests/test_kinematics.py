@@ -415,13 +415,17 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
     """The set table on the net, as a geologist reads a kinematic analysis: each set's mean
     plane a great circle in its colour, and a star where two means cut in a critical wedge,
     on the line both great circles share."""
+    import io
+
     import mplstereonet
+    from rich.console import Console
 
     from geostructure.io.results import read_planes, read_sets
     from geostructure.kinematics import Slope
     from geostructure.projection import great_circle_xy
     from geostructure.report.kinematics_net import kinematic_traces
     from geostructure.slope_stability import kinematics_of
+    from geostructure.tables import print_kinematics
 
     _, out = outcrop_folder
     sets, planes = read_sets(out), read_planes(out)
@@ -431,6 +435,9 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
     strong = kinematics_of(planes, sets, Slope(65.0, 180.0), 30.0, strength=strength)[0]["set_mean_wedges"]
     assert [w["sets"] for w in strong] == [w["sets"] for w in summary["set_mean_wedges"]]
     assert all(s["wedge_fs"] > w["wedge_fs"] for s, w in zip(strong, summary["set_mean_wedges"]))
+    console = Console(width=120, record=True, file=io.StringIO())
+    print_kinematics(summary, console)
+    assert console.export_text().count("form a critical wedge: its line plunges") == len(summary["set_mean_wedges"])
     ax = next(a for a in figure.axes if a.get_legend() is not None)
     labels = [line.get_label() for line in ax.get_lines()]
     assert sum(label.startswith("set ") and " mean " in label for label in labels) == len(sets) == 3
