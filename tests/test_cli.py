@@ -200,6 +200,8 @@ def test_bad_parameter_is_one_sentence(capsys, tmp_path, good_ply):
         (["measure", "cloud.ply"], "the following arguments are required: -o/--outdir"),
         (["measure", "cloud.ply", "-o", "o", "--n-sets", "0"], "argument --n-sets: 0 is less than 1"),
         (["measur", "cloud.ply"], "invalid choice: 'measur'"),
+        (["measure", "cloud.ply", "-o", "o", "--no-report"], "unrecognized arguments: --no-report"),
+        (["--nothing"], "unrecognized arguments: --nothing"),
     ],
 )
 def test_an_option_slip_is_one_line_that_says_where_to_read_more(capsys, argv, said):

@@ -107,6 +107,15 @@ class BriefParser(argparse.ArgumentParser):
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {message}; see '{self.prog} --help'.\n")
 
+    def parse_args(self, args=None, namespace=None):
+        """argparse's, but an unknown option is reported by its command's parser, whose
+        ``--help`` lists the options (argparse's own reports it from the top)."""
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            commands = getattr(self, "commands", {})  # the subcommands' parsers, set by build_parser
+            commands.get(getattr(parsed, "command", None), self).error(f"unrecognized arguments: {' '.join(extras)}")
+        return parsed
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = BriefParser(
@@ -119,4 +128,5 @@ def build_parser() -> argparse.ArgumentParser:
     add_measure_commands(sub)
     add_reconstruct_commands(sub)
     add_rockmass_commands(sub)
+    parser.commands = dict(sub.choices)
     return parser
