@@ -590,8 +590,9 @@ def test_points_a_las_marks_withheld_or_noise_are_not_measured(tmp_path, capsys,
 def test_a_cloud_of_repeated_points_is_measured_as_its_distinct_points(tmp_path, capsys):
     """Merged copies of one scan: every point written ten times. Each point's 8th neighbour
     was a copy of itself, the point spacing read 0, and the facet detector's grid of edge 0
-    ended in an IndexError traceback. Now the spacing is the distinct points', and the
-    planes are the single copy's."""
+    ended in an IndexError traceback. Now the copies are left out as the file is read
+    (and the spacing would be the distinct points' in any case), and the planes are the
+    single copy's."""
     from geostructure.synthetic import outcrop_scene
 
     points = outcrop_scene(width=4.0, height=3.0, seed=1).cloud.points
@@ -604,6 +605,55 @@ def test_a_cloud_of_repeated_points_is_measured_as_its_distinct_points(tmp_path,
         counts[name] = (record["counts"]["planes"], record["detection"]["facet_thresholds"]["spacing"])
     assert counts["ten"][1] == pytest.approx(counts["once"][1], rel=0.02)
     assert abs(counts["ten"][0] - counts["once"][0]) <= 0.15 * counts["once"][0], counts
+
+
+def test_a_cloud_written_twice_is_measured_as_once(tmp_path, capsys):
+    """A scan merged twice: each copy was read as a neighbour at distance 0, the spacing came
+    out short by sqrt 2, and a flat 5 m square gave 1,937 planes (the observatory 29 for 8).
+    The copies are now left out as the file is read, counted in run.json's left_out, and
+    the planes are the single copy's."""
+    from geostructure.synthetic import observatory_scene
+
+    points = observatory_scene(60_000, seed=1).cloud.points
+    once, twice = (
+        write_xyz(tmp_path / "once.xyz", points),
+        write_xyz(tmp_path / "twice.xyz", np.vstack([points, points])),
+    )
+    planes = {}
+    for name, path in (("once", once), ("twice", twice)):
+        code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / name)
+        assert code == 0, err
+        record = json.loads((tmp_path / name / "run.json").read_text())
+        assert record["counts"]["input"] == len(points)
+        planes[name] = (tmp_path / name / "planes.csv").read_text()
+    assert record["left_out"] == {"copies": len(points)} and f"{len(points):,} point(s) repeat others exactly" in err
+    assert planes["twice"] == planes["once"]  # the same points measured: the same table, bit for bit
+
+
+def test_tiles_that_overlap_are_measured_once_where_they_overlap(tmp_path, capsys):
+    """Two tiles cut with a shared strip (a tiler's buffer): the strip's points are in both.
+    They are left out once, as copies, and the planes are the whole cloud's."""
+    from geostructure.synthetic import observatory_scene
+
+    points = observatory_scene(60_000, seed=2).cloud.points + [500_000.0, 4_500_000.0, 0.0]
+    x = points[:, 0] - points[:, 0].min()
+    west, east = x < 0.6 * np.ptp(x), x > 0.4 * np.ptp(x)  # a fifth of the cloud in both
+    write_xyz(tmp_path / "west.xyz", points[west])
+    write_xyz(tmp_path / "east.xyz", points[east])
+    write_xyz(tmp_path / "whole.xyz", points)
+    code, _, err = run_cli(
+        capsys, "measure", tmp_path / "west.xyz", tmp_path / "east.xyz", "-o", tmp_path / "tiles", "-q"
+    )
+    assert code == 0, err
+    record = json.loads((tmp_path / "tiles" / "run.json").read_text())
+    assert record["left_out"] == {"copies": int((west & east).sum())}
+    assert record["counts"]["input"] == len(points)
+    assert run_cli(capsys, "measure", tmp_path / "whole.xyz", "-o", tmp_path / "whole", "-q")[0] == 0
+    tiles, whole = (list(csv.DictReader(open(tmp_path / n / "planes.csv"))) for n in ("tiles", "whole"))
+    assert len(tiles) == len(whole)
+    for a, b in zip(tiles, whole):  # the same points in another order: the same planes to rounding
+        assert int(a["n_points"]) == int(b["n_points"])
+        assert abs(float(a["dip"]) - float(b["dip"])) < 1e-6
 
 
 def test_sets_and_a_report_of_a_cloud_without_planes(tmp_path, capsys):

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud import Cloud
+from ..copies import without_copies
 from ..errors import GeoStructureError, GeoStructureNote
 from .checks import check_coordinate_step, check_points, las_step, ply_step
 from .crs import check_cloud_crs
@@ -82,7 +83,7 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise GeoStructureError(f"{path}: cannot be read as {suffix[1:].upper()} ({detail}).") from None
     check_points(cloud.local, path, offset=cloud.offset)  # no absolute copy: 192 MB at 8M points
-    return cloud
+    return without_copies(cloud, path)
 
 
 def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:

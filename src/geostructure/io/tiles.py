@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud import Cloud
+from ..copies import without_copies
 from ..errors import GeoStructureError
 from .crs import check_cloud_crs, parse_crs
 from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, merged_left_out, read_cloud
@@ -103,7 +104,7 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
     same_grid = all(g is not None for g in grids) and all(
         np.array_equal(g[0], grids[0][0]) and np.array_equal(g[1], grids[0][1]) for g in grids
     )
-    return Cloud.from_points(
+    merged = Cloud.from_points(
         points,
         source=describe(paths),
         crs=clouds[0].crs,
@@ -111,6 +112,7 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
         las_grid=grids[0] if same_grid else None,
         left_out=merged_left_out(c.left_out for c in clouds),
     )
+    return without_copies(merged)  # overlapping tiles: the copies of one tile's points in another
 
 
 def check_headers(paths) -> tuple[str, Path] | None:
