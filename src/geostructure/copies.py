@@ -5,8 +5,11 @@ A copy is a point whose three coordinates are, bit for bit, another's. Copies ar
 rock: they doubled the weight of every voxel and cell they fell in, so the point spacing
 read short (by sqrt 2 for a cloud written twice), the facet detector's grid came out too fine
 for its points, and a flat 5 m square written twice came out as 1,937 planes instead of one.
-The readers keep the first of each point (:func:`without_copies`) and record how many they
-left out; the measurement is then the distinct points'.
+Points a coarse coordinate step rounded onto one spot (a drone LAZ stored to 1 cm at 6 mm
+spacing) are copies too: they say no more of the surface than one of them, and counted as
+many they made each plane's standard error too small. The readers keep the first of each
+point (:func:`without_copies`) and record how many they left out; the measurement is then
+the distinct points'.
 
 Finding them costs a sort, which a cloud without copies should not pay: :func:`has_copies`
 first looks among the points whose x coordinate falls in a hash-drawn 1/256 of the values
@@ -89,8 +92,8 @@ def without_copies(cloud, source=None):
             f"{name}: its {len(first):,} points are copies of {n_distinct} distinct points; a plane needs at least 3."
         )
     warnings.warn(
-        f"{name}: {n_copies:,} point(s) repeat others exactly (a scan merged twice, overlapping tiles); "
-        f"each was measured once.",
+        f"{name}: {n_copies:,} point(s) repeat others exactly (copies from a scan merged twice or tiles that "
+        f"overlap, or points rounded onto one spot by the file's coordinate step); each spot was measured once.",
         GeoStructureNote,
         stacklevel=2,
     )
