@@ -46,7 +46,7 @@ def has_copies(points: np.ndarray) -> bool:
     >>> has_copies(points), has_copies(np.vstack([points, points[:100_000]]))
     (False, True)
     """
-    points = np.asarray(points, dtype=np.float64)
+    points = np.ascontiguousarray(points, dtype=np.float64)  # rows viewed as 24-byte records
     if len(points) >= ALL_POINTS_BELOW:
         bits = np.ascontiguousarray(points[:, 0]).view(np.uint64)
         with np.errstate(over="ignore"):
@@ -68,7 +68,8 @@ def first_of_each(points: np.ndarray) -> np.ndarray:
     order = np.argsort(key_hash(points.view(np.int64)), kind="stable")  # a point's copies after it
     rows = points[order].view(np.dtype((np.void, 24))).ravel()
     # Equal rows are neighbours in this order unless two different points share a hash
-    # (odds of 1 in 10^7 at 8M points), which would leave a copy in, never drop a point.
+    # (a chance of about 1 in 500,000 at 8M points), which would leave a copy in, never drop
+    # a point.
     repeats = np.r_[False, rows[1:] == rows[:-1]]
     first = np.ones(len(points), dtype=bool)
     first[order[repeats]] = False
