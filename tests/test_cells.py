@@ -1,6 +1,7 @@
 """The grid's local planes (cells.py) and the facets grown on them (facets.py)."""
 
 import numpy as np
+import pytest
 
 from geostructure.cells import CENTRE, OFFSETS, cell_planes
 from geostructure.density import point_spacing
@@ -83,3 +84,16 @@ def test_a_facet_label_left_without_points_is_no_plane_and_no_nan():
         warnings.simplefilter("error")
         planar = planar_components(points, normals, labels, thresholds)
     assert planar.tolist() == [True, False, True]
+
+
+@pytest.mark.parametrize("noise, doublings", [(0.02, 1), (0.05, 2)])
+def test_the_sampled_edge_is_the_edge_the_whole_grids_choose(noise, doublings):
+    """Above a million points the grid's edge is chosen on sampled blocks, its scatter read on
+    20,000 cells first and on 200,000 only near the limit (facets.sampled_edge). At 0.3M
+    points every block is drawn: it must choose what fitting every grid whole chooses."""
+    from geostructure.facets import CELL_EDGE, coarsened_planes, sampled_edge
+    from geostructure.synthetic import observatory_scene
+
+    points = observatory_scene(300_000, seed=1, noise=noise).cloud.local
+    edge = CELL_EDGE * point_spacing(points)
+    assert coarsened_planes(points, edge).edge == sampled_edge(points, edge) == edge * 2**doublings
