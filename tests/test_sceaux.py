@@ -102,7 +102,7 @@ def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split_dir):
     widest = np.diff(ordered).argmax()
     assert ordered[widest + 1] - ordered[widest] > 0.1 * length  # measured 1.6 m of a 6.4 m wall
     beyond = along > ordered[widest]
-    assert 0.25 < beyond.mean() < 0.75  # measured 0.53: about half the wall either side
+    assert 0.15 < beyond.mean() < 0.85  # measured 0.53: about half the wall either side
     pieces = split[on_wall]
     for piece in np.unique(pieces[pieces >= 0]):
         side = beyond[pieces == piece]
