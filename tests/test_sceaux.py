@@ -77,7 +77,7 @@ def facade_walls(planes, facade):
 def test_the_facade_walls_are_vertical_and_share_one_orientation(sceaux_dir):
     planes = read_planes(sceaux_dir)
     facade = planes[0]  # the largest plane
-    assert facade["dip"] > 85.0  # measured 88.0 to 88.2: up from the cameras
+    assert facade["dip"] > 85.0  # measured 88.0 to 88.4: up from the cameras
     assert facade["fit_residual"] < 0.03  # measured 0.012 to 0.019 model units
     walls = facade_walls(planes, facade)
     assert len(walls) >= 3  # the main wall, the two pavilions, the bay
@@ -100,9 +100,9 @@ def test_the_main_wall_is_one_plane_across_the_bay(sceaux_dir, split_dir):
     along = (points[on_wall] - vector(facade, "rect_center")) @ axis
     ordered = np.sort(along)
     widest = np.diff(ordered).argmax()
-    assert ordered[widest + 1] - ordered[widest] > 0.1 * length  # measured 1.6 m of a 6.4 m wall
+    assert ordered[widest + 1] - ordered[widest] > 0.1 * length  # measured 1.6 to 1.75 m of a 6.3 m wall (3 runs)
     beyond = along > ordered[widest]
-    assert 0.15 < beyond.mean() < 0.85  # measured 0.53: about half the wall either side
+    assert 0.15 < beyond.mean() < 0.85  # measured 0.48 to 0.54 over 3 runs: about half the wall either side
     pieces = split[on_wall]
     for piece in np.unique(pieces[pieces >= 0]):
         side = beyond[pieces == piece]
