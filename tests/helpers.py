@@ -73,3 +73,18 @@ def lidar_outcrop(width: float, height: float):
         seed=6,
         offset=(662_000.0, 5_103_000.0, 800.0),
     )
+
+
+def road_before(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.ndarray:
+    """Level ground ``depth`` m deep at the foot of an outcrop scene's face, as wide as the
+    face, at its point spacing on average (drawn at random) and ``noise`` m of white noise:
+    the road a rock cut is scanned from, noisier than the rock."""
+    strike, up_dip = scene.face_axes
+    width, height = scene.face_size
+    foot = scene.offset - height / 2 * up_dip
+    out = np.array([scene.face_normal[0], scene.face_normal[1], 0.0])
+    out /= np.linalg.norm(out)
+    rng = np.random.default_rng(seed)
+    n = int(width * depth / scene.point_spacing**2)
+    ab = rng.random((n, 2)) * [width, depth]
+    return foot + (ab[:, :1] - width / 2) * strike + ab[:, 1:] * out + noise * rng.standard_normal((n, 3))

@@ -24,6 +24,15 @@ from .sampling import order_free_sample
 #: Empty patches of the occupancy grid up to this many cells are gaps in the sampling, not
 #: holes in the exposure.
 SMALL_HOLE_CELLS = 2
+#: A plane dipping less than GROUND_DIP degrees that holds GROUND_SHARE of the points or
+#: more is ground before or above the face (a road, a bench, a quarry's floor), not the face
+#: ...
+GROUND_DIP = 20.0
+GROUND_SHARE = 0.1
+#: ... when the face without it dips STEEP_FACE degrees or more.
+STEEP_FACE = 45.0
+#: The ground's points: those within this many of its plane's RMS residuals of it.
+GROUND_BAND = 3.0
 #: Points per occupancy cell, on average.
 CELL_POINTS = 8
 
@@ -35,7 +44,7 @@ class Exposure:
     ``origin`` and ``normal`` give the least-squares plane; ``axes`` (2, 3) its strike and
     up-dip directions; ``cell`` (m) the occupancy grid's size, ``occupied`` the grid (True
     where points are), ``lower`` the grid's lower corner in face coordinates; ``area`` the
-    occupied area (m^2).
+    occupied area (m^2); ``members`` the points that make the face (None: all of them).
     """
 
     origin: np.ndarray
@@ -45,6 +54,7 @@ class Exposure:
     occupied: np.ndarray
     lower: np.ndarray
     area: float
+    members: np.ndarray | None = None
 
     def project(self, points) -> np.ndarray:
         """(N, 2) face coordinates of points."""
@@ -63,11 +73,49 @@ class Exposure:
         return np.clip(ij[:, 0], 0, self.occupied.shape[0] - 1), np.clip(ij[:, 1], 0, self.occupied.shape[1] - 1)
 
 
-def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None = None) -> Exposure:
+def face_members(points, labels, normals, up=(0.0, 0.0, 1.0)) -> np.ndarray | None:
+    """The points that make an outcrop's face: all but those of the level planes large enough
+    to be the ground before or above it (:data:`GROUND_DIP`, :data:`GROUND_SHARE`) and those
+    within :data:`GROUND_BAND` RMS residuals of such a plane (its ragged edges, which the
+    plane did not take: on a 12 x 6 m face, 5,000 of them left the fitted face 6 degrees
+    off). None when there is no such plane. ``labels``: each point's plane (its row in
+    ``normals``), -1 for none.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> ground = np.column_stack([rng.random((300, 2)), 0.01 * rng.standard_normal(300)])
+    >>> wall = np.column_stack([rng.random(100), np.zeros(100), 0.5 + rng.random(100)])
+    >>> labels = np.r_[np.zeros(290, int), -np.ones(10, int), np.ones(100, int)]
+    >>> members = face_members(np.vstack([ground, wall]), labels, [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    >>> int(members[:300].sum()), int(members[300:].sum())  # the ground's ragged points too
+    (0, 100)
+    """
+    points = np.asarray(points, dtype=np.float64)
+    labels = np.asarray(labels)
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    level = np.abs(normals @ np.asarray(up, dtype=np.float64)) > np.cos(np.radians(GROUND_DIP))
+    sizes = np.bincount(labels[labels >= 0], minlength=len(normals))
+    ground = level & (sizes >= GROUND_SHARE * len(labels))
+    if not ground.any():
+        return None
+    near = np.zeros(len(points), dtype=bool)
+    for g in np.flatnonzero(ground):
+        own = points[labels == g]
+        centre = own.mean(axis=0)
+        rms = np.sqrt(np.mean(((own - centre) @ normals[g]) ** 2))
+        near |= np.abs((points - centre) @ normals[g]) <= GROUND_BAND * rms
+    return ~near
+
+
+def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None = None, members=None) -> Exposure:
     """The mean face of ``points`` and its occupancy on a grid of cells of :data:`CELL_POINTS`
     points each on average; holes of :data:`SMALL_HOLE_CELLS` or fewer are filled.
     ``spacing``, the points' spacing as :func:`~.density.point_spacing` reads it, saves
-    reading their density again (a kd-tree over all of them).
+    reading their density again (a kd-tree over all of them). ``members``
+    (:func:`face_members`) leaves the ground out of the face, when the face without it dips
+    :data:`STEEP_FACE` degrees or more: a road 4 m deep before an 8 m face had turned the
+    fitted face from 77 to 65 degrees, and one set's spacing read 60% long.
 
     Examples
     --------
@@ -78,10 +126,16 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     (8, True)
     """
     points = np.asarray(points, dtype=np.float64)
-    sample = points[order_free_sample(points, min(len(points), 50_000), seed)]
-    origin = sample.mean(axis=0)
-    _, _, vt = np.linalg.svd(sample - origin, full_matrices=False)
-    normal = vt[2] if vt[2] @ np.asarray(up, float) >= 0 else -vt[2]
+    up = np.asarray(up, dtype=np.float64)
+    if members is not None:
+        origin, vt = _mean_face(points[members], seed)
+        if abs(vt[2] @ up) > np.cos(np.radians(STEEP_FACE)):
+            members = None  # gentle without the level planes: they are the face
+        else:
+            points = points[members]
+    if members is None:
+        origin, vt = _mean_face(points, seed)
+    normal = vt[2] if vt[2] @ up >= 0 else -vt[2]
     strike = np.cross(np.asarray(up, float), normal)
     strike = strike / np.linalg.norm(strike) if np.linalg.norm(strike) > 1e-6 else vt[0]
     axes = np.array([strike, np.cross(normal, strike)])
@@ -105,7 +159,14 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     holes, n = ndimage.label(~occupied)
     sizes = np.bincount(holes.ravel(), minlength=n + 1)
     occupied |= (sizes[holes] <= SMALL_HOLE_CELLS) & (holes > 0)
-    return Exposure(origin, normal, axes, cell, occupied, lower, float(occupied.sum() * cell**2))
+    return Exposure(origin, normal, axes, cell, occupied, lower, float(occupied.sum() * cell**2), members)
+
+
+def _mean_face(points, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Centroid and principal axes (rows, the normal last) of (a sample of) ``points``."""
+    sample = points[order_free_sample(points, min(len(points), 50_000), seed)]
+    origin = sample.mean(axis=0)
+    return origin, np.linalg.svd(sample - origin, full_matrices=False)[2]
 
 
 @dataclass

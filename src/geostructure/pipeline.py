@@ -12,7 +12,7 @@ import numpy as np
 from .bounds import column_max, column_min, first_bad_coordinates
 from .cloud import MAX_COORDINATE, Cloud
 from .errors import GeoStructureError, InputError, ParameterError
-from .facets import detect_facets, voxel_majority
+from .facets import MAX_CELL_SCATTER, detect_facets, voxel_majority
 from .filter import FilterResult, filter_outliers
 from .merge import MERGE_MIN_POINTS, merge_coplanar
 from .orientation import Frame, Orientation, face_side, orientation_from_normals, upward
@@ -24,6 +24,9 @@ from .uncertainty import normal_standard_errors
 from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
+#: A voxel more than this share of whose points no facet took goes to the voxel growing with
+#: the curved facets' voxels (see :func:`_grow_facets_then_voxels`).
+UNCLAIMED_SHARE = 0.5
 
 
 @dataclass
@@ -174,10 +177,10 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         )
         counts["voxel_planes"] = len(voxels)
 
-    facet_record = {}
+    facet_record, facet_region = {}, np.zeros(0, dtype=bool)
     if params.detector == "facets":
         with _stage(seconds, "regions", report):
-            point_region, region_of_voxel, facet_record = _grow_facets_then_voxels(
+            point_region, region_of_voxel, facet_record, facet_region = _grow_facets_then_voxels(
                 filtered, voxels, params, report, counts
             )
     else:
@@ -189,7 +192,8 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         # (all of them with the voxel detector) also need 3 voxels and the voxel rule's size.
         n_facets = facet_record.get("planar_facets", 0)
         n_regions = max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 1
-        is_facet = np.arange(n_regions) < n_facets
+        is_facet = np.zeros(n_regions, dtype=bool)
+        is_facet[: len(facet_region)] = facet_region[:n_regions]
         min_points = np.where(
             is_facet,
             params.min_points or default_min_points(len(filtered), "facets"),
@@ -205,9 +209,14 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
             min_voxels=np.where(is_facet, 0, 3),
         )
         alias = {}
-        if n_facets:
-            regions, kept, counts["ribbons"] = without_ribbons(regions, kept, is_facet, facet_record["cell_edge"])
-            if params.merge:
+        if facet_record:
+            # Every region, facet or grown over voxels, where the grid was trusted: a strip
+            # one cell wide is no plane (points along a line, a pole, gave four when the
+            # voxels no facet took were grown). Where it was not, its cells are no measure.
+            trusted = facet_record["far_scatter_deg"] <= MAX_CELL_SCATTER
+            narrow_checked = np.ones(n_regions, dtype=bool) if trusted else is_facet
+            regions, kept, counts["ribbons"] = without_ribbons(regions, kept, narrow_checked, facet_record["cell_edge"])
+            if n_facets and params.merge:
                 regions, kept, alias = absorb_sparse_facets(
                     filtered.local, point_region, regions, kept, params.theta, params.psi * voxels.edge,
                     facet_record["facet_thresholds"]["spacing"], params.rectangle,
@@ -293,22 +302,33 @@ def _grow_voxel_regions(filtered: Cloud, voxels: VoxelPlanes, params: Params, re
 
 def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict):
     """Facets grown on a fine grid's local planes (:func:`.facets.detect_facets`); where a grown group
-    is not planar (it drifted round a curved surface), the paper's voxel region growing over
-    its voxels."""
+    is not planar (it drifted round a curved surface), or where most points of a voxel are in
+    no facet (a surface noisier than the grid was chosen for), the paper's voxel region
+    growing over those voxels. Also returns which of the regions are facets."""
     found = detect_facets(filtered.local)
-    point_region, curved = found.labels.copy(), found.curved
+    point_region = found.labels.copy()
     n_facets = int(point_region.max(initial=-1)) + 1
-    in_curved = np.zeros(len(voxels), dtype=bool)
-    in_curved[np.unique(voxels.point_voxel[curved & (voxels.point_voxel >= 0)])] = True
+    # The voxels to grow: those of curved facets, and those most of whose points no facet
+    # took (a surface rougher or noisier than the face the grid was chosen for: a road
+    # before a rock cut, the far end of an SfM cloud).
+    unclaimed = (point_region < 0) | found.curved
+    on = voxels.point_voxel >= 0
+    total = np.bincount(voxels.point_voxel[on], minlength=len(voxels))
+    free = np.bincount(voxels.point_voxel[on & unclaimed], minlength=len(voxels))
+    regrow = free > UNCLAIMED_SHARE * total
+    regrow[voxels.point_voxel[found.curved & on]] = True
+    regrown = unclaimed & on
+    regrown[on] &= regrow[voxels.point_voxel[on]]
     region_of_voxel = voxel_majority(voxels.point_voxel, point_region, len(voxels))
     sub_counts: dict = {}
-    if in_curved.any():
-        subset = subset_voxels(voxels, in_curved)
+    if regrow.any():
+        subset = subset_voxels(voxels, regrow)
         sub_points, sub_region = _grow_voxel_regions(filtered, subset, params, report, sub_counts)
-        take = curved & (sub_points >= 0)
+        take = regrown & (sub_points >= 0)
         point_region[take] = n_facets + sub_points[take]
-        region_of_voxel[in_curved] = np.where(sub_region >= 0, n_facets + sub_region, -1)
+        region_of_voxel[regrow] = np.where(sub_region >= 0, n_facets + sub_region, -1)
     counts["regions"] = n_facets + sub_counts.get("regions", 0)
+    is_facet = np.arange(max(int(point_region.max(initial=-1)), int(region_of_voxel.max(initial=-1))) + 1) < n_facets
     if params.merge:  # large regions of one plane split by a small gap: one plane, as with the voxel growing
         # At least one bin: voxels that all lie in no region (a cloud along a line) index it.
         size = np.bincount(point_region[point_region >= 0], minlength=max(int(region_of_voxel.max(initial=-1)) + 1, 1))
@@ -317,20 +337,26 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
             voxels, np.where(large, region_of_voxel, -1), params.theta, params.psi * voxels.edge
         )
         counts["merges"] = sub_counts.get("merges", 0) + merges
-        point_region, region_of_voxel = _relabel(point_region, region_of_voxel, merged)
-    return point_region, region_of_voxel, found.record()
+        point_region, region_of_voxel, new = _relabel(point_region, region_of_voxel, merged)
+        # The merge numbers the regions afresh, so a facet's new number may be past the
+        # facets' (it was then held to the voxel regions' size: on a rock cut with a road,
+        # the road's one voxel region cost 270 of 440 facets).
+        renumbered = np.zeros(int(new.max(initial=-1)) + 1, dtype=bool)
+        renumbered[new[:-1][is_facet]] = True
+        is_facet = renumbered
+    return point_region, region_of_voxel, found.record(), is_facet
 
 
 def _relabel(point_region: np.ndarray, voxel_region: np.ndarray, merged_voxels: np.ndarray):
     """Carry a merge of the voxels' regions over to the points; regions without a voxel keep
-    a number of their own."""
+    a number of their own. Also returns the map, old number -> new (its last entry: -1)."""
     n = max(int(point_region.max(initial=-1)), int(voxel_region.max(initial=-1))) + 1
     new = np.full(n + 1, -1, dtype=np.int64)  # the last entry maps -1 to -1
     has = voxel_region >= 0
     new[voxel_region[has]] = merged_voxels[has]
     lonely = np.flatnonzero(new[:n] < 0)
     new[lonely] = int(merged_voxels.max(initial=-1)) + 1 + np.arange(len(lonely))
-    return new[point_region], new[voxel_region]
+    return new[point_region], new[voxel_region], new
 
 
 def plane_table(regions, frame: Frame, outward, voxels, offset, standard_errors) -> Planes:

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .exposure import Persistence, exposure, plane_persistence
+from .exposure import Persistence, exposure, face_members, plane_persistence
 from .spacing import (
     MIN_SCANLINE_COSINE,
     PlaneMoments,
@@ -286,19 +286,22 @@ def rock_mass(
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     set_labels = np.asarray(set_labels)
     set_normals = np.asarray(set_normals, dtype=np.float64).reshape(-1, 3)
-    face = exposure(points, up) if face is None else face
+    if face is None:
+        face = exposure(points, up, members=face_members(points, labels, normals, up))
     persistence = plane_persistence(points, labels, normals, face, up)
     moments = PlaneMoments.of(points, labels, len(normals))
     centroids = moments.centroid
     n_sets = len(set_normals)
     result = RockMass(persistence, face.area, set_labels)
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)
-    joints, uv = [], face.project(points)
+    # The scanlines run over the face alone (not over the ground before it).
+    on_face = points if face.members is None else points[face.members]
+    joints, uv = [], face.project(on_face)
     for s, mean in enumerate(set_normals):
         members = np.flatnonzero(set_labels == s)
         joint, joint_normal, joint_centre = joint_planes(moments.subset(members), normals[members])
         joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
-        line = scanline_spacing(points, joint_normal, joint_centre, mean, face, uv)
+        line = scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv)
         result.scanlines.append(line)
         result.nearest_gaps.append(nearest_plane_gaps(normals, centroids, members, mean, persistence))
         result.p21[s] = persistence.trace_face[members].sum() / face.area if face.area > 0 else np.nan

@@ -16,7 +16,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .errors import GeoStructureWarning
-from .exposure import exposure
+from .exposure import exposure, face_members
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
@@ -199,7 +199,8 @@ def sets_and_rock_mass(
     report("sets")
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
         f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
-        face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f)
+        members = face_members(points, labels, planes.normal, frame.matrix[2])  # without the ground before it
+        face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f, members=members)
         sets = plane_sets(planes, frame, n_sets, metres_per_unit=f)
         report("spacing and persistence")
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ParameterError
-from .exposure import exposure
+from .exposure import exposure, face_members
 from .io.atomic import write_figure, write_json, write_table_csv
 from .io.crs import recorded_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
@@ -28,16 +28,19 @@ from .kinematics import (
     wedges,
 )
 from .orientation import Frame, normal_from_orientation, orientation_from_normals
+from .planes import plane_rows
 from .uncertainty import normal_standard_errors
 
 #: Pairs are tested among this many of the largest planes at most.
 MAX_WEDGE_PLANES = 2000
 
 
-def fit_slope(points, frame: Frame = Frame()) -> Slope:
+def fit_slope(points, frame: Frame = Frame(), members=None) -> Slope:
     """The overall face of an outcrop cloud: the least-squares plane of all its points (not
     its largest joint), with the standard errors of its dip and dip direction from a block
     regression over the whole face (:func:`~.uncertainty.normal_standard_errors`).
+    ``members`` (:func:`~.exposure.face_members`) leaves the ground before or above the face
+    out of it (see :func:`~.exposure.exposure`).
 
     Examples
     --------
@@ -50,7 +53,9 @@ def fit_slope(points, frame: Frame = Frame()) -> Slope:
     """
     points = np.asarray(points, dtype=np.float64)
     up = frame.matrix[2]
-    face = exposure(points, up)
+    face = exposure(points, up, members=members)
+    if face.members is not None:
+        points = points[face.members]
     labels = np.zeros(len(points), dtype=np.int64)
     errors = normal_standard_errors(points, labels, face.normal[None, :], face.origin[None, :], face.axes[:1], up)
     o = orientation_from_normals(face.normal, frame)
@@ -129,8 +134,9 @@ def add_kinematics(
         strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
         if slope is None or (cohesion and height is None):
             report("slope", 0, None)
-            points, _ = read_regions(outputs.outdir, planes.offset)
-            slope = fit_slope(points, frame) if slope is None else slope
+            points, region = read_regions(outputs.outdir, planes.offset)
+            members = face_members(points, plane_rows(region, planes.region_id), planes.normal, frame.matrix[2])
+            slope = fit_slope(points, frame, members) if slope is None else slope
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
                 height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
                 strength["height_source"] = "the cloud's height"

@@ -253,22 +253,42 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, u
     facing = np.flatnonzero(np.abs(joint_normal @ direction) > 0.1)
     gaps, length, crossings, met = [], 0.0, 0, set()
     for k in np.flatnonzero(np.isfinite(t_lo)):
-        length += t_hi[k] - t_lo[k]
+        # Only the stretches of the line over exposed face count: not a hole, nor the
+        # ground between the face and a few points beyond it.
+        exposed, step = _exposed_stretches(face, (start + k * LINE_SPACING) * (face.axes @ across),
+                                           face.axes @ direction, t_lo[k], t_hi[k])  # fmt: skip
+        length += step * exposed.sum()
         origin = face.origin + (start + k * LINE_SPACING) * across
         n = joint_normal[facing]
         t = np.einsum("ij,ij->i", n, joint_centre[facing] - origin) / (n @ direction)
+        at = np.minimum(np.floor((t - t_lo[k]) / step).astype(np.int64), len(exposed) - 1)
         inside = (t >= t_lo[k]) & (t <= t_hi[k])
+        inside[inside] = exposed[at[inside]]
         order = np.argsort(t[inside])
-        t, who = t[inside][order] * cosine, facing[inside][order]
+        t, at, who = t[inside][order] * cosine, at[inside][order], facing[inside][order]
         if len(t) == 0:
             continue
         keep = np.concatenate([[True], np.diff(t) > CROSSING_TOLERANCE])  # a joint split in two
         crossings += int(keep.sum())
         met.update(who[keep].tolist())
-        gaps.append(np.diff(t[keep]))
+        # A gap across a stretch the line does not see is no spacing.
+        hidden = np.concatenate([[0], np.cumsum(~exposed)])[at[keep]]
+        gaps.append(np.diff(t[keep])[hidden[1:] == hidden[:-1]])
     return Scanlines(
         np.concatenate(gaps) if gaps else np.zeros(0), float(length), crossings, len(met), cosine, direction
     )
+
+
+def _exposed_stretches(face: Exposure, offset, along, t_lo: float, t_hi: float) -> tuple[np.ndarray, float]:
+    """Whether the face is exposed along one line (its points ``offset + t along`` in face
+    coordinates), in steps of half an occupancy cell from ``t_lo`` to ``t_hi``; and the step."""
+    step = face.cell / 2
+    t = t_lo + step * (np.arange(max(int(np.ceil((t_hi - t_lo) / step)), 1)) + 0.5)
+    ij = np.floor((offset + t[:, None] * along - face.lower) / face.cell).astype(np.int64)
+    inside = ((ij >= 0) & (ij < face.occupied.shape)).all(axis=1)
+    exposed = np.zeros(len(t), dtype=bool)
+    exposed[inside] = face.occupied[ij[inside, 0], ij[inside, 1]]
+    return exposed, step
 
 
 def nearest_plane_gaps(normals, centroids, members, mean, persistence: Persistence) -> np.ndarray:
