@@ -68,6 +68,14 @@ class Exposure:
         inner = ndimage.binary_erosion(padded, structure=np.ones((3, 3), dtype=bool))[1:-1, 1:-1]
         return self.occupied & ~inner
 
+    def exposed_at(self, uv) -> np.ndarray:
+        """Whether the face is exposed at face coordinates ``uv`` (M, 2): False off the grid."""
+        ij = np.floor((np.asarray(uv, dtype=np.float64) - self.lower) / self.cell).astype(np.int64)
+        inside = ((ij >= 0) & (ij < self.occupied.shape)).all(axis=1)
+        exposed = np.zeros(len(ij), dtype=bool)
+        exposed[inside] = self.occupied[ij[inside, 0], ij[inside, 1]]
+        return exposed
+
     def cell_of(self, points) -> tuple[np.ndarray, np.ndarray]:
         ij = np.floor((self.project(points) - self.lower) / self.cell).astype(np.int64)
         return np.clip(ij[:, 0], 0, self.occupied.shape[0] - 1), np.clip(ij[:, 1], 0, self.occupied.shape[1] - 1)
@@ -128,11 +136,12 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     points = np.asarray(points, dtype=np.float64)
     up = np.asarray(up, dtype=np.float64)
     if members is not None:
-        origin, vt = _mean_face(points[members], seed)
+        on_face = points[members]
+        origin, vt = _mean_face(on_face, seed)
         if abs(vt[2] @ up) > np.cos(np.radians(STEEP_FACE)):
             members = None  # gentle without the level planes: they are the face
         else:
-            points = points[members]
+            points = on_face
     if members is None:
         origin, vt = _mean_face(points, seed)
     normal = vt[2] if vt[2] @ up >= 0 else -vt[2]

@@ -240,7 +240,8 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, u
     across = np.cross(face.normal, direction)
     # Both lines lie in the face: the points' face coordinates give their positions along them.
     uv = face.project(points) if uv is None else uv
-    along_pts, across_pts = uv @ (face.axes @ direction), uv @ (face.axes @ across)
+    along_2d, across_2d = face.axes @ direction, face.axes @ across  # the lines' axes in face coordinates
+    along_pts, across_pts = uv @ along_2d, uv @ across_2d
     start = across_pts.min() + LINE_SPACING / 2
     # Each line runs as far as the points within a cell of it (a band as wide as the lines'
     # spacing would overstate a line that cuts the face's edge obliquely).
@@ -253,12 +254,12 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, u
     facing = np.flatnonzero(np.abs(joint_normal @ direction) > 0.1)
     gaps, length, crossings, met = [], 0.0, 0, set()
     for k in np.flatnonzero(np.isfinite(t_lo)):
+        offset = start + k * LINE_SPACING
         # Only the stretches of the line over exposed face count: not a hole, nor the
         # ground between the face and a few points beyond it.
-        exposed, step = _exposed_stretches(face, (start + k * LINE_SPACING) * (face.axes @ across),
-                                           face.axes @ direction, t_lo[k], t_hi[k])  # fmt: skip
+        exposed, step = _exposed_stretches(face, offset * across_2d, along_2d, t_lo[k], t_hi[k])
         length += step * exposed.sum()
-        origin = face.origin + (start + k * LINE_SPACING) * across
+        origin = face.origin + offset * across
         n = joint_normal[facing]
         t = np.einsum("ij,ij->i", n, joint_centre[facing] - origin) / (n @ direction)
         at = np.minimum(np.floor((t - t_lo[k]) / step).astype(np.int64), len(exposed) - 1)
@@ -284,11 +285,7 @@ def _exposed_stretches(face: Exposure, offset, along, t_lo: float, t_hi: float) 
     coordinates), in steps of half an occupancy cell from ``t_lo`` to ``t_hi``; and the step."""
     step = face.cell / 2
     t = t_lo + step * (np.arange(max(int(np.ceil((t_hi - t_lo) / step)), 1)) + 0.5)
-    ij = np.floor((offset + t[:, None] * along - face.lower) / face.cell).astype(np.int64)
-    inside = ((ij >= 0) & (ij < face.occupied.shape)).all(axis=1)
-    exposed = np.zeros(len(t), dtype=bool)
-    exposed[inside] = face.occupied[ij[inside, 0], ij[inside, 1]]
-    return exposed, step
+    return face.exposed_at(offset + t[:, None] * along), step
 
 
 def nearest_plane_gaps(normals, centroids, members, mean, persistence: Persistence) -> np.ndarray:
