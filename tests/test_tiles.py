@@ -52,6 +52,7 @@ def survey(tmp_path_factory):
     tile = tile_index(points)
     for t in np.unique(tile):
         write_laz(tmp / "tiles" / f"tile_{t:02d}.laz", points[tile == t])
+    (tmp / "tiles" / "README.txt").write_text("Sixteen tiles of the 2024 survey, 1 mm grid.\n")  # not a cloud
     return tmp, points
 
 
@@ -111,6 +112,17 @@ def test_a_folder_or_pattern_without_clouds_is_one_sentence(tmp_path, capsys, gi
     assert code == 2
     assert_one_sentence(err, spec)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.real_data
+def test_a_real_data_folder_reads_its_cloud_and_not_its_notes(tmp_path, capsys):
+    """jfm_outcrop_test holds test.txt (the cloud) and PROVENANCE.txt (a note), both .txt."""
+    from conftest import shared_file
+
+    folder = shared_file("jfm_outcrop_test")
+    assert run_cli(capsys, "measure", folder, "-o", tmp_path / "out", "-q")[0] == 0
+    record = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert record["input"].endswith("test.txt") and record["counts"]["input"] == 1133
 
 
 def test_the_order_of_the_points_changes_no_plane():

@@ -64,6 +64,32 @@ def read_text(path: Path) -> Cloud:
     return Cloud.from_points(points, source=str(path))
 
 
+def holds_rows_of_numbers(path: Path) -> bool:
+    """Whether a text file's first data line after any header holds three numbers, as a
+    cloud's rows do: how a folder's point files are told from its notes (a PROVENANCE.txt,
+    a README.txt), which share their extension.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "cloud.txt").write_text("X Y Z\\n1.5 2.0 3.25\\n")
+    >>> _ = (folder / "README.txt").write_text("Survey of 3 June, 2 stations.\\nSee the report.\\n")
+    >>> holds_rows_of_numbers(folder / "cloud.txt"), holds_rows_of_numbers(folder / "README.txt")
+    (True, False)
+    """
+    try:
+        lines = _first_data_lines(path, 2)
+    except (GeoStructureError, OSError):
+        return False
+    if not lines:
+        return False
+    line = _unquoted(lines[-1][1])
+    delimiter, decimal_comma = _sniff_layout(line)
+    fields = _split(_decimal_points(line) if decimal_comma else line, delimiter)
+    return len(fields) >= 3 and all(_NUMBER.match(f) for f in fields[:3])
+
+
 #: Header names of the coordinate columns (lower case, without quotes, spaces or a unit in
 #: brackets): x, y and z, or a surveyor's easting, northing and elevation.
 AXIS_NAMES = (

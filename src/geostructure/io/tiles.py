@@ -19,7 +19,8 @@ from ..cloud import Cloud
 from ..copies import without_copies
 from ..errors import GeoStructureError
 from .crs import check_cloud_crs, parse_crs
-from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, merged_left_out, read_cloud
+from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, TEXT_SUFFIXES, merged_left_out, read_cloud
+from .text import holds_rows_of_numbers
 
 #: Files named in a message before it says how many more there are.
 NAMED_FILES = 3
@@ -28,7 +29,8 @@ NAMED_FILES = 3
 def expand_inputs(specs) -> list[Path]:
     """The files that ``specs`` (paths, folders or glob patterns) name, in order, each once.
 
-    A folder gives its point-cloud files (by extension), sorted; a pattern its matches,
+    A folder gives its point-cloud files (by extension; text files only where they hold rows
+    of numbers, so that its notes are passed over), sorted; a pattern its matches,
     sorted. Refused, in one sentence naming it: a folder with no point-cloud file, a pattern
     that matches none, a file that does not exist.
 
@@ -38,6 +40,7 @@ def expand_inputs(specs) -> list[Path]:
     >>> folder = pathlib.Path(tempfile.mkdtemp())
     >>> for name in ("b.laz", "a.laz", "notes.txt.bak"):
     ...     _ = (folder / name).write_bytes(b"x")
+    >>> _ = (folder / "README.txt").write_text("Tiles of the 2024 survey.")
     >>> [p.name for p in expand_inputs([folder])]
     ['a.laz', 'b.laz']
     """
@@ -45,7 +48,7 @@ def expand_inputs(specs) -> list[Path]:
     for spec in specs:
         spec = Path(spec)
         if spec.is_dir():
-            found = sorted(p for p in spec.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES)
+            found = sorted(p for p in spec.iterdir() if p.is_file() and _is_point_file(p))
             if not found:
                 raise GeoStructureError(f"{spec}: the folder holds no point-cloud file ({', '.join(SUFFIXES)}).")
         elif not spec.exists() and glob.has_magic(str(spec)):
@@ -63,6 +66,13 @@ def expand_inputs(specs) -> list[Path]:
                 f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}."
             )
     return paths
+
+
+def _is_point_file(path: Path) -> bool:
+    """A folder's file to read: a point-cloud extension and, for text, rows of numbers (a
+    folder's PROVENANCE.txt or README.txt shares the extension of an XYZ cloud)."""
+    suffix = path.suffix.lower()
+    return suffix in SUFFIXES and (suffix not in TEXT_SUFFIXES or holds_rows_of_numbers(path))
 
 
 def describe(paths) -> str:
