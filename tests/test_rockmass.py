@@ -48,31 +48,38 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
     assert all(line.joints >= 4 and line.crossings > 2 * line.joints for line in rock.scanlines)
 
 
-def test_the_road_before_a_face_is_not_part_of_its_exposure_nor_of_its_slope():
+def test_the_road_before_a_face_is_not_part_of_its_exposure_nor_of_its_slope_nor_of_its_sets():
     """A rock cut scanned from its road: the road, 3 m deep before a 6 m face, had tilted the
     fitted face 10 degrees (64.9 for 75.5) and added its area to the exposure; the face's
-    scanlines ran on across it. Measured without and with the road (seed 4): exposure 72.0
-    and 73.7 m2, slope 75.45 both, spacing / truth 1.07, 1.01, 1.02 and 1.10, 0.95, 1.00."""
+    scanlines ran on across it; its level planes made a fourth set. Measured without and with
+    the road (seed 4): exposure 72.0 and 73.7 m2, slope 75.45 both, spacing / truth 1.07,
+    1.01, 1.02 and 1.10, 0.95, 1.00; three sets both, the road's 7 planes in none."""
     scene = outcrop_scene(width=12.0, height=6.0, seed=4)
     runs = []
-    for points in (scene.cloud.points, np.vstack([scene.cloud.points, road_before(scene, depth=3.0, seed=4)])):
+    road = road_before(scene, depth=3.0, seed=4)
+    for points in (scene.cloud.points, np.vstack([scene.cloud.points, road])):
         result = measure(Cloud(points))
-        sets = plane_sets(result.planes, result.frame)
-        rock = plane_rock_mass(result.filtered.local, result.labels, result.planes, sets, result.frame)
+        sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame)
         up = result.frame.matrix[2]
         slope = fit_slope(
             result.filtered.local,
             result.frame,
             face_members(result.filtered.local, result.labels, result.planes.normal, up),
         )
-        joints = np.abs(sets.mean_normal @ up) < 0.9  # the road's planes are a set of their own
-        truth = [int(np.abs(scene.set_normals @ m).argmax()) for m in sets.mean_normal[joints]]
+        truth = [int(np.abs(scene.set_normals @ m).argmax()) for m in sets.mean_normal]
         assert sorted(truth) == [0, 1, 2]
-        runs.append((rock.exposure_area, slope.dip, rock.spacing[joints] / scene.set_spacing[truth]))
-    (area, dip, spacing), (road_area, road_dip, road_spacing) = runs
+        assert np.all(sets.labels[rock.ground] == -1)
+        runs.append((rock.exposure_area, slope.dip, rock.spacing / scene.set_spacing[truth], result, rock))
+    (area, dip, spacing, _, rock), (road_area, road_dip, road_spacing, result, road_rock) = runs
+    assert rock.ground is None or not rock.ground.any()
     assert road_area == pytest.approx(area, rel=0.05)
     assert road_dip == pytest.approx(dip, abs=1.0)
     np.testing.assert_allclose(road_spacing, 1.0, atol=0.15)
+    # the ground planes are the road's: level, and most of the road's points are in them
+    ground = np.flatnonzero(road_rock.ground)
+    assert len(ground) and np.all(np.abs(result.planes.normal[ground] @ result.frame.matrix[2]) > 0.95)
+    on_road = result.labels[np.flatnonzero(result.filter_result.keep) >= len(scene.cloud.points)]
+    assert np.isin(on_road, ground).mean() > 0.8
 
 
 @pytest.mark.slow

@@ -86,8 +86,9 @@ def face_members(points, labels, normals, up=(0.0, 0.0, 1.0)) -> np.ndarray | No
     to be the ground before or above it (:data:`GROUND_DIP`, :data:`GROUND_SHARE`) and those
     within :data:`GROUND_BAND` RMS residuals of such a plane (its ragged edges, which the
     plane did not take: on a 12 x 6 m face, 5,000 of them left the fitted face 6 degrees
-    off). None when there is no such plane. ``labels``: each point's plane (its row in
-    ``normals``), -1 for none.
+    off). None when there is no such plane, or when the face without it dips less than
+    :data:`STEEP_FACE` degrees (a gentle slope's level planes are its face). ``labels``: each
+    point's plane (its row in ``normals``), -1 for none.
 
     Examples
     --------
@@ -102,7 +103,8 @@ def face_members(points, labels, normals, up=(0.0, 0.0, 1.0)) -> np.ndarray | No
     points = np.asarray(points, dtype=np.float64)
     labels = np.asarray(labels)
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    level = np.abs(normals @ np.asarray(up, dtype=np.float64)) > np.cos(np.radians(GROUND_DIP))
+    up = np.asarray(up, dtype=np.float64)
+    level = np.abs(normals @ up) > np.cos(np.radians(GROUND_DIP))
     sizes = np.bincount(labels[labels >= 0], minlength=len(normals))
     ground = level & (sizes >= GROUND_SHARE * len(labels))
     if not ground.any():
@@ -113,7 +115,28 @@ def face_members(points, labels, normals, up=(0.0, 0.0, 1.0)) -> np.ndarray | No
         centre = own.mean(axis=0)
         rms = np.sqrt(np.mean(((own - centre) @ normals[g]) ** 2))
         near |= np.abs((points - centre) @ normals[g]) <= GROUND_BAND * rms
+    if near.all() or abs(_mean_face(points[~near], seed=0)[1][2] @ up) > np.cos(np.radians(STEEP_FACE)):
+        return None
     return ~near
+
+
+def ground_planes(labels, members, n_planes: int) -> np.ndarray:
+    """Which of ``n_planes`` planes are ground (:func:`face_members`): more than half of their
+    points left out of the face. A road's plane and its fragments are no discontinuity of the
+    rock: they join no joint set (a road had made a fourth set of level planes).
+
+    Examples
+    --------
+    >>> ground_planes(np.array([0, 0, 0, 1, 1, -1]), np.array([0, 0, 1, 1, 1, 0], bool), 2).tolist()
+    [True, False]
+    """
+    labels = np.asarray(labels)
+    if members is None:
+        return np.zeros(n_planes, dtype=bool)
+    mine = labels >= 0
+    total = np.bincount(labels[mine], minlength=n_planes)
+    off = np.bincount(labels[mine & ~np.asarray(members, dtype=bool)], minlength=n_planes)
+    return off > total / 2
 
 
 def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None = None, members=None) -> Exposure:
@@ -121,9 +144,8 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     points each on average; holes of :data:`SMALL_HOLE_CELLS` or fewer are filled.
     ``spacing``, the points' spacing as :func:`~.density.point_spacing` reads it, saves
     reading their density again (a kd-tree over all of them). ``members``
-    (:func:`face_members`) leaves the ground out of the face, when the face without it dips
-    :data:`STEEP_FACE` degrees or more: a road 4 m deep before an 8 m face had turned the
-    fitted face from 77 to 65 degrees, and one set's spacing read 60% long.
+    (:func:`face_members`) leaves the ground out of the face: a road 4 m deep before an 8 m
+    face had turned the fitted face from 77 to 65 degrees, and one set's spacing read 60% long.
 
     Examples
     --------
@@ -136,14 +158,8 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     points = np.asarray(points, dtype=np.float64)
     up = np.asarray(up, dtype=np.float64)
     if members is not None:
-        on_face = points[members]
-        origin, vt = _mean_face(on_face, seed)
-        if abs(vt[2] @ up) > np.cos(np.radians(STEEP_FACE)):
-            members = None  # gentle without the level planes: they are the face
-        else:
-            points = on_face
-    if members is None:
-        origin, vt = _mean_face(points, seed)
+        points = points[members]
+    origin, vt = _mean_face(points, seed)
     normal = vt[2] if vt[2] @ up >= 0 else -vt[2]
     strike = np.cross(np.asarray(up, float), normal)
     strike = strike / np.linalg.norm(strike) if np.linalg.norm(strike) > 1e-6 else vt[0]

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .exposure import Persistence, exposure, face_members, plane_persistence
+from .exposure import Persistence, exposure, face_members, ground_planes, plane_persistence
 from .spacing import (
     MIN_SCANLINE_COSINE,
     PlaneMoments,
@@ -78,7 +78,8 @@ class RockMass:
     """Spacing, persistence and intensity of a run's sets.
 
     ``persistence`` has one entry per plane; ``scanlines``, ``nearest_gaps`` (DSE-style
-    spacings, m), ``p21``, ``c13`` and ``c23`` one per set; ``set_labels`` is each plane's set.
+    spacings, m), ``p21``, ``c13`` and ``c23`` one per set; ``set_labels`` is each plane's set,
+    ``ground`` whether it is the level ground before or above the face (in no set).
     """
 
     persistence: Persistence
@@ -93,6 +94,7 @@ class RockMass:
     correlated_tilt_n: int = 0  # facets it was read from
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
+    ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
 
     @property
     def spacing(self) -> np.ndarray:
@@ -135,14 +137,16 @@ class RockMass:
         return float(np.prod(s) / max(np.prod(sines), 1e-9))
 
     def plane_columns(self) -> dict:
-        """Per-plane columns for ``planes.csv``: traces (m) and the censoring flag (1 when cut
-        by the exposure's edge)."""
+        """Per-plane columns for ``planes.csv``: traces (m), the censoring flag (1 when cut
+        by the exposure's edge) and the ground flag (1: level ground before or above the face)."""
         p = self.persistence
+        ground = np.zeros(len(p.censored), dtype=bool) if self.ground is None else self.ground
         return {
             "trace_strike_m": p.trace_strike,
             "trace_dip_m": p.trace_dip,
             "trace_face_m": p.trace_face,
             "censored": p.censored.astype(np.int64),
+            "ground": ground.astype(np.int64),
         }
 
     def set_rows(self) -> list[dict]:
@@ -199,6 +203,7 @@ class RockMass:
             "correlated_tilt_deg": self.correlated_tilt,
             "correlated_tilt_facets": self.correlated_tilt_n,
             "metres_per_cloud_unit": self.metres_per_unit,
+            "ground_planes": 0 if self.ground is None else int(self.ground.sum()),
         }
 
 
@@ -292,7 +297,7 @@ def rock_mass(
     moments = PlaneMoments.of(points, labels, len(normals))
     centroids = moments.centroid
     n_sets = len(set_normals)
-    result = RockMass(persistence, face.area, set_labels)
+    result = RockMass(persistence, face.area, set_labels, ground=ground_planes(labels, face.members, len(normals)))
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)
     # The scanlines run over the face alone (not over the ground before it).
     on_face = points if face.members is None else points[face.members]

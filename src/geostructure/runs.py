@@ -15,8 +15,10 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from .errors import GeoStructureWarning
-from .exposure import exposure, face_members
+from .exposure import exposure, face_members, ground_planes
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
@@ -97,11 +99,18 @@ def save_measurement(
 
 
 def plane_sets(
-    planes: Planes, frame: Frame = Frame(), n_sets: int | None = None, *, metres_per_unit: float = 1.0
+    planes: Planes,
+    frame: Frame = Frame(),
+    n_sets: int | None = None,
+    *,
+    metres_per_unit: float = 1.0,
+    leave_out=None,
 ) -> JointSets:
     """The joint sets of a plane table: poles weighted by area (:func:`~.sets.find_sets`),
     the planes' centroids in metres (``metres_per_unit`` of the table's coordinates, as
     :func:`~.io.crs.metres_per_unit` reads it from the CRS) for the joints' metric tolerances.
+    The planes ``leave_out`` marks (a boolean per plane: the ground, :func:`~.exposure.ground_planes`)
+    are clustered with no set and left in none.
 
     Examples
     --------
@@ -113,8 +122,13 @@ def plane_sets(
     >>> len(sets), sets.n_planes.sum()
     (2, np.int64(80))
     """
-    centroids = planes.local_centroid * metres_per_unit
-    sets = find_sets(planes.normal, planes.area, n_sets=n_sets, frame=frame, centroids=centroids)
+    rows = np.arange(len(planes)) if leave_out is None else np.flatnonzero(~np.asarray(leave_out, dtype=bool))
+    centroids = planes.local_centroid[rows] * metres_per_unit
+    sets = find_sets(planes.normal[rows], planes.area[rows], n_sets=n_sets, frame=frame, centroids=centroids)
+    if len(rows) < len(planes):
+        labels = np.full(len(planes), -1)
+        labels[rows] = sets.labels
+        sets = replace(sets, labels=labels)
     return sets if metres_per_unit == 1.0 else replace(sets, area=sets.area * metres_per_unit**2)
 
 
@@ -201,7 +215,8 @@ def sets_and_rock_mass(
         f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
         members = face_members(points, labels, planes.normal, frame.matrix[2])  # without the ground before it
         face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f, members=members)
-        sets = plane_sets(planes, frame, n_sets, metres_per_unit=f)
+        ground = ground_planes(labels, members, len(planes))
+        sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=ground)
         report("spacing and persistence")
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors,
                                metres_per_unit=f, metric=metric)  # fmt: skip
