@@ -92,8 +92,9 @@ class AutoChoice:
 
     def describe(self) -> str:
         p = self.params
+        per_voxel = f"{self.points_per_voxel:.0f} point" + ("" if round(self.points_per_voxel) == 1 else "s")
         return (
-            f"auto: zeta {p.zeta:.4g} ({self.points_per_voxel:.0f} points in the typical voxel), "
+            f"auto: zeta {p.zeta:.4g} ({per_voxel} in the typical voxel), "
             f"theta {p.theta:.3g} deg (normal noise {self.normal_noise_deg:.2f} deg), "
             f"psi {p.psi:.3g} voxel edges (offset noise {self.offset_noise:.3f}), k {p.k}"
         )

@@ -171,6 +171,14 @@ def covariance_from_moments(count, sums, products) -> tuple[np.ndarray, np.ndarr
     return mean, cov
 
 
+#: A voxel's points lie along a line, not on a plane, when their spread across the line (the
+#: second eigenvalue) is under LINE_WIDTH of their spread along it and no more than
+#: LINE_SPREAD times their noise (the smallest): points 0.1 mm about a line 5 m long gave
+#: four "planes" of arbitrary azimuth.
+LINE_WIDTH = 0.01
+LINE_SPREAD = 4.0
+
+
 def fit_planes(moments: VoxelMoments, min_points: int = 5) -> tuple[np.ndarray, ...]:
     """Centroid, unit normal, RMS residual and curvature of every voxel with ``min_points``.
 
@@ -185,8 +193,12 @@ def fit_planes(moments: VoxelMoments, min_points: int = 5) -> tuple[np.ndarray, 
     residual = np.sqrt(values[:, 0])
     total = values.sum(axis=1)
     curvature = np.divide(values[:, 0], total, out=np.ones_like(total), where=total > 0)
-    # A voxel whose points lie on a line has no plane: its second eigenvalue is ~0 too.
-    linear = values[:, 1] <= 1e-6 * np.maximum(values[:, 2], 1e-300)
+    # A voxel whose points lie along a line (a pole, a cable, a rod) has no plane: its second
+    # eigenvalue is small beside its largest, and no larger than its noise, which the
+    # smallest measures. (A noisy plane's strip cut by the voxel's corner is not a line: its
+    # second eigenvalue is a fair share of its largest.)
+    thin = values[:, 1] <= LINE_WIDTH * values[:, 2]
+    linear = (thin & (values[:, 1] <= LINE_SPREAD * values[:, 0])) | (values[:, 1] <= 1e-6 * values[:, 2])
     curvature[linear] = 1.0
     centroid = moments.origin + moments.keys[keep] * moments.edge + mean
     return keep, centroid, normal, residual, curvature
