@@ -88,3 +88,26 @@ def road_before(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.n
     n = int(width * depth / scene.point_spacing**2)
     ab = rng.random((n, 2)) * [width, depth]
     return foot + (ab[:, :1] - width / 2) * strike + ab[:, 1:] * out + noise * rng.standard_normal((n, 3))
+
+
+def bushes_on(scene, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` bushes on an outcrop scene's face: half-shells 0.5 to 1.5 m in radius standing
+    out of it, at the face's point spacing, each blurred by 1.5 to 5 cm of noise (leaves
+    that SfM matches badly): clutter that is a volume, not a surface."""
+    strike, up_dip = scene.face_axes
+    width, height = scene.face_size
+    normal = scene.face_normal
+    rng = np.random.default_rng(seed)
+    shells = []
+    for _ in range(n):
+        centre = (
+            scene.offset + rng.uniform(-width / 2, width / 2) * strike + rng.uniform(-height / 2, height / 2) * up_dip
+        )
+        radius = rng.uniform(0.5, 1.5)
+        m = int(2 * np.pi * radius**2 / scene.point_spacing**2)
+        d = rng.normal(size=(m, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        behind = d @ normal < 0
+        d[behind] -= 2 * np.outer(d[behind] @ normal, normal)  # the half before the face
+        shells.append(centre + radius * d + rng.uniform(0.015, 0.05) * rng.standard_normal((m, 3)))
+    return np.vstack(shells)

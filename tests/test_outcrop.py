@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from helpers import lidar_outcrop, road_before
+from helpers import bushes_on, lidar_outcrop, road_before
 
 from geostructure import Params, measure
 from geostructure.cloud import Cloud
@@ -68,6 +68,23 @@ def test_a_noisy_road_before_the_face_is_one_plane_and_costs_no_facet():
     assert level.max() > 0.8 * len(road)  # measured 35,017 of 40,000: its ragged edges are left out
     alone = match_facets(measure(scene.cloud).planes, scene).recall
     assert match_facets(result.planes, scene).recall > alone - 0.03  # measured 0.945 against 0.962
+
+
+def test_bushes_on_the_face_cost_few_facets_and_make_few_planes(outcrop):
+    """Vegetation: three bushes (noisy half-shells, 28,573 points beside the face's 73,436) made so many of
+    the facet grid's cells that its scatter read 31 degrees, the grid was coarsened until no
+    facet was trusted, and the recall fell from 0.94 to 0.37. The scatter is now read on the
+    surface's cells (cells.surface_cells)."""
+    bushes = bushes_on(outcrop, 3, seed=4)
+    result = measure(Cloud(np.vstack([outcrop.cloud.points, bushes])))
+    alone = match_facets(measure(outcrop.cloud).planes, outcrop).recall
+    assert match_facets(result.planes, outcrop).recall > alone - 0.04  # measured 0.940 against 0.962
+    kept = np.flatnonzero(result.filter_result.keep)
+    mine = result.labels >= 0
+    from_bush = kept[mine] >= len(outcrop.cloud)
+    in_bush = np.bincount(result.labels[mine], weights=from_bush, minlength=len(result.planes))
+    assert (in_bush > 0.5 * result.planes.n_points).sum() <= 5  # measured 3 small planes
+    assert from_bush.sum() < 0.03 * len(bushes)  # measured 331 of 28,573 points
 
 
 def test_the_paper_detector_alone_finds_few_of_them(outcrop):

@@ -36,6 +36,11 @@ FORWARD = np.arange(CENTRE + 1, 27)
 #: of a line of points (a wall's edge), has a normal that rounding alone can turn round.
 MIN_BLOCK_POINTS = 8
 MIN_SPREAD_RATIO = 0.05
+#: A block is part of a surface when its smallest eigenvalue is at most this share of their
+#: sum (its thickness under a tenth of its width); the grid's scatter is read on such blocks
+#: when they hold SURFACE_SHARE of the points or more (:func:`surface_cells`).
+SURFACE_VARIATION = 0.05
+SURFACE_SHARE = 0.5
 
 
 @dataclass
@@ -308,21 +313,45 @@ def neighbour_pairs(cells: CellPlanes) -> tuple[np.ndarray, np.ndarray]:
 
 def far_scatter(cells: CellPlanes) -> float:
     """Median angle (degrees) between a cell's normal and that of the cell two steps along
-    each axis: how much the local planes wander over about a block's width."""
+    each axis: how much the local planes wander over about a block's width. Read on the
+    surface's cells (:func:`surface_cells`), so that clutter does not decide the grid."""
+    among = surface_cells(cells.defined, cells.variation, cells.count)
 
     def angles_of(rows: slice) -> list[np.ndarray]:  # a block of cells, each axis's pairs
         found = []
         for axis_offset in (CENTRE + 9, CENTRE + 3, CENTRE + 1):  # +x, +y, +z
             one = cells.neighbour[rows, axis_offset]
             two = np.where(one >= 0, cells.neighbour[np.maximum(one, 0), axis_offset], -1)
-            ok = (two >= 0) & cells.defined[rows]
-            ok[ok] &= cells.defined[two[ok]]
+            ok = (two >= 0) & among[rows]
+            ok[ok] &= among[two[ok]]
             cosine = np.abs(np.einsum("ij,ij->i", cells.normal[rows][ok], cells.normal[two[ok]]))
             found.append(np.arccos(np.clip(cosine, 0.0, 1.0)))
         return found
 
     angles = np.concatenate([a for block in run_blocks(angles_of, len(cells)) for a in block])
     return float(np.degrees(np.median(angles))) if len(angles) else 0.0
+
+
+def surface_cells(defined, variation, count) -> np.ndarray:
+    """The cells whose scatter decides whether a grid is trusted: those whose block is thin
+    (``variation`` at most :data:`SURFACE_VARIATION`), where they hold
+    :data:`SURFACE_SHARE` of the points or more; else every cell with a plane (``defined``).
+
+    A bush's shell of noisy points is a volume, not a surface: on a 20 x 8 m outcrop twelve
+    bushes, 13% of the points, made 40% of the cells and 49% of the pairs the scatter is read
+    on, and the grid was coarsened to where no facet was trusted (recall 0.95 -> 0.16). The
+    rock's blocks have a median variation of 0.003 (nine in ten under 0.008), the bushes' 0.12
+    (nine in ten over 0.056). A cloud noisy all over has few thin blocks, and is read whole.
+
+    Examples
+    --------
+    >>> surface_cells(np.ones(3, bool), np.array([0.002, 0.2, 0.004]), np.array([9, 2, 9])).tolist()
+    [True, False, True]
+    """
+    defined = np.asarray(defined, dtype=bool)
+    thin = defined & (np.asarray(variation) <= SURFACE_VARIATION)
+    count = np.asarray(count, dtype=np.float64)
+    return thin if count[thin].sum() >= SURFACE_SHARE * count[defined].sum() else defined
 
 
 def block_moments(grid: CellGrid, cells: np.ndarray) -> np.ndarray:
@@ -358,9 +387,12 @@ def sampled_far_scatter(grid: CellGrid, n_sample: int, seed: int = 0, among=None
         pairs.append(np.stack([cells[ok], two[ok]], axis=1))
     pairs = np.concatenate(pairs)
     wanted, where = np.unique(pairs, return_inverse=True)
-    _, normal, _, defined = block_fit(block_moments(grid, wanted))
+    values, normal, _, defined = block_fit(block_moments(grid, wanted))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        variation = values[:, 0] / values.sum(axis=1)
+    among = surface_cells(defined, np.nan_to_num(variation, nan=1.0), grid.moments[wanted, 0])
     a, b = where.reshape(-1, 2).T
-    ok = defined[a] & defined[b]
+    ok = among[a] & among[b]
     cosine = np.abs(np.einsum("ij,ij->i", normal[a[ok]], normal[b[ok]]))
     return float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0))))) if ok.any() else 0.0
 
