@@ -7,12 +7,12 @@ import re
 import numpy as np
 import pytest
 from conftest import shared_file
-from helpers import lidar_outcrop, road_before, run_cli
+from helpers import bushes_on, lidar_outcrop, road_before, run_cli
 
 from geostructure import measure
 from geostructure.cli import main
 from geostructure.cloud import Cloud
-from geostructure.exposure import exposure, face_members, plane_persistence
+from geostructure.exposure import clutter_points, exposure, face_members, plane_persistence
 from geostructure.io.crs import metres_per_unit
 from geostructure.rockmass import RockMass, jv_scope, unmeasured_spacing
 from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
@@ -80,6 +80,34 @@ def test_the_road_before_a_face_is_not_part_of_its_exposure_nor_of_its_slope_nor
     assert len(ground) and np.all(np.abs(result.planes.normal[ground] @ result.frame.matrix[2]) > 0.95)
     on_road = result.labels[np.flatnonzero(result.filter_result.keep) >= len(scene.cloud.points)]
     assert np.isin(on_road, ground).mean() > 0.8
+
+
+def test_bushes_on_the_face_are_no_part_of_its_exposure_nor_of_its_slope():
+    """Vegetation: three bushes (noisy half-shells, 28,573 points beside the face's 73,436)
+    had added 12% to the exposure (81.6 m2 for 73.0), tilted the fitted face 4 degrees (71.0
+    for 75.4) and made one set's spacing 19% long. Measured now: 70.6 m2 (the rock behind a
+    bush is taken as hidden, as it is in the field), 74.7 degrees, spacing / truth 1.03,
+    0.91, 1.00; 92% of the bushes' points and 3% of the rock's are clutter."""
+    scene = outcrop_scene(width=12.0, height=6.0, seed=4)
+    bushes = bushes_on(scene, 3, seed=4)
+    runs = []
+    for points in (scene.cloud.points, np.vstack([scene.cloud.points, bushes])):
+        result = measure(Cloud(points))
+        local, spacing = result.filtered.local, detected_spacing(result.detection)
+        sets, rock = sets_and_rock_mass(local, result.labels, result.planes, result.frame, spacing=spacing)
+        members = face_members(local, result.labels, result.planes.normal, result.frame.matrix[2], spacing=spacing)
+        truth = [int(np.abs(scene.set_normals @ m).argmax()) for m in sets.mean_normal]
+        assert sorted(truth) == [0, 1, 2]
+        runs.append(
+            (rock.exposure_area, fit_slope(local, result.frame, members).dip, rock.spacing / scene.set_spacing[truth])
+        )
+    (area, dip, _), (bush_area, bush_dip, bush_spacing) = runs
+    assert bush_area == pytest.approx(area, rel=0.06)
+    assert bush_dip == pytest.approx(dip, abs=1.2)
+    np.testing.assert_allclose(bush_spacing, 1.0, atol=0.15)
+    from_bush = np.flatnonzero(result.filter_result.keep) >= len(scene.cloud.points)
+    clutter = clutter_points(local, result.labels, spacing)
+    assert clutter[from_bush].mean() > 0.85 and clutter[~from_bush].mean() < 0.05
 
 
 @pytest.mark.slow

@@ -19,6 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .cells import MOMENT_COLUMNS, OFFSETS, SURFACE_VARIATION, CellGrid
+from .density import point_spacing
+from .eigen import smallest_eigenpair
 from .sampling import order_free_sample
 
 #: Empty patches of the occupancy grid up to this many cells are gaps in the sampling, not
@@ -33,6 +36,16 @@ GROUND_SHARE = 0.1
 STEEP_FACE = 45.0
 #: The ground's points: those within this many of its plane's RMS residuals of it.
 GROUND_BAND = 3.0
+#: Clutter (:func:`clutter_points`) is judged on cells this many point spacings wide (some
+#: 16 points of a surface), holding at least MIN_CLUTTER_CELL_POINTS points: on three bushes
+#: before a face, 3 spacings found 61% of their points and 2% of the rock's, 4 found 75% and
+#: 3%, 6 found 68% and 4%.
+CLUTTER_CELL = 4.0
+MIN_CLUTTER_CELL_POINTS = 8
+#: ... or, holding no plane's point, when this share of its neighbours or more are clutter.
+CLUTTER_NEIGHBOURS = 0.3
+#: Fewest points a face may keep once ground and clutter are left out.
+MIN_FACE_POINTS = 100
 #: Points per occupancy cell, on average.
 CELL_POINTS = 8
 
@@ -81,14 +94,16 @@ class Exposure:
         return np.clip(ij[:, 0], 0, self.occupied.shape[0] - 1), np.clip(ij[:, 1], 0, self.occupied.shape[1] - 1)
 
 
-def face_members(points, labels, normals, up=(0.0, 0.0, 1.0)) -> np.ndarray | None:
-    """The points that make an outcrop's face: all but those of the level planes large enough
-    to be the ground before or above it (:data:`GROUND_DIP`, :data:`GROUND_SHARE`) and those
-    within :data:`GROUND_BAND` RMS residuals of such a plane (its ragged edges, which the
-    plane did not take: on a 12 x 6 m face, 5,000 of them left the fitted face 6 degrees
-    off). None when there is no such plane, or when the face without it dips less than
-    :data:`STEEP_FACE` degrees (a gentle slope's level planes are its face). ``labels``: each
-    point's plane (its row in ``normals``), -1 for none.
+def face_members(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | None = None) -> np.ndarray | None:
+    """The points that make an outcrop's face: all but the clutter before it
+    (:func:`clutter_points`: vegetation) and the ground before or above it: the level planes
+    large enough (:data:`GROUND_DIP`, :data:`GROUND_SHARE`) and the points within
+    :data:`GROUND_BAND` RMS residuals of such a plane (its ragged edges, which the plane did
+    not take: on a 12 x 6 m face, 5,000 of them left the fitted face 6 degrees off), when the
+    face without them dips :data:`STEEP_FACE` degrees or more (a gentle slope's level planes
+    are its face). None when every point is the face's, or when fewer than
+    :data:`MIN_FACE_POINTS` would be. ``labels``: each point's plane (its
+    row in ``normals``), -1 for none; ``spacing``: the points' spacing, read when not given.
 
     Examples
     --------
@@ -104,20 +119,72 @@ def face_members(points, labels, normals, up=(0.0, 0.0, 1.0)) -> np.ndarray | No
     labels = np.asarray(labels)
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     up = np.asarray(up, dtype=np.float64)
+    members = ~clutter_points(points, labels, spacing)
     level = np.abs(normals @ up) > np.cos(np.radians(GROUND_DIP))
     sizes = np.bincount(labels[labels >= 0], minlength=len(normals))
     ground = level & (sizes >= GROUND_SHARE * len(labels))
-    if not ground.any():
-        return None
     near = np.zeros(len(points), dtype=bool)
     for g in np.flatnonzero(ground):
         own = points[labels == g]
         centre = own.mean(axis=0)
         rms = np.sqrt(np.mean(((own - centre) @ normals[g]) ** 2))
         near |= np.abs((points - centre) @ normals[g]) <= GROUND_BAND * rms
-    if near.all() or abs(_mean_face(points[~near], seed=0)[1][2] @ up) > np.cos(np.radians(STEEP_FACE)):
-        return None
-    return ~near
+    rest = members & ~near
+    if near.any() and rest.any() and abs(_mean_face(points[rest], seed=0)[1][2] @ up) <= np.cos(np.radians(STEEP_FACE)):
+        members = rest
+    # A cloud all clutter (random scatter) has no face to tell it from: it is all face.
+    return None if members.all() or members.sum() < MIN_FACE_POINTS else members
+
+
+def clutter_points(points, labels, spacing: float | None = None) -> np.ndarray:
+    """The points of no plane whose neighbourhood is a volume, not a surface: vegetation
+    before a face. A point's neighbourhood is its cell on a grid :data:`CLUTTER_CELL` point
+    spacings wide; it is a volume when its smallest eigenvalue is over
+    :data:`~.cells.SURFACE_VARIATION` of their sum, as the facet grid's scatter is read.
+    Three bushes on a 12 x 6 m face (28,573 points) had added 12% to the exposure, tilted
+    the fitted face 4 degrees and made one set's spacing 19% long; 92% of their points are
+    found so (with the cells round clutter, :data:`CLUTTER_NEIGHBOURS`), and 3% of the
+    rock's (where its facets meet, which are among the exposure's cells anyway).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> rock = np.column_stack([rng.random((4000, 2)) * 2, np.zeros(4000)])  # 2 x 2 m, 3 cm
+    >>> bush = rng.normal(size=(4000, 3)) * 0.3 + [1.0, 1.0, 0.5]  # a fuzzy ball before it
+    >>> labels = np.r_[np.zeros(4000, int), -np.ones(4000, int)]
+    >>> found = clutter_points(np.vstack([rock, bush]), labels)
+    >>> bool(found[:4000].any()), bool(found[4000:].mean() > 0.5)
+    (False, True)
+    """
+    points = np.asarray(points, dtype=np.float64)
+    free = np.asarray(labels) < 0
+    if not free.any() or len(points) < MIN_CLUTTER_CELL_POINTS:
+        return np.zeros(len(points), dtype=bool)
+    spacing = point_spacing(points) if spacing is None else float(spacing)
+    if not spacing > 0:
+        return np.zeros(len(points), dtype=bool)
+    grid = CellGrid.of(points, CLUTTER_CELL * spacing)
+    moments = grid.moments[:-1]
+    count = moments[:, 0]
+    mean = moments[:, 1:4] / np.maximum(count, 1)[:, None]
+    cov = np.empty((len(moments), 3, 3))
+    for c, (a, b) in enumerate(MOMENT_COLUMNS[4:], start=4):
+        cov[:, a, b] = cov[:, b, a] = moments[:, c] / np.maximum(count, 1) - mean[:, a] * mean[:, b]
+    values = smallest_eigenpair(cov)[0]
+    volume = (count >= MIN_CLUTTER_CELL_POINTS) & (values[:, 0] > SURFACE_VARIATION * values.sum(axis=1))
+    # A bush's thinner patches read as surface at this scale: a cell that holds no plane's
+    # point is clutter too when enough of its neighbours are a volume (75% -> 92% of three
+    # bushes' points; the rock's share, 3%, unchanged).
+    planed = np.bincount(grid.point_cell[~free], minlength=len(count)) > 0
+    asked = np.flatnonzero(~volume & ~planed)  # only these can change
+    neighbours, volumes = np.zeros(len(asked)), np.zeros(len(asked))
+    for step in grid.steps()[np.any(OFFSETS != 0, axis=1)]:
+        found = grid.find(grid.codes[asked] + step)
+        there = found >= 0
+        neighbours[there] += 1
+        volumes[there] += volume[found[there]]
+    volume[asked] = volumes >= CLUTTER_NEIGHBOURS * np.maximum(neighbours, 1)
+    return free & volume[grid.point_cell]
 
 
 def ground_planes(labels, members, n_planes: int) -> np.ndarray:
@@ -157,8 +224,9 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     """
     points = np.asarray(points, dtype=np.float64)
     up = np.asarray(up, dtype=np.float64)
+    others = None
     if members is not None:
-        points = points[members]
+        points, others = points[members], points[~members]
     origin, vt = _mean_face(points, seed)
     normal = vt[2] if vt[2] @ up >= 0 else -vt[2]
     strike = np.cross(np.asarray(up, float), normal)
@@ -179,6 +247,16 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     ij = np.floor((uv - lower) / cell).astype(np.int64)
     occupied = np.zeros(tuple(ij.max(axis=0) + 1), dtype=bool)
     occupied[ij[:, 0], ij[:, 1]] = True
+    if others is not None and len(others):
+        # A cell where more of the points are the ground's or clutter's than the face's shows
+        # no rock: a quarter of a bush's points are not told from the rock, and would
+        # otherwise spread its outline over the exposure.
+        shape = occupied.shape
+        theirs = np.floor(((others - origin) @ axes.T - lower) / cell).astype(np.int64)
+        inside = np.all((theirs >= 0) & (theirs < shape), axis=1)
+        face_count = np.bincount(np.ravel_multi_index(ij.T, shape), minlength=occupied.size)
+        other_count = np.bincount(np.ravel_multi_index(theirs[inside].T, shape), minlength=occupied.size)
+        occupied &= (face_count >= other_count).reshape(shape)
     from scipy import ndimage  # 0.3 s to import: only with sets
 
     holes, n = ndimage.label(~occupied)

@@ -213,7 +213,8 @@ def sets_and_rock_mass(
     report("sets")
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
         f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
-        members = face_members(points, labels, planes.normal, frame.matrix[2])  # without the ground before it
+        # The face without the ground before it and the clutter (vegetation) on it.
+        members = face_members(points, labels, planes.normal, frame.matrix[2], spacing=spacing)
         face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f, members=members)
         ground = ground_planes(labels, members, len(planes))
         sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=ground)

@@ -124,7 +124,7 @@ def add_kinematics(
     >>> summary["slope"]["source"], sorted(paths)
     ('fitted', ['kinematics', 'kinematics_json', 'kinematics_png', 'wedges'])
     """
-    from .runs import redraw_report  # lazy: runs imports the report's modules when drawing
+    from .runs import detected_spacing, redraw_report  # lazy: runs imports the report's modules when drawing
 
     report = progress or (lambda stage, done, total: None)
     with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES + REPORT_FILES) as outputs:
@@ -135,7 +135,9 @@ def add_kinematics(
         if slope is None or (cohesion and height is None):
             report("slope", 0, None)
             points, region = read_regions(outputs.outdir, planes.offset)
-            members = face_members(points, plane_rows(region, planes.region_id), planes.normal, frame.matrix[2])
+            spacing = detected_spacing(outputs.record.get("detection"))
+            labels = plane_rows(region, planes.region_id)
+            members = face_members(points, labels, planes.normal, frame.matrix[2], spacing=spacing)
             slope = fit_slope(points, frame, members) if slope is None else slope
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
                 height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
