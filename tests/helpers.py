@@ -78,36 +78,40 @@ def lidar_outcrop(width: float, height: float):
 def road_before(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.ndarray:
     """Level ground ``depth`` m deep at the foot of an outcrop scene's face, as wide as the
     face, at its point spacing on average (drawn at random) and ``noise`` m of white noise:
-    the road a rock cut is scanned from, noisier than the rock."""
-    strike, up_dip = scene.face_axes
-    width, height = scene.face_size
-    foot = scene.offset - height / 2 * up_dip
+    the road a rock cut is scanned from, noisier than the rock. The scene's ``offset`` is the
+    face's lower corner, so the road runs from there along the foot."""
+    strike, _ = scene.face_axes
+    width, _ = scene.face_size
     out = np.array([scene.face_normal[0], scene.face_normal[1], 0.0])
     out /= np.linalg.norm(out)
     rng = np.random.default_rng(seed)
     n = int(width * depth / scene.point_spacing**2)
     ab = rng.random((n, 2)) * [width, depth]
-    return foot + (ab[:, :1] - width / 2) * strike + ab[:, 1:] * out + noise * rng.standard_normal((n, 3))
+    return scene.offset + ab[:, :1] * strike + ab[:, 1:] * out + noise * rng.standard_normal((n, 3))
 
 
-def bushes_on(scene, n: int, seed: int = 0) -> np.ndarray:
+def bushes_on(scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """``n`` bushes on an outcrop scene's face: half-shells 0.5 to 1.5 m in radius standing
     out of it, at the face's point spacing, each blurred by 1.5 to 5 cm of noise (leaves
-    that SfM matches badly): clutter that is a volume, not a surface."""
+    that SfM matches badly): clutter that is a volume, not a surface. Their centres lie on
+    the face's mean plane (the scene's ``offset`` is its lower corner). Returns the bushes'
+    points and which of the scene's points they hide (within a radius of a centre, seen
+    along the face's normal), for the rock behind a bush is not seen."""
     strike, up_dip = scene.face_axes
     width, height = scene.face_size
     normal = scene.face_normal
     rng = np.random.default_rng(seed)
-    shells = []
+    shells, hidden = [], np.zeros(len(scene.cloud.points), dtype=bool)
+    across = (scene.cloud.points - scene.offset) @ np.array([strike, up_dip]).T
     for _ in range(n):
-        centre = (
-            scene.offset + rng.uniform(-width / 2, width / 2) * strike + rng.uniform(-height / 2, height / 2) * up_dip
-        )
+        at = rng.uniform(0, 1, 2) * [width, height]
         radius = rng.uniform(0.5, 1.5)
         m = int(2 * np.pi * radius**2 / scene.point_spacing**2)
         d = rng.normal(size=(m, 3))
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         behind = d @ normal < 0
         d[behind] -= 2 * np.outer(d[behind] @ normal, normal)  # the half before the face
+        centre = scene.offset + at[0] * strike + at[1] * up_dip
         shells.append(centre + radius * d + rng.uniform(0.015, 0.05) * rng.standard_normal((m, 3)))
-    return np.vstack(shells)
+        hidden |= np.linalg.norm(across - at, axis=1) < radius
+    return np.vstack(shells), hidden

@@ -19,33 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .cells import MOMENT_COLUMNS, OFFSETS, SURFACE_VARIATION, CellGrid
-from .density import point_spacing
-from .eigen import smallest_eigenpair
 from .sampling import order_free_sample
 
 #: Empty patches of the occupancy grid up to this many cells are gaps in the sampling, not
 #: holes in the exposure.
 SMALL_HOLE_CELLS = 2
-#: A plane dipping less than GROUND_DIP degrees that holds GROUND_SHARE of the points or
-#: more is ground before or above the face (a road, a bench, a quarry's floor), not the face
-#: ...
-GROUND_DIP = 20.0
-GROUND_SHARE = 0.1
-#: ... when the face without it dips STEEP_FACE degrees or more.
-STEEP_FACE = 45.0
-#: The ground's points: those within this many of its plane's RMS residuals of it.
-GROUND_BAND = 3.0
-#: Clutter (:func:`clutter_points`) is judged on cells this many point spacings wide (some
-#: 16 points of a surface), holding at least MIN_CLUTTER_CELL_POINTS points: on three bushes
-#: before a face, 3 spacings found 61% of their points and 2% of the rock's, 4 found 75% and
-#: 3%, 6 found 68% and 4%.
-CLUTTER_CELL = 4.0
-MIN_CLUTTER_CELL_POINTS = 8
-#: ... or, holding no plane's point, when this share of its neighbours or more are clutter.
-CLUTTER_NEIGHBOURS = 0.3
-#: Fewest points a face may keep once ground and clutter are left out.
-MIN_FACE_POINTS = 100
 #: Points per occupancy cell, on average.
 CELL_POINTS = 8
 
@@ -94,125 +72,14 @@ class Exposure:
         return np.clip(ij[:, 0], 0, self.occupied.shape[0] - 1), np.clip(ij[:, 1], 0, self.occupied.shape[1] - 1)
 
 
-def face_members(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | None = None) -> np.ndarray | None:
-    """The points that make an outcrop's face: all but the clutter before it
-    (:func:`clutter_points`: vegetation) and the ground before or above it: the level planes
-    large enough (:data:`GROUND_DIP`, :data:`GROUND_SHARE`) and the points within
-    :data:`GROUND_BAND` RMS residuals of such a plane (its ragged edges, which the plane did
-    not take: on a 12 x 6 m face, 5,000 of them left the fitted face 6 degrees off), when the
-    face without them dips :data:`STEEP_FACE` degrees or more (a gentle slope's level planes
-    are its face). None when every point is the face's, or when fewer than
-    :data:`MIN_FACE_POINTS` would be. ``labels``: each point's plane (its
-    row in ``normals``), -1 for none; ``spacing``: the points' spacing, read when not given.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> ground = np.column_stack([rng.random((300, 2)), 0.01 * rng.standard_normal(300)])
-    >>> wall = np.column_stack([rng.random(100), np.zeros(100), 0.5 + rng.random(100)])
-    >>> labels = np.r_[np.zeros(290, int), -np.ones(10, int), np.ones(100, int)]
-    >>> members = face_members(np.vstack([ground, wall]), labels, [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
-    >>> int(members[:300].sum()), int(members[300:].sum())  # the ground's ragged points too
-    (0, 100)
-    """
-    points = np.asarray(points, dtype=np.float64)
-    labels = np.asarray(labels)
-    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    up = np.asarray(up, dtype=np.float64)
-    members = ~clutter_points(points, labels, spacing)
-    level = np.abs(normals @ up) > np.cos(np.radians(GROUND_DIP))
-    sizes = np.bincount(labels[labels >= 0], minlength=len(normals))
-    ground = level & (sizes >= GROUND_SHARE * len(labels))
-    near = np.zeros(len(points), dtype=bool)
-    for g in np.flatnonzero(ground):
-        own = points[labels == g]
-        centre = own.mean(axis=0)
-        rms = np.sqrt(np.mean(((own - centre) @ normals[g]) ** 2))
-        near |= np.abs((points - centre) @ normals[g]) <= GROUND_BAND * rms
-    rest = members & ~near
-    if near.any() and rest.any() and abs(_mean_face(points[rest], seed=0)[1][2] @ up) <= np.cos(np.radians(STEEP_FACE)):
-        members = rest
-    # A cloud all clutter (random scatter) has no face to tell it from: it is all face.
-    return None if members.all() or members.sum() < MIN_FACE_POINTS else members
-
-
-def clutter_points(points, labels, spacing: float | None = None) -> np.ndarray:
-    """The points of no plane whose neighbourhood is a volume, not a surface: vegetation
-    before a face. A point's neighbourhood is its cell on a grid :data:`CLUTTER_CELL` point
-    spacings wide; it is a volume when its smallest eigenvalue is over
-    :data:`~.cells.SURFACE_VARIATION` of their sum, as the facet grid's scatter is read.
-    Three bushes on a 12 x 6 m face (28,573 points) had added 12% to the exposure, tilted
-    the fitted face 4 degrees and made one set's spacing 19% long; 92% of their points are
-    found so (with the cells round clutter, :data:`CLUTTER_NEIGHBOURS`), and 3% of the
-    rock's (where its facets meet, which are among the exposure's cells anyway).
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> rock = np.column_stack([rng.random((4000, 2)) * 2, np.zeros(4000)])  # 2 x 2 m, 3 cm
-    >>> bush = rng.normal(size=(4000, 3)) * 0.3 + [1.0, 1.0, 0.5]  # a fuzzy ball before it
-    >>> labels = np.r_[np.zeros(4000, int), -np.ones(4000, int)]
-    >>> found = clutter_points(np.vstack([rock, bush]), labels)
-    >>> bool(found[:4000].any()), bool(found[4000:].mean() > 0.5)
-    (False, True)
-    """
-    points = np.asarray(points, dtype=np.float64)
-    free = np.asarray(labels) < 0
-    if not free.any() or len(points) < MIN_CLUTTER_CELL_POINTS:
-        return np.zeros(len(points), dtype=bool)
-    spacing = point_spacing(points) if spacing is None else float(spacing)
-    if not spacing > 0:
-        return np.zeros(len(points), dtype=bool)
-    grid = CellGrid.of(points, CLUTTER_CELL * spacing)
-    moments = grid.moments[:-1]
-    count = moments[:, 0]
-    mean = moments[:, 1:4] / np.maximum(count, 1)[:, None]
-    cov = np.empty((len(moments), 3, 3))
-    for c, (a, b) in enumerate(MOMENT_COLUMNS[4:], start=4):
-        cov[:, a, b] = cov[:, b, a] = moments[:, c] / np.maximum(count, 1) - mean[:, a] * mean[:, b]
-    values = smallest_eigenpair(cov)[0]
-    volume = (count >= MIN_CLUTTER_CELL_POINTS) & (values[:, 0] > SURFACE_VARIATION * values.sum(axis=1))
-    # A bush's thinner patches read as surface at this scale: a cell that holds no plane's
-    # point is clutter too when enough of its neighbours are a volume (75% -> 92% of three
-    # bushes' points; the rock's share, 3%, unchanged).
-    planed = np.bincount(grid.point_cell[~free], minlength=len(count)) > 0
-    asked = np.flatnonzero(~volume & ~planed)  # only these can change
-    neighbours, volumes = np.zeros(len(asked)), np.zeros(len(asked))
-    for step in grid.steps()[np.any(OFFSETS != 0, axis=1)]:
-        found = grid.find(grid.codes[asked] + step)
-        there = found >= 0
-        neighbours[there] += 1
-        volumes[there] += volume[found[there]]
-    volume[asked] = volumes >= CLUTTER_NEIGHBOURS * np.maximum(neighbours, 1)
-    return free & volume[grid.point_cell]
-
-
-def ground_planes(labels, members, n_planes: int) -> np.ndarray:
-    """Which of ``n_planes`` planes are ground (:func:`face_members`): more than half of their
-    points left out of the face. A road's plane and its fragments are no discontinuity of the
-    rock: they join no joint set (a road had made a fourth set of level planes).
-
-    Examples
-    --------
-    >>> ground_planes(np.array([0, 0, 0, 1, 1, -1]), np.array([0, 0, 1, 1, 1, 0], bool), 2).tolist()
-    [True, False]
-    """
-    labels = np.asarray(labels)
-    if members is None:
-        return np.zeros(n_planes, dtype=bool)
-    mine = labels >= 0
-    total = np.bincount(labels[mine], minlength=n_planes)
-    off = np.bincount(labels[mine & ~np.asarray(members, dtype=bool)], minlength=n_planes)
-    return off > total / 2
-
-
 def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None = None, members=None) -> Exposure:
     """The mean face of ``points`` and its occupancy on a grid of cells of :data:`CELL_POINTS`
     points each on average; holes of :data:`SMALL_HOLE_CELLS` or fewer are filled.
     ``spacing``, the points' spacing as :func:`~.density.point_spacing` reads it, saves
     reading their density again (a kd-tree over all of them). ``members``
-    (:func:`face_members`) leaves the ground out of the face: a road 4 m deep before an 8 m
-    face had turned the fitted face from 77 to 65 degrees, and one set's spacing read 60% long.
+    (:func:`~.face.face_parts`) leaves the ground and the clutter out of the face: a road 4 m
+    deep before an 8 m face had turned the fitted face from 77 to 65 degrees, and one set's
+    spacing read 60% long.
 
     Examples
     --------
@@ -227,7 +94,7 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     others = None
     if members is not None:
         points, others = points[members], points[~members]
-    origin, vt = _mean_face(points, seed)
+    origin, vt = mean_face(points, seed)
     normal = vt[2] if vt[2] @ up >= 0 else -vt[2]
     strike = np.cross(np.asarray(up, float), normal)
     strike = strike / np.linalg.norm(strike) if np.linalg.norm(strike) > 1e-6 else vt[0]
@@ -265,7 +132,7 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     return Exposure(origin, normal, axes, cell, occupied, lower, float(occupied.sum() * cell**2), members)
 
 
-def _mean_face(points, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def mean_face(points, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Centroid and principal axes (rows, the normal last) of (a sample of) ``points``."""
     sample = points[order_free_sample(points, min(len(points), 50_000), seed)]
     origin = sample.mean(axis=0)

@@ -26,7 +26,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .exposure import Persistence, exposure, face_members, ground_planes, plane_persistence
+from .exposure import Persistence, exposure, plane_persistence
+from .face import face_parts
 from .spacing import (
     MIN_SCANLINE_COSINE,
     PlaneMoments,
@@ -95,6 +96,7 @@ class RockMass:
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
+    clutter: np.ndarray | None = None  # per plane, as ground
 
     @property
     def spacing(self) -> np.ndarray:
@@ -138,15 +140,19 @@ class RockMass:
 
     def plane_columns(self) -> dict:
         """Per-plane columns for ``planes.csv``: traces (m), the censoring flag (1 when cut
-        by the exposure's edge) and the ground flag (1: level ground before or above the face)."""
+        by the exposure's edge), the ground flag (1: level ground before or above the face)
+        and the clutter flag (1: a plane in vegetation)."""
         p = self.persistence
-        ground = np.zeros(len(p.censored), dtype=bool) if self.ground is None else self.ground
+        none = np.zeros(len(p.censored), dtype=bool)
+        ground = none if self.ground is None else self.ground
+        clutter = none if self.clutter is None else self.clutter
         return {
             "trace_strike_m": p.trace_strike,
             "trace_dip_m": p.trace_dip,
             "trace_face_m": p.trace_face,
             "censored": p.censored.astype(np.int64),
             "ground": ground.astype(np.int64),
+            "clutter": clutter.astype(np.int64),
         }
 
     def set_rows(self) -> list[dict]:
@@ -204,6 +210,7 @@ class RockMass:
             "correlated_tilt_facets": self.correlated_tilt_n,
             "metres_per_cloud_unit": self.metres_per_unit,
             "ground_planes": 0 if self.ground is None else int(self.ground.sum()),
+            "clutter_planes": 0 if self.clutter is None else int(self.clutter.sum()),
         }
 
 
@@ -248,7 +255,7 @@ def jv_scope(rows: list[dict]) -> str:
 
 
 def rock_mass(
-    points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.0), standard_errors=None, *, face=None
+    points, labels, normals, set_labels, set_normals, up=(0.0, 0.0, 1.0), standard_errors=None, *, face=None, parts=None
 ) -> RockMass:
     """Spacing, persistence and intensity from labelled points, planes and their sets.
 
@@ -292,12 +299,15 @@ def rock_mass(
     set_labels = np.asarray(set_labels)
     set_normals = np.asarray(set_normals, dtype=np.float64).reshape(-1, 3)
     if face is None:
-        face = exposure(points, up, members=face_members(points, labels, normals, up))
+        parts = face_parts(points, labels, normals, up)
+        face = exposure(points, up, members=parts.members)
     persistence = plane_persistence(points, labels, normals, face, up)
     moments = PlaneMoments.of(points, labels, len(normals))
     centroids = moments.centroid
     n_sets = len(set_normals)
-    result = RockMass(persistence, face.area, set_labels, ground=ground_planes(labels, face.members, len(normals)))
+    result = RockMass(persistence, face.area, set_labels)
+    if parts is not None:
+        result.ground, result.clutter = parts.ground, parts.clutter
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)
     # The scanlines run over the face alone (not over the ground before it).
     on_face = points if face.members is None else points[face.members]

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import GeoStructureWarning
-from .exposure import exposure, face_members, ground_planes
+from .exposure import exposure
+from .face import face_parts
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
@@ -109,8 +110,8 @@ def plane_sets(
     """The joint sets of a plane table: poles weighted by area (:func:`~.sets.find_sets`),
     the planes' centroids in metres (``metres_per_unit`` of the table's coordinates, as
     :func:`~.io.crs.metres_per_unit` reads it from the CRS) for the joints' metric tolerances.
-    The planes ``leave_out`` marks (a boolean per plane: the ground, :func:`~.exposure.ground_planes`)
-    are clustered with no set and left in none.
+    The planes ``leave_out`` marks (a boolean per plane: the ground and the clutter,
+    :attr:`~.face.FaceParts.off_face`) are clustered with no set and left in none.
 
     Examples
     --------
@@ -140,6 +141,7 @@ def plane_rock_mass(
     frame: Frame = Frame(),
     *,
     face=None,
+    parts=None,
     errors=None,
     metres_per_unit: float = 1.0,
     metric=None,
@@ -159,6 +161,8 @@ def plane_rock_mass(
         The run's frame, whose up gives strike and dip.
     face : :class:`~.exposure.Exposure`, optional
         The points' exposure (in metres), when it was made already.
+    parts : :class:`~.face.FaceParts`, optional
+        The face's ground and clutter (:func:`~.face.face_parts`), with ``face``.
     errors : dict, optional
         The planes' block standard errors as measured (:meth:`~.planes.Planes.standard_errors`
         of a fresh :func:`~geostructure.measure`'s table). Without them they are computed
@@ -174,7 +178,8 @@ def plane_rock_mass(
     if errors is None:
         errors = normal_standard_errors(points, labels, planes.normal, planes.local_centroid, planes.rect_u, up)
     metric = in_metres(points, metres_per_unit) if metric is None else metric
-    rock = rock_mass(metric, labels, planes.normal, sets.labels, sets.mean_normal, up, errors["normal"], face=face)
+    rock = rock_mass(metric, labels, planes.normal, sets.labels, sets.mean_normal, up, errors["normal"], face=face,
+                     parts=parts)  # fmt: skip
     rock.plane_errors = with_correlated_tilt(errors, rock.correlated_tilt, planes.normal, up)
     rock.metres_per_unit = float(metres_per_unit)
     return rock
@@ -214,12 +219,11 @@ def sets_and_rock_mass(
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
         f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
         # The face without the ground before it and the clutter (vegetation) on it.
-        members = face_members(points, labels, planes.normal, frame.matrix[2], spacing=spacing)
-        face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f, members=members)
-        ground = ground_planes(labels, members, len(planes))
-        sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=ground)
+        parts = face_parts(points, labels, planes.normal, frame.matrix[2], spacing=spacing)
+        face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f, members=parts.members)
+        sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=parts.off_face)
         report("spacing and persistence")
-        rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), errors=errors,
+        rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), parts=parts, errors=errors,
                                metres_per_unit=f, metric=metric)  # fmt: skip
     return sets, rock
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ParameterError
-from .exposure import exposure, face_members
+from .exposure import exposure
+from .face import face_members
 from .io.atomic import write_figure, write_json, write_table_csv
 from .io.crs import recorded_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
@@ -39,7 +40,7 @@ def fit_slope(points, frame: Frame = Frame(), members=None) -> Slope:
     """The overall face of an outcrop cloud: the least-squares plane of all its points (not
     its largest joint), with the standard errors of its dip and dip direction from a block
     regression over the whole face (:func:`~.uncertainty.normal_standard_errors`).
-    ``members`` (:func:`~.exposure.face_members`) leaves the ground before or above the face
+    ``members`` (:func:`~.face.face_members`) leaves the ground before or above the face
     out of it (see :func:`~.exposure.exposure`).
 
     Examples

@@ -89,8 +89,14 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         console.print(f"No joint set: no {MIN_SET_PLANES} of the {len(sets.labels)} planes share an orientation.")
         return
     title = f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)"
-    if rock is not None and rock.ground is not None and rock.ground.any():
-        title = title[:-1] + f", {int(rock.ground.sum())} of them the level ground before the face)"
+    off_face = [
+        f"{int(flags.sum())} {what}"
+        for flags, what in ((getattr(rock, "ground", None), "the level ground before the face"),
+                            (getattr(rock, "clutter", None), "in clutter such as vegetation"))
+        if flags is not None and flags.any()
+    ]  # fmt: skip
+    if off_face:
+        title = title[:-1] + f"; of them {' and '.join(off_face)})"
     rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
     if rock is not None and np.isfinite(rock.jv):
         title += f"; Jv {rock.jv:.1f}/m³{jv_scope(rock_rows)}, block {rock.block_volume:.2g} m³"
