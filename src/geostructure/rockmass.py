@@ -239,6 +239,22 @@ def unmeasured_spacing(set_id: int, row: dict) -> str | None:
     return f"Set {set_id} {why}: its spacing, P10 and P32 are not measured{tail}."
 
 
+def off_face_scope(ground: int, clutter: int) -> str:
+    """What of the planes in no set is not the rock's: ``"; of them 1 the level ground before
+    the face and 31 in clutter such as vegetation"``, or ``""`` when none is.
+
+    Examples
+    --------
+    >>> off_face_scope(1, 31)
+    '; of them 1 the level ground before the face and 31 in clutter such as vegetation'
+    >>> off_face_scope(0, 0)
+    ''
+    """
+    parts = [f"{n} {what}" for n, what in ((ground, "the level ground before the face"),
+                                           (clutter, "in clutter such as vegetation")) if n]  # fmt: skip
+    return f"; of them {' and '.join(parts)}" if parts else ""
+
+
 def jv_scope(rows: list[dict]) -> str:
     """What the volumetric joint count leaves out: ``" (without sets 0, 2)"`` when some of
     the sets' rows (:meth:`RockMass.set_rows`, in set order) have no spacing, else ``""``.

@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .orientation import whole_azimuth
-from .rockmass import jv_scope, unmeasured_spacing
+from .rockmass import jv_scope, off_face_scope, unmeasured_spacing
 from .sets import MIN_SET_PLANES
 
 
@@ -89,14 +89,9 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         console.print(f"No joint set: no {MIN_SET_PLANES} of the {len(sets.labels)} planes share an orientation.")
         return
     title = f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)"
-    off_face = [
-        f"{int(flags.sum())} {what}"
-        for flags, what in ((getattr(rock, "ground", None), "the level ground before the face"),
-                            (getattr(rock, "clutter", None), "in clutter such as vegetation"))
-        if flags is not None and flags.any()
-    ]  # fmt: skip
-    if off_face:
-        title = title[:-1] + f"; of them {' and '.join(off_face)})"
+    if rock is not None:
+        counts = [0 if flags is None else int(flags.sum()) for flags in (rock.ground, rock.clutter)]
+        title = title[:-1] + off_face_scope(*counts) + ")"
     rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
     if rock is not None and np.isfinite(rock.jv):
         title += f"; Jv {rock.jv:.1f}/m³{jv_scope(rock_rows)}, block {rock.block_volume:.2g} m³"

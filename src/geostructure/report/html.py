@@ -18,7 +18,7 @@ from ..io.atomic import atomic_path, plain
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..rockmass import jv_scope, unmeasured_spacing
+from ..rockmass import jv_scope, off_face_scope, unmeasured_spacing
 from ..tables import FAILURE_MODES, SET_KINEMATIC_COLUMNS, failure_mode_cells, set_kinematic_cells
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -300,8 +300,10 @@ def set_table(scene: ReportScene) -> str:
         swatch = _set_swatch(int(row["set"]))
         cells = ["—" if not np.isfinite(row[key]) else f"{row[key]:,.{digits}f}" for key, _, digits in columns]
         rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
-    unassigned = int((scene.planes.extra["set"] < 0).sum())
-    caption = f"Joint sets ({unassigned} plane{'s' if unassigned != 1 else ''} in no set)"
+    extra = scene.planes.extra
+    unassigned = int((extra["set"] < 0).sum())
+    off_face = off_face_scope(*(int((extra[k] > 0).sum()) if k in extra else 0 for k in ("ground", "clutter")))
+    caption = f"Joint sets ({unassigned} plane{'s' if unassigned != 1 else ''} in no set{off_face})"
     rock = scene.rock_mass
     measured = "spacing_m" in scene.sets[0]
     jv = rock.get("jv_per_m3") if rock else None  # null in run.json when no set has a spacing
