@@ -72,3 +72,31 @@ def test_on_a_drone_cloud_the_ground_is_not_clutter():
     clutter = clutter_points(result.filtered.local, result.labels, detected_spacing(result.detection))
     assert clutter[kept == 2].mean() < 0.01
     assert clutter[kept == 3].mean() > 3 * clutter[kept == 2].mean()
+
+
+def test_regions_laz_says_which_points_are_face_ground_and_clutter(tmp_path, capsys):
+    """`measure --sets` writes each point's part in regions.laz (face_part: 0 face, 1 ground,
+    2 clutter), and `sets OUTDIR` writes the same again."""
+    import laspy
+    from helpers import bushes_on, road_before, run_cli
+
+    from geostructure.synthetic import outcrop_scene
+
+    scene = outcrop_scene(width=8.0, height=5.0, seed=3)
+    bushes, hidden = bushes_on(scene, 2, seed=3)
+    road = road_before(scene, depth=2.5, seed=3)
+    points = np.vstack([scene.cloud.points[~hidden], road, bushes])
+    truth = np.repeat([0, 1, 2], [int((~hidden).sum()), len(road), len(bushes)])
+    np.savetxt(tmp_path / "cut.xyz", points, fmt="%.4f")
+    assert run_cli(capsys, "measure", tmp_path / "cut.xyz", "-o", tmp_path / "out", "--sets", "-q")[0] == 0
+    regions = laspy.read(str(tmp_path / "out" / "regions.laz"))
+    part = np.asarray(regions.face_part)
+    xyz = np.column_stack([regions.x, regions.y, regions.z])
+    from scipy.spatial import cKDTree
+
+    kept = truth[cKDTree(points).query(xyz)[1]]  # each written point's truth, by its nearest input point
+    assert (part[kept == 1] == 1).mean() > 0.9  # the road
+    assert (part[kept == 2] == 2).mean() > 0.8  # the bushes
+    assert (part[kept == 0] == 0).mean() > 0.95  # the rock
+    assert run_cli(capsys, "sets", tmp_path / "out", "-q")[0] == 0
+    assert np.array_equal(np.asarray(laspy.read(str(tmp_path / "out" / "regions.laz")).face_part), part)

@@ -47,6 +47,8 @@ MIN_CLUTTER_CELL_POINTS = 8
 CLUTTER_NEIGHBOURS = 0.3
 #: Fewest points a face may keep once ground and clutter are left out.
 MIN_FACE_POINTS = 100
+#: Each point's part, as ``regions.laz``'s ``face_part`` dimension holds it.
+FACE, GROUND, CLUTTER = 0, 1, 2
 
 
 @dataclass(frozen=True)
@@ -57,6 +59,7 @@ class FaceParts:
     members: np.ndarray | None
     ground: np.ndarray
     clutter: np.ndarray
+    point_part: np.ndarray | None = None  # (N,) uint8: FACE, GROUND or CLUTTER; None: all FACE
 
     @property
     def off_face(self) -> np.ndarray:
@@ -94,6 +97,8 @@ def face_parts(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | 
     >>> parts = face_parts(np.vstack([ground, wall]), labels, [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     >>> int(parts.members[:300].sum()), int(parts.members[300:].sum()), parts.ground.tolist()
     (0, 100, [True, False])
+    >>> np.bincount(parts.point_part).tolist()  # FACE, GROUND
+    [100, 300]
     """
     points = np.asarray(points, dtype=np.float64)
     labels = np.asarray(labels)
@@ -115,7 +120,10 @@ def face_parts(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | 
     members = ~clutter & ~near
     if members.all() or members.sum() < MIN_FACE_POINTS:  # a cloud all clutter has no face to tell it from
         return FaceParts(None, np.zeros(len(normals), dtype=bool), np.zeros(len(normals), dtype=bool))
-    return FaceParts(members, _most_in(labels, near, len(normals)) & ~clutter_planes, clutter_planes)
+    part = np.full(len(points), FACE, dtype=np.uint8)
+    part[near] = GROUND
+    part[clutter] = CLUTTER
+    return FaceParts(members, _most_in(labels, near, len(normals)) & ~clutter_planes, clutter_planes, part)
 
 
 def face_members(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | None = None) -> np.ndarray | None:

@@ -97,6 +97,7 @@ class RockMass:
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
     clutter: np.ndarray | None = None  # per plane, as ground
+    point_part: np.ndarray | None = None  # per point: face.FACE, GROUND or CLUTTER; None: all face
 
     @property
     def spacing(self) -> np.ndarray:
@@ -323,7 +324,7 @@ def rock_mass(
     n_sets = len(set_normals)
     result = RockMass(persistence, face.area, set_labels)
     if parts is not None:
-        result.ground, result.clutter = parts.ground, parts.clutter
+        result.ground, result.clutter, result.point_part = parts.ground, parts.clutter, parts.point_part
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)
     # The scanlines run over the face alone (not over the ground before it).
     on_face = points if face.members is None else points[face.members]

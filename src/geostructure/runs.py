@@ -301,7 +301,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         if "planes.gpkg" in staged:
             paths.update(geojson=outputs.final("planes.geojson"), gpkg=outputs.final("planes.gpkg"))
         if (outputs.outdir / "regions.laz").is_file():  # folders before 2026-12-02 have none
-            add_point_sets(outputs.outdir / "regions.laz", outputs.path("regions.laz"), planes)
+            add_point_sets(outputs.outdir / "regions.laz", outputs.path("regions.laz"), planes, rock.point_part)
             paths["regions_laz"] = outputs.final("regions.laz")
         if had_report:  # the report shows the sets: draw it again from the new set of files
             paths.update(redraw_report(outputs))

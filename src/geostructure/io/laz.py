@@ -147,12 +147,16 @@ def _write(las, path) -> Path:
     return Path(path)
 
 
-def write_regions_laz(result, path, point_set=None) -> Path:
+def write_regions_laz(result, path, point_set=None, face_part=None) -> Path:
     """``regions.laz``: the filtered points with ``region_id`` and, given each point's set
-    (``point_set``), ``set``."""
+    (``point_set``), ``set`` and ``face_part``, each point's part of the face
+    (:data:`~geostructure.face.FACE`, ``GROUND`` or ``CLUTTER``; all ``FACE`` when
+    ``face_part`` is None)."""
     fields = {"region_id": np.asarray(result.labels, dtype=np.int32)}
     if point_set is not None:
         fields["set"] = np.asarray(point_set, dtype=np.int16)
+        n = len(fields["set"])
+        fields["face_part"] = np.zeros(n, dtype=np.uint8) if face_part is None else np.asarray(face_part, np.uint8)
     cloud = result.cloud
     return write_laz(
         path,
@@ -181,13 +185,16 @@ def write_voxel_planes_laz(result, path) -> Path:
     )
 
 
-def add_point_sets(source, path, planes) -> Path:
+def add_point_sets(source, path, planes, face_part=None) -> Path:
     """Write ``source`` (a ``regions.laz``) again to ``path`` with a ``set`` dimension (each
-    point's set through its region's row of ``planes``), its points on the same integers."""
+    point's set through its region's row of ``planes``) and a ``face_part`` one (as
+    :func:`write_regions_laz`), its points on the same integers."""
     import laspy
 
     las = laspy.read(str(source))
-    if "set" not in las.point_format.extra_dimension_names:
-        las.add_extra_dim(laspy.ExtraBytesParams(name="set", type=np.int16))
+    for name, kind in (("set", np.int16), ("face_part", np.uint8)):
+        if name not in las.point_format.extra_dimension_names:
+            las.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
     las.set = point_sets(np.asarray(las.region_id), planes)
+    las.face_part = np.zeros(len(las.points), dtype=np.uint8) if face_part is None else face_part
     return _write(las, path)

@@ -196,9 +196,10 @@ def write_result(
         point_writes = []
         if point_files:
             labelled = None if sets is None else point_sets(result.labels, planes)
+            part = None if rock is None else rock.point_part
             point_writes = [
                 pool.submit(write_regions_ply, result, outputs.path(files["regions"])),
-                pool.submit(write_regions_laz, result, outputs.path(files["regions_laz"]), labelled),
+                pool.submit(write_regions_laz, result, outputs.path(files["regions_laz"]), labelled, part),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
         if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin):
