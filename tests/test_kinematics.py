@@ -323,6 +323,16 @@ def test_measure_with_kinematics_and_its_bad_options(tmp_path, capsys):
     assert main(["measure", str(cloud), "-o", str(out), "--kinematics", "--friction", "30", "-q"]) == 0
     assert json.load(open(out / "run.json"))["kinematics"]["slope"]["source"] == "fitted"
     assert (out / "wedges.csv").is_file() and (out / "planes.csv").is_file()
+    # With --sets the slope is fitted on the face the sets were read on, in memory: the same
+    # face, and the same tests, as the kinematics command fits from the folder.
+    both, then = tmp_path / "both", tmp_path / "then"
+    assert main(["measure", str(cloud), "-o", str(both), "--sets", "--kinematics", "--friction", "30", "-q"]) == 0
+    assert main(["measure", str(cloud), "-o", str(then), "--sets", "-q"]) == 0
+    assert main(["kinematics", str(then), "--friction", "30", "-q"]) == 0
+    slopes = [json.load(open(folder / "kinematics.json"))["slope"] for folder in (both, then)]
+    assert slopes[0]["dip"] == pytest.approx(slopes[1]["dip"], abs=1e-9)
+    assert slopes[0]["dip_direction"] == pytest.approx(slopes[1]["dip_direction"], abs=1e-9)
+    assert (both / "kinematics.csv").read_bytes() == (then / "kinematics.csv").read_bytes()
 
 
 def test_the_planar_factor_of_safety_with_cohesion_from_the_command(outcrop_folder, capsys):

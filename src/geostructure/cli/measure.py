@@ -11,6 +11,7 @@ from pathlib import Path
 from ..bounds import column_max, column_min
 from ..errors import GeoStructureError, GeoStructureNote
 from ..evaluate import evaluate, match_scene, scene_truth
+from ..face import FACE
 from ..io.crs import cloud_unit, given_crs, note_unstated_unit, true_north_frame
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
@@ -21,7 +22,7 @@ from ..pipeline import measure
 from ..progress import StageProgress
 from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
 from ..scoring import add_evaluation
-from ..slope_stability import add_kinematics
+from ..slope_stability import add_kinematics, fit_slope
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
@@ -195,6 +196,11 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             rock=rock,
         )
     kinematics = kinematic_settings(args)
+    if kinematics is not None and kinematics["slope"] is None and rock is not None:
+        # The face the sets' rock mass was read on, fitted here, where its points are:
+        # the folder's would be read back and told from their ground and clutter again.
+        members = None if rock.point_part is None else rock.point_part == FACE
+        kinematics["slope"] = fit_slope(result.filtered.local, result.frame, members)
     if kinematics is not None:  # a set of its own, added to the measured folder
         with StageProgress(enabled=not args.quiet) as progress:
             kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics, progress=progress)
