@@ -77,9 +77,9 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     points each on average; holes of :data:`SMALL_HOLE_CELLS` or fewer are filled.
     ``spacing``, the points' spacing as :func:`~.density.point_spacing` reads it, saves
     reading their density again (a kd-tree over all of them). ``members``
-    (:func:`~.face.face_parts`) leaves the ground and the clutter out of the face: a road 4 m
-    deep before an 8 m face had turned the fitted face from 77 to 65 degrees, and one set's
-    spacing read 60% long.
+    (:func:`~.face.face_parts`) leaves the ground and the clutter out of the face: taken for
+    face, 3 m of road along the foot of a 6 m face fits it at 59.45 degrees for 75.44, and
+    adds 12 m2 to its 73.
 
     Examples
     --------

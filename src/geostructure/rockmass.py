@@ -80,7 +80,9 @@ class RockMass:
 
     ``persistence`` has one entry per plane; ``scanlines``, ``nearest_gaps`` (DSE-style
     spacings, m), ``p21``, ``c13`` and ``c23`` one per set; ``set_labels`` is each plane's set,
-    ``ground`` whether it is the level ground before or above the face (in no set).
+    ``ground`` and ``clutter`` whether it is the level ground before or above the face or in
+    clutter such as vegetation (in no set either way), and ``point_part`` each point's part
+    (:data:`~.face.FACE`, ``GROUND`` or ``CLUTTER``; :func:`~.face.face_parts`).
     """
 
     persistence: Persistence
@@ -296,6 +298,9 @@ def rock_mass(
     face : :class:`~.exposure.Exposure`, optional
         ``exposure(points, up)``, when it was made already (it needs the points alone, so
         :func:`~.runs.sets_and_rock_mass` makes it while the sets are found).
+    parts : :class:`~.face.FaceParts`, optional
+        The face's ground and clutter the exposure ``face`` left out, recorded in the
+        result; found here when ``face`` is not given.
 
     Examples
     --------

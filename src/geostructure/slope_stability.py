@@ -40,8 +40,8 @@ def fit_slope(points, frame: Frame = Frame(), members=None) -> Slope:
     """The overall face of an outcrop cloud: the least-squares plane of all its points (not
     its largest joint), with the standard errors of its dip and dip direction from a block
     regression over the whole face (:func:`~.uncertainty.normal_standard_errors`).
-    ``members`` (:func:`~.face.face_members`) leaves the ground before or above the face
-    out of it (see :func:`~.exposure.exposure`).
+    ``members`` (:func:`~.face.face_members`) leaves the ground before or above the face and
+    the clutter on it out (see :func:`~.exposure.exposure`).
 
     Examples
     --------
@@ -136,10 +136,11 @@ def add_kinematics(
         if slope is None or (cohesion and height is None):
             report("slope", 0, None)
             points, region = read_regions(outputs.outdir, planes.offset)
-            spacing = detected_spacing(outputs.record.get("detection"))
-            labels = plane_rows(region, planes.region_id)
-            members = face_members(points, labels, planes.normal, frame.matrix[2], spacing=spacing)
-            slope = fit_slope(points, frame, members) if slope is None else slope
+            if slope is None:
+                spacing = detected_spacing(outputs.record.get("detection"))
+                labels = plane_rows(region, planes.region_id)
+                slope = fit_slope(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
+                                                              spacing=spacing))  # fmt: skip
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
                 height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
                 strength["height_source"] = "the cloud's height"
