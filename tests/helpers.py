@@ -90,6 +90,20 @@ def road_before(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.n
     return scene.offset + ab[:, :1] * strike + ab[:, 1:] * out + noise * rng.standard_normal((n, 3))
 
 
+def crest_above(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.ndarray:
+    """Level ground ``depth`` m deep behind the crest of an outcrop scene's face (its top
+    edge), as :func:`road_before` lays the road along its foot."""
+    strike, up_dip = scene.face_axes
+    width, height = scene.face_size
+    back = -np.array([scene.face_normal[0], scene.face_normal[1], 0.0])
+    back /= np.linalg.norm(back)
+    rng = np.random.default_rng(seed)
+    n = int(width * depth / scene.point_spacing**2)
+    ab = rng.random((n, 2)) * [width, depth]
+    crest = scene.offset + height * up_dip
+    return crest + ab[:, :1] * strike + ab[:, 1:] * back + noise * rng.standard_normal((n, 3))
+
+
 def bushes_on(scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """``n`` bushes on an outcrop scene's face: half-shells 0.5 to 1.5 m in radius standing
     out of it, at the face's point spacing, each blurred by 1.5 to 5 cm of noise (leaves

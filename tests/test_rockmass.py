@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 from conftest import shared_file
-from helpers import bushes_on, lidar_outcrop, road_before, run_cli
+from helpers import bushes_on, crest_above, lidar_outcrop, road_before, run_cli
 
 from geostructure import measure
 from geostructure.auto import choose_params
@@ -88,6 +88,26 @@ def test_the_road_before_a_face_is_not_part_of_its_exposure_nor_of_its_slope_nor
     assert np.all(sets.labels[ground] == -1)
     on_road = result.labels[np.flatnonzero(result.filter_result.keep) >= len(scene.cloud.points)]
     assert np.isin(on_road, ground).mean() > 0.8
+
+
+def test_the_ground_above_the_crest_is_not_part_of_the_face_either():
+    """Level ground 3 m deep behind the crest of the 6 m face (seed 4): measured, slope 75.36
+    for 75.44, exposure 71.2 m2 for 73.2, spacing / truth 1.00, 0.99, 1.08 (J1, J2, J3), three
+    sets, the crest's 49 level planes in none."""
+    scene = outcrop_scene(width=12.0, height=6.0, seed=4)
+    crest = crest_above(scene, depth=3.0, seed=1)
+    (_, _, rock, slope, _), (result, sets, crest_rock, crest_slope, truth) = (
+        as_the_command_line_finds(scene, points)
+        for points in (scene.cloud.points, np.vstack([scene.cloud.points, crest]))
+    )
+    assert sorted(truth) == [0, 1, 2]
+    assert crest_slope.dip == pytest.approx(slope.dip, abs=0.5)
+    assert crest_rock.exposure_area == pytest.approx(rock.exposure_area, rel=0.05)
+    np.testing.assert_allclose(crest_rock.spacing / scene.set_spacing[truth], 1.0, atol=0.15)
+    ground = np.flatnonzero(crest_rock.ground)
+    assert len(ground) and np.all(sets.labels[ground] == -1)
+    on_crest = result.labels[np.flatnonzero(result.filter_result.keep) >= len(scene.cloud.points)]
+    assert np.isin(on_crest, ground).mean() > 0.8
 
 
 def test_bushes_on_the_face_are_no_part_of_its_exposure_nor_of_its_slope_nor_of_its_sets():
