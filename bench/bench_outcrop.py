@@ -13,6 +13,12 @@ ratio of the two.
 
     python bench/bench_outcrop.py                   # seeds 0 and 1
     python bench/bench_outcrop.py --seeds 3 --width 20 --height 8 --spacing 0.03
+    python bench/bench_outcrop.py --road 4 --crest 3 --bushes 12   # a rock cut as surveyed
+
+With ``--road``, ``--crest`` and ``--bushes`` the file also holds level ground before the
+face and behind its crest (metres deep, 1 cm of noise) and bushes on it, the rock behind
+them hidden (``geostructure.synthetic.road_before``, ``crest_above``, ``bushes_on``); the
+facets are still counted against the whole face, so those the bushes hide count as missed.
 
 The peer is written here from the method of Discontinuity Set Extractor (Riquelme et al.
 2014), as its paper describes it:
@@ -203,6 +209,9 @@ def main() -> None:
     parser.add_argument("--width", type=float, default=40.0)
     parser.add_argument("--height", type=float, default=16.0)
     parser.add_argument("--spacing", type=float, default=0.025)
+    parser.add_argument("--road", type=float, default=0.0, help="metres of road before the face")
+    parser.add_argument("--crest", type=float, default=0.0, help="metres of level ground behind its crest")
+    parser.add_argument("--bushes", type=int, default=0, help="bushes on the face")
     parser.add_argument("--peer", nargs=2, metavar=("PLY", "OUT"), help=argparse.SUPPRESS)
     parser.add_argument("--measure", nargs=2, metavar=("PLY", "OUTDIR"), help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -220,15 +229,22 @@ def main() -> None:
         np.savez(args.peer[1], peak_mb=peak_mb, **result)
         return
 
-    from geostructure.synthetic import outcrop_scene
+    from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
 
     print("end to end from a binary PLY, default options; the peer: DSE's method as written here")
+    if args.road or args.crest or args.bushes:
+        print(f"with {args.road:g} m of road, {args.crest:g} m of ground behind the crest, {args.bushes} bushes")
     for seed in args.seeds:
         scene = outcrop_scene(width=args.width, height=args.height, point_spacing=args.spacing, seed=seed)
-        n = len(scene.cloud)
+        bushes, hidden = bushes_on(scene, args.bushes, seed=seed) if args.bushes else (np.zeros((0, 3)), None)
+        points = [scene.cloud.points if hidden is None else scene.cloud.points[~hidden], bushes]
+        points += [road_before(scene, args.road, seed=seed)] if args.road else []
+        points += [crest_above(scene, args.crest, seed=seed + 1)] if args.crest else []
+        points = np.vstack(points)
+        n = len(points)
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "outcrop.ply"
-            write_ply(scene.cloud.points, path)
+            write_ply(points, path)
             ours = run_geostructure(path, Path(tmp) / "out")
             theirs = run_peer_process(path, Path(tmp) / "peer.npz")
         for name, run in (("geostructure", ours), ("DSE-style peer", theirs)):

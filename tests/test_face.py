@@ -78,9 +78,9 @@ def test_regions_laz_says_which_points_are_face_ground_and_clutter(tmp_path, cap
     """`measure --sets` writes each point's part in regions.laz (face_part: 0 face, 1 ground,
     2 clutter), and `sets OUTDIR` writes the same again."""
     import laspy
-    from helpers import bushes_on, road_before, run_cli
+    from helpers import run_cli
 
-    from geostructure.synthetic import outcrop_scene
+    from geostructure.synthetic import bushes_on, outcrop_scene, road_before
 
     scene = outcrop_scene(width=8.0, height=5.0, seed=3)
     bushes, hidden = bushes_on(scene, 2, seed=3)

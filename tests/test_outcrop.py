@@ -2,14 +2,14 @@
 
 import numpy as np
 import pytest
-from helpers import bushes_on, lidar_outcrop, road_before
+from helpers import lidar_outcrop
 
 from geostructure import Params, measure
 from geostructure.auto import choose_params
 from geostructure.cloud import Cloud
 from geostructure.evaluate import match_facets
 from geostructure.orientation import angle_between_normals
-from geostructure.synthetic import outcrop_scene
+from geostructure.synthetic import bushes_on, outcrop_scene, road_before
 
 #: The issue's bar: facets larger than 0.3 m across, centroid on the facet, normal within 5 degrees.
 MIN_RECALL = 0.8

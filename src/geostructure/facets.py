@@ -57,11 +57,13 @@ DETECTORS = ("facets", "voxel")
 #: 5 and 7 and the 1 cm face, 1.35 found 91 to 95% of the facets; 1.6, 84 to 92%; 2.25, 78
 #: to 80%.
 CELL_EDGE = 1.35
-#: Largest median angle (degrees) between local planes two cells apart for them to be
-#: trusted; where they wander more, the grid's edge is doubled, up to COARSENING_ROUNDS times,
-#: and where they still do (a noisy SfM cloud), no facet is trusted: every point is left to
-#: the voxel growing. Measured: 3.3 to 4.7 on rough SfM-like outcrops at 2.5 to 3 cm; on the
-#: LiDAR-like one at 1 cm, over 5 on the first grid and 4.1 on the doubled one.
+#: Largest angle (degrees) between local planes two cells apart for them to be trusted (its
+#: 40th percentile, :data:`~.cells.SCATTER_PERCENTILE`, on the surface's cells); where they
+#: wander more, the grid's edge is doubled, up to COARSENING_ROUNDS times, and where they
+#: still do (a noisy SfM cloud), no facet is trusted: every point is left to the voxel
+#: growing. Measured (as medians, which decided until 2026-12-05): 3.3 to 4.7 on rough
+#: SfM-like outcrops at 2.5 to 3 cm; on the LiDAR-like one at 1 cm, over 5 on the first grid
+#: and 4.1 on the doubled one.
 MAX_CELL_SCATTER = 5.0
 COARSENING_ROUNDS = 3
 #: The angle threshold is this many times the median angle between touching cells' planes

@@ -3,6 +3,8 @@
 - :func:`observatory_scene`: the paper's six large surfaces in an outdoor scene (the demo).
 - :func:`outcrop_scene`: a rough rock face cut by hundreds of small joint facets from a few
   sets, with SfM-like noise and occlusion: the case a rock-slope engineer brings.
+- :func:`road_before`, :func:`crest_above`, :func:`bushes_on`: the ground and the vegetation
+  a survey of a rock cut holds besides its rock.
 """
 
 from .observatory import (
@@ -16,6 +18,7 @@ from .observatory import (
     sample_rectangle,
 )
 from .outcrop import JointSet, OutcropScene, fisher_directions, outcrop_scene
+from .surroundings import bushes_on, crest_above, road_before
 
 __all__ = [
     "PAPER_NORMALS",
@@ -24,10 +27,13 @@ __all__ = [
     "OutcropScene",
     "Scene",
     "Surface",
+    "bushes_on",
+    "crest_above",
     "fisher_directions",
     "observatory_scene",
     "outcrop_scene",
     "paper_surfaces",
     "paper_to_enu",
+    "road_before",
     "sample_rectangle",
 ]
