@@ -23,9 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cells import MOMENT_COLUMNS, OFFSETS, SURFACE_VARIATION, CellGrid
+from .cells import OFFSETS, SURFACE_VARIATION, CellGrid, block_fit
 from .density import point_spacing
-from .eigen import smallest_eigenpair
 from .exposure import mean_face
 
 #: A plane dipping less than GROUND_DIP degrees that holds GROUND_SHARE of the points or
@@ -56,13 +55,18 @@ FACE, GROUND, CLUTTER = 0, 1, 2
 
 @dataclass(frozen=True)
 class FaceParts:
-    """Which points make the face (``members``, (N,); None: all of them), and which planes
-    are the ground's (``ground``, (P,)) and the clutter's (``clutter``, (P,))."""
+    """Each point's part (``point_part``, (N,) uint8: :data:`FACE`, :data:`GROUND` or
+    :data:`CLUTTER`; None: all face), and which planes are the ground's (``ground``, (P,))
+    and the clutter's (``clutter``, (P,))."""
 
-    members: np.ndarray | None
+    point_part: np.ndarray | None
     ground: np.ndarray
     clutter: np.ndarray
-    point_part: np.ndarray | None = None  # (N,) uint8: FACE, GROUND or CLUTTER; None: all FACE
+
+    @property
+    def members(self) -> np.ndarray | None:
+        """Which points make the face (None: all of them)."""
+        return None if self.point_part is None else self.point_part == FACE
 
     @property
     def off_face(self) -> np.ndarray:
@@ -113,13 +117,13 @@ def face_parts(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | 
     steep = rest.any() and abs(mean_face(points[rest])[1][2] @ up) <= np.cos(np.radians(STEEP_FACE))
     if not (near.any() and steep):
         near[:] = False
-    members = ~clutter & ~near
-    if members.all() or members.sum() < MIN_FACE_POINTS:  # a cloud all clutter has no face to tell it from
+    on_face = np.count_nonzero(~clutter & ~near)
+    if on_face == len(points) or on_face < MIN_FACE_POINTS:  # a cloud all clutter has no face to tell it from
         return FaceParts(None, np.zeros(len(normals), dtype=bool), np.zeros(len(normals), dtype=bool))
     part = np.full(len(points), FACE, dtype=np.uint8)
     part[near] = GROUND
     part[clutter] = CLUTTER
-    return FaceParts(members, _most_in(labels, near, len(normals)) & ~clutter_planes, clutter_planes, part)
+    return FaceParts(part, _most_in(labels, near, len(normals)) & ~clutter_planes, clutter_planes)
 
 
 def _level_ground(points, labels, normals, up) -> np.ndarray:
@@ -192,13 +196,8 @@ def _clutter(points, labels, n_planes: int, spacing) -> tuple[np.ndarray, np.nda
     if not spacing > 0:
         return none
     grid = CellGrid.of(points, CLUTTER_CELL * spacing)
-    moments = grid.moments[:-1]
-    count = moments[:, 0]
-    mean = moments[:, 1:4] / np.maximum(count, 1)[:, None]
-    cov = np.empty((len(moments), 3, 3))
-    for c, (a, b) in enumerate(MOMENT_COLUMNS[4:], start=4):
-        cov[:, a, b] = cov[:, b, a] = moments[:, c] / np.maximum(count, 1) - mean[:, a] * mean[:, b]
-    values = smallest_eigenpair(cov)[0]
+    count = grid.moments[:-1, 0]
+    values = block_fit(grid.moments[:-1])[0]  # each cell's own eigenvalues, ascending
     volume = (count >= MIN_CLUTTER_CELL_POINTS) & (values[:, 0] > SURFACE_VARIATION * values.sum(axis=1))
     # A bush's thinner patches read as surface at this scale: a cell is clutter too when
     # enough of its neighbours are a volume.

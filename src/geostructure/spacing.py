@@ -172,19 +172,14 @@ def joint_planes(
             continue
         joint[i] = best
         members[best].append(int(i))
-        # The plane through all the joint's points: their scatter about the joint's centroid
-        # is the second moment about ``ref`` less weight x shift shift^T.
+        # The plane through all the joint's points (:func:`_refit`).
         w = count[i]
         d = centroids[i] - ref[best]
         wd = w * d
         weight[best] += w
         first_moment[best] += wd
         second_moment[best] += scatter[i] + wd[:, None] * d
-        m = first_moment[best]
-        shift = m / weight[best]
-        fitted = np.linalg.eigh(second_moment[best] - shift[:, None] * m)[1][:, 0]
-        plane_normal[best] = fitted if fitted @ plane_normal[best] >= 0 else -fitted
-        plane_point[best] = ref[best] + shift
+        _refit(best, weight, first_moment, second_moment, ref, plane_normal, plane_point)
     n = len(members)
     if enough is None and n > 1:
         pooled = (weight[:n], first_moment[:n], second_moment[:n], ref[:n], plane_normal[:n], plane_point[:n])
@@ -225,11 +220,19 @@ def _absorb_lone_facets(lone, pooled, offset: float, cos_on_plane: float) -> np.
         first[k] += first[j] + weight[j] * d
         weight[k] += weight[j]
         owner[owner == j] = k
-        shift = first[k] / weight[k]
-        fitted = np.linalg.eigh(second[k] - np.outer(shift, first[k]))[1][:, 0]
-        normal[k] = fitted if fitted @ normal[k] >= 0 else -fitted
-        point[k] = centre[k] = ref[k] + shift
+        _refit(k, weight, first, second, ref, normal, point)
+        centre[k] = point[k]
     return owner
+
+
+def _refit(k: int, weight, first, second, ref, normal, point) -> None:
+    """Joint ``k``'s plane from its pooled moments (about ``ref[k]``), in place: through its
+    points' centroid, normal to their least spread, on the side of the normal it had. Their
+    scatter about the centroid is the second moment less weight x shift shift^T."""
+    shift = first[k] / weight[k]
+    fitted = np.linalg.eigh(second[k] - shift[:, None] * first[k])[1][:, 0]
+    normal[k] = fitted if fitted @ normal[k] >= 0 else -fitted
+    point[k] = ref[k] + shift
 
 
 @dataclass
