@@ -32,6 +32,7 @@ from .spacing import (
     MIN_SCANLINE_COSINE,
     PlaneMoments,
     joint_planes,
+    joint_traces,
     nearest_plane_gaps,
     scanline_spacing,
     spacing_statistics,
@@ -59,6 +60,9 @@ ROCK_SET_COLUMNS = (
     "spacing_best_fit",
     "spacing_nearest_m",
     "spacing_nearest_median_m",
+    "spacing_persistent_m",
+    "spacing_traces_m",
+    "spacing_basis",
     "joints_met",
     "scanline_length_m",
     "scanline_cosine",
@@ -78,8 +82,9 @@ ROCK_SET_COLUMNS = (
 class RockMass:
     """Spacing, persistence and intensity of a run's sets.
 
-    ``persistence`` has one entry per plane; ``scanlines``, ``nearest_gaps`` (DSE-style
-    spacings, m), ``p21``, ``c13`` and ``c23`` one per set; ``set_labels`` is each plane's set,
+    ``persistence`` has one entry per plane; ``scanlines``, ``trace_scanlines`` (the same
+    lines meeting each joint only along the stretches of its trace its facets show),
+    ``nearest_gaps`` (DSE-style spacings, m), ``p21``, ``c13`` and ``c23`` one per set; ``set_labels`` is each plane's set,
     ``ground`` and ``clutter`` whether it is the level ground before or above the face or in
     clutter such as vegetation (in no set either way), and ``point_part`` each point's part
     (:data:`~.face.FACE`, ``GROUND`` or ``CLUTTER``; :func:`~.face.face_parts`).
@@ -89,6 +94,7 @@ class RockMass:
     exposure_area: float
     set_labels: np.ndarray
     scanlines: list = field(default_factory=list)
+    trace_scanlines: list = field(default_factory=list)  # the joints met only where their traces show
     nearest_gaps: list = field(default_factory=list)
     p21: np.ndarray = field(default_factory=lambda: np.zeros(0))
     c13: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -102,14 +108,33 @@ class RockMass:
     point_part: np.ndarray | None = None  # per point: face.FACE, GROUND or CLUTTER; None: all face
 
     @property
+    def traces_only(self) -> np.ndarray:
+        """Per set, whether its joints are counted only where their traces show: when that
+        spacing is :data:`TRACE_DISAGREEMENT` times or more the persistent planes' (see
+        :func:`persistence_note`)."""
+        if not self.trace_scanlines:
+            return np.zeros(len(self.scanlines), dtype=bool)
+        persistent = np.array([line.spacing for line in self.scanlines], dtype=np.float64)
+        traces = np.array([line.spacing for line in self.trace_scanlines], dtype=np.float64)
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(traces) & (traces >= TRACE_DISAGREEMENT * persistent)
+
+    @property
+    def lines(self) -> list:
+        """Per set, the scanlines its spacing, P10 and P32 are read on: the joints extended
+        as persistent planes, or counted where their traces show (:attr:`traces_only`)."""
+        return [t if only else p for p, t, only in zip(self.scanlines, self.trace_scanlines, self.traces_only)] \
+            if self.trace_scanlines else list(self.scanlines)  # fmt: skip
+
+    @property
     def spacing(self) -> np.ndarray:
         """Mean normal spacing (m) per set along its scanlines (NaN where none was measured)."""
-        return np.array([line.spacing for line in self.scanlines], dtype=np.float64)
+        return np.array([line.spacing for line in self.lines], dtype=np.float64)
 
     @property
     def p10(self) -> np.ndarray:
         """Joints per metre along each set's scanlines."""
-        return np.array([line.p10 for line in self.scanlines], dtype=np.float64)
+        return np.array([line.p10 for line in self.lines], dtype=np.float64)
 
     @property
     def p32_from_p10(self) -> np.ndarray:
@@ -162,7 +187,8 @@ class RockMass:
         """Per set, the columns ``sets.csv`` adds after the orientation statistics."""
         rows = []
         p = self.persistence
-        for s, line in enumerate(self.scanlines):
+        only = self.traces_only
+        for s, line in enumerate(self.lines):
             members = np.flatnonzero(self.set_labels == s)
             gap = spacing_statistics(line.gaps)
             near = self.nearest_gaps[s]
@@ -183,6 +209,9 @@ class RockMass:
                 "spacing_best_fit": gap["best_fit"],
                 "spacing_nearest_m": float(near.mean()) if len(near) else float("nan"),
                 "spacing_nearest_median_m": float(np.median(near)) if len(near) else float("nan"),
+                "spacing_persistent_m": float(self.scanlines[s].spacing),
+                "spacing_traces_m": float(self.trace_scanlines[s].spacing) if self.trace_scanlines else float("nan"),
+                "spacing_basis": "traces" if only[s] else "persistent",
                 "joints_met": int(line.joints),
                 "scanline_length_m": float(line.length),
                 "scanline_cosine": float(line.cosine),
@@ -208,7 +237,8 @@ class RockMass:
             "jv_per_m3": self.jv,
             "block_volume_m3": self.block_volume,
             "block_volume_three_sets_m3": self.block_volume_three_sets(set_normals),
-            "spacing_method": "scanlines on the mean face, joints extended as persistent planes",
+            "spacing_method": "scanlines on the mean face, joints extended as persistent planes, or counted "
+            "where their traces show for a set whose spacing that makes twice as long",
             "correlated_tilt_deg": self.correlated_tilt,
             "correlated_tilt_facets": self.correlated_tilt_n,
             "metres_per_cloud_unit": self.metres_per_unit,
@@ -240,6 +270,33 @@ def unmeasured_spacing(set_id: int, row: dict) -> str | None:
     near = float(row.get("spacing_nearest_m", np.nan))
     tail = f" (its nearest-plane spacing, after DSE, is {near:.2f} m)" if np.isfinite(near) else ""
     return f"Set {set_id} {why}: its spacing, P10 and P32 are not measured{tail}."
+
+
+#: A set's joints are counted only where their traces show when that spacing is this many
+#: times the persistent planes': they are seen over short stretches of the face. On the
+#: faces of planes that cross the rock mass the two differ by 1.6 times at most; on faces of
+#: joints 1.5 to 10 m across, by 2 to 6 times (docs/rockmass.md, "Persistence and spacing").
+TRACE_DISAGREEMENT = 2.0
+
+
+def persistence_note(set_id: int, row: dict) -> str | None:
+    """A sentence when set ``set_id``'s spacing counts its joints only where their traces
+    show (``spacing_basis`` "traces" in its row of ``sets.csv``), naming both spacings.
+
+    Examples
+    --------
+    >>> persistence_note(1, {"spacing_basis": "traces", "spacing_persistent_m": 0.11, "spacing_traces_m": 0.52})
+    "Set 1's joints show over short stretches of the face: its spacing, 0.52 m, counts each only where its trace shows (0.11 m if each were a plane across the whole face)."
+    >>> persistence_note(1, {"spacing_basis": "persistent", "spacing_persistent_m": 0.5}) is None
+    True
+    """
+    if row.get("spacing_basis") != "traces":
+        return None
+    return (
+        f"Set {set_id}'s joints show over short stretches of the face: its spacing, {float(row['spacing_traces_m']):.2f} m, "
+        f"counts each only where its trace shows ({float(row['spacing_persistent_m']):.2f} m if each were a plane "
+        "across the whole face)."
+    )
 
 
 def off_face_scope(ground: int, clutter: int) -> str:
@@ -338,8 +395,10 @@ def rock_mass(
         members = np.flatnonzero(set_labels == s)
         joint, joint_normal, joint_centre = joint_planes(moments.subset(members), normals[members])
         joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
+        traces = joint_traces(moments.subset(members), joint, joint_normal, face.normal)
         line = scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv)
         result.scanlines.append(line)
+        result.trace_scanlines.append(scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv, traces))
         result.nearest_gaps.append(nearest_plane_gaps(normals, centroids, members, mean, persistence))
         result.p21[s] = persistence.trace_face[members].sum() / face.area if face.area > 0 else np.nan
         if len(members):

@@ -264,7 +264,74 @@ class Scanlines:
         return self.spacing / np.sqrt(self.joints) if self.joints > 0 else float("nan")
 
 
-def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, uv=None) -> Scanlines:
+#: A joint's trace on the face runs across a gap of up to this length (m) between its facets
+#: (where another set's facet crosses it, or the face is hidden) ...
+TRACE_GAP = 3.0
+#: ... and this far (m) beyond its outermost facets.
+TRACE_MARGIN = 0.35
+
+
+@dataclass(frozen=True)
+class Traces:
+    """The joints' traces on the face: each joint's trace ``direction`` (J, 3), and the
+    stretches of it that its facets show, ``joint`` (T,), from ``start`` to ``end`` (T,)
+    (m, positions along the direction), sorted by joint and start, apart from each other."""
+
+    direction: np.ndarray
+    joint: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+
+    def reach(self, joint, position) -> np.ndarray:
+        """Whether each joint's trace reaches ``position`` along it (m)."""
+        if len(self.joint) == 0:
+            return np.zeros(len(joint), dtype=bool)
+        # One sorted key for all stretches: the joints' positions in disjoint ranges.
+        width = 2.0 * max(np.abs(self.start).max(), np.abs(self.end).max(), np.abs(position).max(initial=0)) + 1.0
+        lo, hi = self.joint * width + self.start, self.joint * width + self.end
+        key = np.asarray(joint) * width + position
+        k = np.searchsorted(lo, key, side="right") - 1
+        return (k >= 0) & (key <= hi[np.maximum(k, 0)])
+
+
+def joint_traces(moments: PlaneMoments, joint, joint_normal, face_normal) -> Traces:
+    """Each joint's trace on the face and the stretches its facets show
+    (:class:`Traces`): a facet covers twice its points' standard deviation either side of its
+    centroid along the trace (a disc's edge is 2 sigma out); gaps up to :data:`TRACE_GAP`
+    between them are bridged and :data:`TRACE_MARGIN` is added at each end."""
+    face_normal = np.asarray(face_normal, dtype=np.float64)
+    direction = np.cross(joint_normal, face_normal)
+    norm = np.linalg.norm(direction, axis=1, keepdims=True)
+    # A joint parallel to the face has no trace: any direction in the face will do.
+    direction = np.where(norm > 1e-9, direction / np.maximum(norm, 1e-12), _any_in_face(face_normal))
+    mine = np.flatnonzero(joint >= 0)
+    owner = joint[mine]
+    d = direction[owner]
+    centre = np.einsum("ij,ij->i", moments.centroid[mine], d)
+    spread = np.einsum("ij,ijk,ik->i", d, moments.scatter[mine], d) / np.maximum(moments.count[mine], 1)
+    half = 2.0 * np.sqrt(np.maximum(spread, 0.0)) + TRACE_MARGIN
+    order = np.lexsort((centre - half, owner))
+    owner, start, end = owner[order], (centre - half)[order], (centre + half)[order]
+    # Running end of each joint's stretches so far: a facet starting beyond it + the gap
+    # (or of another joint) starts a new stretch.
+    running = np.empty_like(end)
+    for j in np.unique(owner):  # few joints per set; each a cumulative max
+        rows = owner == j
+        running[rows] = np.maximum.accumulate(end[rows])
+    new = np.ones(len(owner), dtype=bool)
+    new[1:] = (owner[1:] != owner[:-1]) | (start[1:] > running[:-1] + TRACE_GAP - 2 * TRACE_MARGIN)
+    group = np.cumsum(new) - 1
+    last = np.append(np.flatnonzero(new)[1:], len(owner)) - 1
+    return Traces(direction, owner[new], start[new], running[last][: group.max() + 1] if len(owner) else end[:0])
+
+
+def _any_in_face(face_normal) -> np.ndarray:
+    helper = np.array([1.0, 0.0, 0.0]) if abs(face_normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    v = np.cross(face_normal, helper)
+    return v / np.linalg.norm(v)
+
+
+def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, uv=None, traces=None) -> Scanlines:
     """One set's joints along virtual scanlines on the face (see the module's description).
 
     Parameters
@@ -278,6 +345,10 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, u
     face : Exposure
     uv : (N, 2) array, optional
         ``face.project(points)``, when made already (one projection serves every set).
+    traces : Traces, optional
+        Each joint's trace on the face and the stretches of it its facets show
+        (:func:`joint_traces`): a line meets a joint only there. Without it, every joint is
+        a persistent plane across the face.
     """
     direction = mean - (mean @ face.normal) * face.normal
     cosine = float(np.linalg.norm(direction))
@@ -311,6 +382,9 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, u
         t = np.einsum("ij,ij->i", n, joint_centre[facing] - origin) / (n @ direction)
         at = np.minimum(np.floor((t - t_lo[k]) / step).astype(np.int64), len(exposed) - 1)
         inside = (t >= t_lo[k]) & (t <= t_hi[k])
+        if traces is not None:  # the joint's trace reaches the line
+            crossing = np.einsum("ij,ij->i", origin + np.outer(t, direction), traces.direction[facing])
+            inside[inside] = traces.reach(facing[inside], crossing[inside])
         inside[inside] = exposed[at[inside]]
         order = np.argsort(t[inside])
         t, at, who = t[inside][order] * cosine, at[inside][order], facing[inside][order]

@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .orientation import whole_azimuth
-from .rockmass import jv_scope, off_face_scope, unmeasured_spacing
+from .rockmass import jv_scope, off_face_scope, persistence_note, unmeasured_spacing
 from .sets import MIN_SET_PLANES
 
 
@@ -113,8 +113,9 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
             *extra,
         )
     console.print(table)
-    for note in filter(None, (unmeasured_spacing(s, more) for s, more in enumerate(rock_rows) if more)):
-        console.print(note)
+    for s, more in enumerate(rock_rows):
+        for note in filter(None, (unmeasured_spacing(s, more), persistence_note(s, more)) if more else ()):
+            console.print(note)
 
 
 def counted(n: int, noun: str) -> str:

@@ -90,7 +90,7 @@ def read_spacings(folder) -> dict[int, np.ndarray]:
 
 
 #: The columns of ``sets.csv`` that hold words, not numbers.
-TEXT_SET_COLUMNS = {"spacing_best_fit"}
+TEXT_SET_COLUMNS = {"spacing_best_fit", "spacing_basis"}
 
 
 def read_sets(folder) -> list[dict]:

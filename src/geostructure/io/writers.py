@@ -137,11 +137,13 @@ def write_sets_csv(sets, path, rock=None) -> Path:
 
 def write_spacing_csv(rock, path) -> Path:
     """``spacing.csv``: every spacing measured, one row each: set, method (``scanline``, along
-    the virtual scanlines, or ``nearest``, to the nearest overlapping plane of the set), metres."""
+    the virtual scanlines, or ``nearest``, to the nearest overlapping plane of the set), metres.
+    The scanlines' gaps are those the set's spacing is read from (``spacing_basis``)."""
+    lines = rock.lines
     rows = [
         {"set": s, "method": method, "spacing_m": float(v)}
-        for s in range(len(rock.scanlines))
-        for method, values in (("scanline", rock.scanlines[s].gaps), ("nearest", rock.nearest_gaps[s]))
+        for s in range(len(lines))
+        for method, values in (("scanline", lines[s].gaps), ("nearest", rock.nearest_gaps[s]))
         for v in values
     ]
     return write_table_csv(rows, path, columns=("set", "method", "spacing_m"))

@@ -46,7 +46,9 @@ from .surface import facet_seeds, jittered_grid, smooth_field, visible_points
 @dataclass(frozen=True)
 class JointSet:
     """One set of the generator: mean orientation (degrees), Fisher ``kappa``, mean normal
-    spacing (m) and the relative share of the face's facets it takes."""
+    spacing (m), the relative share of the face's facets it takes, and its ``persistence``:
+    None for planes through the whole rock mass, or the mean diameter (m) of its joints as
+    discs (Baecher et al. 1977; lognormal diameters), so that a joint's trace ends on the face."""
 
     name: str
     dip: float
@@ -54,6 +56,7 @@ class JointSet:
     kappa: float
     spacing: float
     share: float = 1.0
+    persistence: float | None = None
 
     @property
     def normal(self) -> np.ndarray:
@@ -104,6 +107,7 @@ class OutcropScene:
     exposed_set_p32: np.ndarray | None = None
     set_plane_normals: tuple = ()
     set_plane_points: tuple = ()
+    set_plane_radii: tuple = ()
     face_axes: np.ndarray | None = None
     face_size: tuple = (0.0, 0.0)
     offset: np.ndarray | None = None
@@ -143,16 +147,18 @@ class OutcropScene:
         the planes met.
         """
         normals, points = self.set_plane_normals[set_index], self.set_plane_points[set_index]
+        radii = self.set_plane_radii[set_index]
         if exposed_only:
             shown = np.unique(self.facet_plane[self.facet_set == set_index])
-            normals, points = normals[shown], points[shown]
+            normals, points, radii = normals[shown], points[shown], radii[shown]
         generated = self.sets[set_index].normal
         face = (self.face_normal, self.face_axes, self.face_size)
-        first = scanline_crossings(normals, points, generated, face, line_spacing)
+        first = scanline_crossings(normals, points, generated, face, line_spacing, radii)
         met = np.unique(first["met"])
         if len(met) >= 2:
             mean = np.linalg.eigh(normals[met].T @ normals[met])[1][:, -1]
-            first = scanline_crossings(normals, points, mean if mean @ generated >= 0 else -mean, face, line_spacing)
+            mean = mean if mean @ generated >= 0 else -mean
+            first = scanline_crossings(normals, points, mean, face, line_spacing, radii)
         first.pop("met")
         return first
 
@@ -248,23 +254,20 @@ def outcrop_scene(
     cell_normal = np.zeros((len(seeds), 3))
     cell_point = np.zeros((len(seeds), 3))
     cell_plane = np.zeros(len(seeds), dtype=np.int64)
-    set_normals, set_points = [], []
-    reach = np.hypot(width, height) + 2.0
+    set_normals, set_points, set_radii = [], [], []
     for s, joint in enumerate(sets):
-        mean = joint.normal
-        positions = -reach + np.cumsum(rng.exponential(joint.spacing, int(4 * reach / joint.spacing) + 10))
-        positions = positions[positions < reach]
-        normals = fisher_directions(mean, joint.kappa, len(positions), rng)
+        if joint.persistence is None:
+            normals, points, radii = _persistent_planes(joint, np.hypot(width, height) + 2.0, rng)
+        else:
+            normals, points, radii = _joint_discs(joint, (face_normal, along, up_dip), (width, height), rng)
         set_normals.append(normals)
-        set_points.append(positions[:, None] * mean)
+        set_points.append(points)
+        set_radii.append(radii)
         mine = np.flatnonzero(cell_set == s)
-        # Distance from each cell's centre to each plane, along the plane's own normal (the
-        # planes are not parallel: one is nearest at one end of the face, another at the other).
-        along_own = np.einsum("ck,pk->cp", seeds3[mine], normals) - (positions * (normals @ mean))[None, :]
-        nearest = np.abs(along_own).argmin(axis=1)
+        nearest = _nearest_joint(seeds3[mine], normals, points, radii)
         cell_plane[mine] = nearest
         cell_normal[mine] = normals[nearest]
-        cell_point[mine] = positions[nearest][:, None] * mean
+        cell_point[mine] = points[nearest]
     outward = cell_normal * np.sign(cell_normal @ face_normal)[:, None]
 
     base = ab[:, :1] * along + ab[:, 1:] * up_dip
@@ -333,6 +336,7 @@ def outcrop_scene(
         point_spacing=point_spacing,
         set_plane_normals=tuple(set_normals),
         set_plane_points=tuple(set_points),
+        set_plane_radii=tuple(set_radii),
         face_axes=np.array([along, up_dip]),
         face_size=(float(width), float(height)),
         offset=shift,
@@ -349,6 +353,54 @@ def outcrop_scene(
             spacing[s] = line["cosine"] / p10 if p10 > 0 else np.inf
             p32[s] = line["c13"] * p10
     return scene
+
+
+def _persistent_planes(joint: JointSet, reach: float, rng):
+    """A set's planes through the whole rock mass: normals, a point on each, radii (inf),
+    spaced along the mean normal by exponential gaps of the set's spacing."""
+    mean = joint.normal
+    positions = -reach + np.cumsum(rng.exponential(joint.spacing, int(4 * reach / joint.spacing) + 10))
+    positions = positions[positions < reach]
+    normals = fisher_directions(mean, joint.kappa, len(positions), rng)
+    return normals, positions[:, None] * mean, np.full(len(positions), np.inf)
+
+
+#: Spread (standard deviation of the log) of the joint discs' diameters.
+DISC_LOG_SPREAD = 0.5
+
+
+def _joint_discs(joint: JointSet, face_frame, size, rng):
+    """A set's joints as discs (Baecher et al. 1977): centres uniform in a slab about the face,
+    normals Fisher, lognormal diameters of mean ``joint.persistence``, as many as make P32
+    (joint area per rock volume) the reciprocal of the set's spacing. Normals, centres, radii."""
+    face_normal, along, up_dip = face_frame
+    mean_d = float(joint.persistence)
+    mu = np.log(mean_d) - DISC_LOG_SPREAD**2 / 2
+    margin = 1.5 * mean_d  # discs centred beyond the face's edge still cross it
+    depth = 5.0 * joint.spacing  # at least one disc lies this near a point of the face, nearly always
+    volume = (size[0] + 2 * margin) * (size[1] + 2 * margin) * 2 * depth
+    mean_area = np.pi / 4 * mean_d**2 * np.exp(DISC_LOG_SPREAD**2)  # E[d^2] of the lognormal
+    n = int(rng.poisson(volume / joint.spacing / mean_area))
+    a = rng.uniform(-margin, size[0] + margin, n)
+    b = rng.uniform(-margin, size[1] + margin, n)
+    c = rng.uniform(-depth, depth, n)
+    centres = a[:, None] * along + b[:, None] * up_dip + c[:, None] * face_normal
+    radii = np.exp(rng.normal(mu, DISC_LOG_SPREAD, n)) / 2
+    return fisher_directions(joint.normal, joint.kappa, n, rng), centres, radii
+
+
+def _nearest_joint(centres, normals, points, radii) -> np.ndarray:
+    """For each cell centre, the joint nearest to it along the joint's own normal among those
+    reaching it (a disc reaches a point whose foot on its plane lies within its radius); the
+    nearest plane of all where none reaches. The planes are not parallel: one is nearest at
+    one end of the face, another at the other."""
+    offsets = centres[:, None, :] - points[None, :, :]
+    along_own = np.einsum("cpk,pk->cp", offsets, normals)
+    if np.isinf(radii).all():
+        return np.abs(along_own).argmin(axis=1)
+    in_plane = np.einsum("cpk,cpk->cp", offsets, offsets) - along_own**2
+    reaching = np.where(in_plane <= radii[None, :] ** 2, np.abs(along_own), np.inf)
+    return np.where(np.isfinite(reaching.min(axis=1)), reaching.argmin(axis=1), np.abs(along_own).argmin(axis=1))
 
 
 def _join_coplanar_cells(ab, cell, plane_key, step) -> np.ndarray:

@@ -6,11 +6,12 @@ from __future__ import annotations
 import numpy as np
 
 
-def scanline_crossings(normals, points, mean, face, line_spacing: float) -> dict:
+def scanline_crossings(normals, points, mean, face, line_spacing: float, radii=None) -> dict:
     """Planes (``normals``, a point on each) met along lines every ``line_spacing`` across the
     face rectangle (``face``: its normal, its two axes, its width and height), running along
     ``mean`` projected onto the face: gaps (times the cosine), length, crossings, cosine, the
-    mean, C13 and the planes met (``met``)."""
+    mean, C13 and the planes met (``met``). With ``radii``, each plane is a disc about its
+    point, and a line meets it only within that radius (inf: a whole plane)."""
     face_normal, (along, up_dip), (width, height) = face
     direction = mean - (mean @ face_normal) * face_normal
     direction /= np.linalg.norm(direction)
@@ -25,6 +26,9 @@ def scanline_crossings(normals, points, mean, face, line_spacing: float) -> dict
             continue
         t = np.einsum("pk,pk->p", normals, points - origin) / (normals @ direction)
         inside = (t >= t_range[0]) & (t <= t_range[1])
+        if radii is not None:
+            crossing = origin + t[:, None] * direction
+            inside &= np.einsum("pk,pk->p", crossing - points, crossing - points) <= radii**2
         length += t_range[1] - t_range[0]
         met.append(np.flatnonzero(inside))
         gaps.append(np.diff(np.sort(t[inside])) * float(mean @ direction))
