@@ -10,6 +10,7 @@ from geostructure.cloud import Cloud
 from geostructure.evaluate import match_facets
 from geostructure.orientation import angle_between_normals
 from geostructure.synthetic import bushes_on, outcrop_scene, road_before
+from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
 
 #: The issue's bar: facets larger than 0.3 m across, centroid on the facet, normal within 5 degrees.
 MIN_RECALL = 0.8
@@ -39,6 +40,28 @@ def test_the_generator_makes_small_rough_facets_from_three_sets(outcrop):
     for s, joint in enumerate(outcrop.sets):
         angle = angle_between_normals(outcrop.facet_normal[outcrop.facet_set == s], np.tile(joint.normal, (1, 1)))
         assert np.degrees(np.sqrt(np.pi / (2 * joint.kappa))) * 0.3 < np.median(angle) < 20
+
+
+def test_joints_of_finite_persistence_are_discs_as_dense_as_the_spacing_says():
+    """A set of discs (Baecher) has as much joint area per volume as planes the set's spacing
+    apart: the scanlines' truth reads the set's spacing; the discs' diameters average the
+    persistence, and a joint's trace ends on the face."""
+    sets = tuple(JointSet(**{**vars(s), "persistence": 3.0}) for s in DEFAULT_SETS)
+    scene = outcrop_scene(width=20.0, height=8.0, seed=0, sets=sets)
+    for s, joint in enumerate(sets):
+        diameters = 2 * scene.set_plane_radii[s]
+        assert diameters.mean() == pytest.approx(3.0, rel=0.1)
+        assert scene.set_spacing[s] == pytest.approx(joint.spacing, rel=0.3)
+    # planes through the rock mass, the default: radii infinite
+    assert all(np.isinf(r).all() for r in outcrop_scene(width=4.0, height=3.0, seed=1).set_plane_radii)
+    # each facet lies on its disc (its centre's foot on the disc's plane within the radius)
+    s = scene.facet_set
+    centre = np.array([scene.set_plane_points[k][p] for k, p in zip(s, scene.facet_plane)]) + scene.offset
+    normal = np.array([scene.set_plane_normals[k][p] for k, p in zip(s, scene.facet_plane)])
+    radius = np.array([scene.set_plane_radii[k][p] for k, p in zip(s, scene.facet_plane)])
+    off = scene.facet_center - centre
+    in_plane = np.sqrt(np.einsum("ij,ij->i", off, off) - np.einsum("ij,ij->i", off, normal) ** 2)
+    assert np.mean(in_plane <= radius + 0.5) > 0.95
 
 
 def test_occlusion_hides_part_of_a_stepped_face():

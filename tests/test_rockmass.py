@@ -16,7 +16,7 @@ from geostructure.cloud import Cloud
 from geostructure.exposure import exposure, plane_persistence
 from geostructure.face import clutter_points, face_members
 from geostructure.io.crs import metres_per_unit
-from geostructure.rockmass import RockMass, jv_scope, unmeasured_spacing
+from geostructure.rockmass import RockMass, jv_scope, persistence_note, unmeasured_spacing
 from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 from geostructure.slope_stability import fit_slope
 from geostructure.spacing import Scanlines, spacing_statistics
@@ -48,6 +48,33 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
     assert rock.jv == pytest.approx(np.sum(1.0 / rock.spacing))
     # several joints per set are met, each more than once
     assert all(line.joints >= 4 and line.crossings > 2 * line.joints for line in rock.scanlines)
+    # planes across the whole face: their traces show over most of it, and no set is read
+    # on its traces alone (the two spacings differ by 1.55 times at most on sixteen faces)
+    assert not rock.traces_only.any()
+    assert all(row["spacing_basis"] == "persistent" for row in rock.set_rows())
+
+
+def test_joints_a_few_metres_long_are_counted_only_where_their_traces_show():
+    """Joints as discs 3 m across (lognormal, Baecher), not planes through the rock mass:
+    each measured joint extended across the 12 m face crossed the scanlines where it is not,
+    and the spacing read 0.19 to 0.33 of the truth (Jv three to five times too high). Counted
+    where their traces show: 0.92, 1.02 and 1.04 of it (seed 4)."""
+    sets = tuple(JointSet(**{**vars(s), "persistence": 3.0}) for s in DEFAULT_SETS)
+    scene = outcrop_scene(width=12.0, height=6.0, seed=4, sets=sets)
+    _, found, rock, _, truth = as_the_command_line_finds(scene, scene.cloud.points)
+    assert sorted(truth) == [0, 1, 2]
+    assert rock.traces_only.all()
+    persistent = np.array([line.spacing for line in rock.scanlines])
+    assert np.all(persistent < 0.5 * scene.set_spacing[truth])  # what the persistent planes read
+    np.testing.assert_allclose(rock.spacing, scene.set_spacing[truth], rtol=0.15)
+    np.testing.assert_allclose(rock.p32_from_p10, scene.set_p32[truth], rtol=0.25)
+    rows = rock.set_rows()
+    assert [row["spacing_m"] for row in rows] == [row["spacing_traces_m"] for row in rows]
+    note = persistence_note(0, rows[0])
+    assert (
+        note.startswith("Set 0's joints show over short stretches of the face")
+        and f"{rows[0]['spacing_m']:.2f} m" in note
+    )
 
 
 def as_the_command_line_finds(scene, points):
