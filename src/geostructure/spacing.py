@@ -7,7 +7,8 @@
   :data:`LINE_SPACING`, in the direction of the set's mean normal projected onto the face
   (the direction that meets most of the set's joints), each as long as the cloud under it.
   Every joint is extended as a persistent plane and meets a line where its plane crosses
-  it. The gaps between consecutive crossings, times the cosine between line and mean
+  it; or, given its traces (:func:`joint_traces`), only where the stretches of its trace
+  that its facets show cross it (joints a few metres long on a longer face). The gaps between consecutive crossings, times the cosine between line and mean
   normal (Terzaghi 1965), are normal spacings; the set's mean normal spacing is the cosine
   times the lines' length over the crossings (Priest & Hudson 1976), which the lines' ends
   do not bias, as they bias the mean of the gaps.
