@@ -118,6 +118,43 @@ def format_number(value) -> str:
 _AS_WRITTEN = (str, int, float)
 
 
+def write_columns_csv(columns: dict, path) -> Path:
+    """Columns of one length (name -> array or list) as CSV, atomically: the same file
+    :func:`write_table_csv` writes from their rows, without a dict per row (a quarter of a
+    million wedges took 0.7 s that way).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "t.csv")
+    >>> _ = write_columns_csv({"id": np.array([3, 4]), "fs": np.array([0.1, np.nan]), "on": ["both", "7"]}, path)
+    >>> open(path).read().splitlines()
+    ['id,fs,on', '3,0.1,both', '4,nan,7']
+    """
+    cells = [_cells(values) for values in columns.values()]
+    text = [column for column, values in zip(cells, columns.values()) if np.asarray(values).dtype.kind not in "biuf"]
+    if any(any(c in cell for c in ',"\r\n') for column in text for cell in column):
+        n = len(cells[0]) if cells else 0  # a cell to quote: the csv module's way
+        return write_table_csv([dict(zip(columns, row)) for row in zip(*cells)] if n else [], path, columns=columns)
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
+            fh.write(",".join(columns) + "\r\n")  # the csv module's line ends
+            fh.writelines(",".join(row) + "\r\n" for row in zip(*cells))
+    return Path(path)
+
+
+def _cells(values) -> list[str]:
+    """One column's cells as :func:`format_number` writes them."""
+    array = np.asarray(values)
+    if array.dtype.kind == "b":
+        return ["true" if v else "false" for v in array.tolist()]
+    if array.dtype.kind in "iu":
+        return list(map(str, array.tolist()))
+    if array.dtype.kind == "f":
+        return list(map(repr, array.astype(np.float64).tolist()))
+    return list(map(str, values))
+
+
 def write_table_csv(rows: list[dict], path, columns=None) -> Path:
     """A list of same-keyed dicts as CSV, atomically; the header is ``columns`` or the first
     row's keys, so a table with no rows still has its header when ``columns`` is given."""
