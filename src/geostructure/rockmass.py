@@ -84,7 +84,8 @@ class RockMass:
 
     ``persistence`` has one entry per plane; ``scanlines``, ``trace_scanlines`` (the same
     lines meeting each joint only along the stretches of its trace its facets show),
-    ``nearest_gaps`` (DSE-style spacings, m), ``p21``, ``c13`` and ``c23`` one per set; ``set_labels`` is each plane's set,
+    ``nearest_gaps`` (DSE-style spacings, m), ``p21``, ``c13`` and ``c23`` one per set;
+    ``set_labels`` is each plane's set,
     ``ground`` and ``clutter`` whether it is the level ground before or above the face or in
     clutter such as vegetation (in no set either way), and ``point_part`` each point's part
     (:data:`~.face.FACE`, ``GROUND`` or ``CLUTTER``; :func:`~.face.face_parts`).

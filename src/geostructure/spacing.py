@@ -8,8 +8,9 @@
   (the direction that meets most of the set's joints), each as long as the cloud under it.
   Every joint is extended as a persistent plane and meets a line where its plane crosses
   it; or, given its traces (:func:`joint_traces`), only where the stretches of its trace
-  that its facets show cross it (joints a few metres long on a longer face). The gaps between consecutive crossings, times the cosine between line and mean
-  normal (Terzaghi 1965), are normal spacings; the set's mean normal spacing is the cosine
+  that its facets show cross it (joints a few metres long on a longer face). The gaps
+  between consecutive crossings, times the cosine between line and mean normal (Terzaghi
+  1965), are normal spacings; the set's mean normal spacing is the cosine
   times the lines' length over the crossings (Priest & Hudson 1976), which the lines' ends
   do not bias, as they bias the mean of the gaps.
 - **Nearest planes** (:func:`nearest_plane_gaps`), after DSE (Riquelme et al. 2015): the
@@ -299,7 +300,23 @@ def joint_traces(moments: PlaneMoments, joint, joint_normal, face_normal) -> Tra
     """Each joint's trace on the face and the stretches its facets show
     (:class:`Traces`): a facet covers twice its points' standard deviation either side of its
     centroid along the trace (a disc's edge is 2 sigma out); gaps up to :data:`TRACE_GAP`
-    between them are bridged and :data:`TRACE_MARGIN` is added at each end."""
+    between them are bridged and :data:`TRACE_MARGIN` is added at each end.
+
+    Examples
+    --------
+    Three facets of one joint (the plane y = 0) on a face normal to z, along x from 0 to 1,
+    1.5 to 2.5 and 6 to 7 m: the first two are one stretch of its trace, the third another.
+
+    >>> rng = np.random.default_rng(0)
+    >>> patch = lambda x0: np.column_stack([x0 + rng.random(300), np.zeros(300), rng.random(300)])
+    >>> points = np.vstack([patch(0.0), patch(1.5), patch(6.0)])
+    >>> moments = PlaneMoments.of(points, np.repeat([0, 1, 2], 300), 3)
+    >>> traces = joint_traces(moments, np.array([0, 0, 0]), np.array([[0.0, 1.0, 0.0]]), [0.0, 0.0, 1.0])
+    >>> traces.joint.tolist(), np.round(traces.end - traces.start, 1).tolist()
+    ([0, 0], [3.3, 1.9])
+    >>> traces.reach(np.zeros(3, dtype=int), np.array([2.0, 4.0, 6.0])).tolist()
+    [True, False, True]
+    """
     face_normal = np.asarray(face_normal, dtype=np.float64)
     direction = np.cross(joint_normal, face_normal)
     norm = np.linalg.norm(direction, axis=1, keepdims=True)
@@ -313,20 +330,20 @@ def joint_traces(moments: PlaneMoments, joint, joint_normal, face_normal) -> Tra
     half = 2.0 * np.sqrt(np.maximum(spread, 0.0)) + TRACE_MARGIN
     order = np.lexsort((centre - half, owner))
     owner, start, end = owner[order], (centre - half)[order], (centre + half)[order]
-    # Running end of each joint's stretches so far: a facet starting beyond it + the gap
-    # (or of another joint) starts a new stretch.
-    running = np.empty_like(end)
-    for j in np.unique(owner):  # few joints per set; each a cumulative max
-        rows = owner == j
-        running[rows] = np.maximum.accumulate(end[rows])
+    if len(owner) == 0:
+        return Traces(direction, owner, start, end)
+    # Each joint's running end so far, by one cumulative maximum over the joints' positions
+    # laid in disjoint ranges: a facet starting a gap beyond it starts a new stretch.
+    width = 2.0 * max(np.abs(start).max(), np.abs(end).max()) + 1.0
+    running = np.maximum.accumulate(end + owner * width) - owner * width
     new = np.ones(len(owner), dtype=bool)
     new[1:] = (owner[1:] != owner[:-1]) | (start[1:] > running[:-1] + TRACE_GAP - 2 * TRACE_MARGIN)
-    group = np.cumsum(new) - 1
     last = np.append(np.flatnonzero(new)[1:], len(owner)) - 1
-    return Traces(direction, owner[new], start[new], running[last][: group.max() + 1] if len(owner) else end[:0])
+    return Traces(direction, owner[new], start[new], running[last])
 
 
 def _any_in_face(face_normal) -> np.ndarray:
+    """A unit vector in the plane normal to ``face_normal``."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(face_normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     v = np.cross(face_normal, helper)
     return v / np.linalg.norm(v)
