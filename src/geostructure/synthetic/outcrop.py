@@ -7,7 +7,9 @@ the rock from the cameras. :func:`outcrop_scene` builds such a face:
 1. **Sets and their planes.** Each :class:`JointSet` is a family of planes spaced along the
    set's mean normal by exponential gaps of the set's mean ``spacing`` (the classic model of
    joint spacing, ISRM 1978), each plane's normal drawn from a Fisher distribution of
-   concentration ``kappa`` about the mean (:func:`fisher_directions`).
+   concentration ``kappa`` about the mean (:func:`fisher_directions`). With a set's
+   ``persistence``, its joints are discs of about that diameter instead (Baecher et al.
+   1977), as dense as planes ``spacing`` apart, so that a joint's trace ends on the face.
 2. **Facets.** The mean face (``face_dip``/``face_dip_direction``, 20 x 8 m by default) is
    cut into Voronoi cells about seeds whose density varies smoothly over the face, so the
    facets' sizes spread from a few decimetres to a couple of metres about a median near
@@ -25,7 +27,8 @@ the rock from the cameras. :func:`outcrop_scene` builds such a face:
 
 The facet truth is taken from the points that survive: centre (mean noise-free position),
 normal, exposed area, set and plane; the set truth is the generator's mean and kappa, the
-realised mean normal spacing and P32 = 1 / spacing (planes that cross the whole rock mass).
+realised mean normal spacing along scanlines on the face (a disc met only within its
+radius) and P32 from it (Dershowitz & Herda 1992).
 """
 
 from __future__ import annotations
@@ -84,8 +87,9 @@ class OutcropScene:
     noise-free position). Per set (S): ``sets``, ``set_spacing`` (mean normal spacing along
     scanlines on the face, m), ``set_p32`` (m^2/m^3), the same of the
     planes the face exposes (``exposed_set_spacing``, ``exposed_set_p32``), and every plane
-    the set has, exposed or not: ``set_plane_normals`` and ``set_plane_points`` (a point on
-    each; relative to ``offset``), all along :meth:`scanlines`. The mean face runs through ``offset`` along
+    the set has, exposed or not: ``set_plane_normals``, ``set_plane_points`` (a point on
+    each, a disc's centre; relative to ``offset``) and ``set_plane_radii`` (inf for planes
+    through the rock mass), all along :meth:`scanlines`. The mean face runs through ``offset`` along
     ``face_axes`` (strike, up-dip) over ``face_size`` (m).
     """
 
