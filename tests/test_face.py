@@ -1,12 +1,14 @@
 """The face told from its ground and its clutter (face.py): on synthetic cases with exact
 answers, and on a real drone cloud whose vegetation was classified by hand."""
 
+import csv
+
 import numpy as np
 import pytest
 
 from geostructure import measure
 from geostructure.auto import choose_params
-from geostructure.face import clutter_points, face_parts
+from geostructure.face import CLUTTER, FACE, clutter_points, face_parts
 from geostructure.runs import detected_spacing
 
 
@@ -72,6 +74,12 @@ def test_on_a_drone_cloud_the_ground_is_not_clutter():
     clutter = clutter_points(result.filtered.local, result.labels, detected_spacing(result.detection))
     assert clutter[kept == 2].mean() < 0.01
     assert clutter[kept == 3].mean() > 3 * clutter[kept == 2].mean()
+    # The file's own classes say it: read with the cloud, every vegetation point is clutter.
+    assert result.filtered.vegetation is not None
+    parts = face_parts(result.filtered.local, result.labels, result.planes.normal, result.frame.matrix[2],
+                       spacing=detected_spacing(result.detection), vegetation=result.filtered.vegetation)  # fmt: skip
+    part = parts.point_part if parts.point_part is not None else np.zeros(len(kept), dtype=np.uint8)
+    assert (part[kept == 3] == CLUTTER).all() and (part[kept == 2] == CLUTTER).mean() < 0.01
 
 
 def test_regions_laz_says_which_points_are_face_ground_and_clutter(tmp_path, capsys):
@@ -100,3 +108,42 @@ def test_regions_laz_says_which_points_are_face_ground_and_clutter(tmp_path, cap
     assert (part[kept == 0] == 0).mean() > 0.95  # the rock
     assert run_cli(capsys, "sets", tmp_path / "out", "-q")[0] == 0
     assert np.array_equal(np.asarray(laspy.read(str(tmp_path / "out" / "regions.laz")).face_part), part)
+
+
+def test_points_a_las_classifies_as_vegetation_are_clutter(tmp_path, capsys):
+    """A survey's vegetation classes (LAS 3 to 5) say what the geometry can only guess: every
+    such point is clutter, and a plane mostly of them joins no set; `sets OUTDIR` reads them
+    back from regions.ply. Three bushes before a 12 x 6 m face (seed 4): by their shape alone
+    92% of their points are clutter; classified, all."""
+    import laspy
+    from helpers import run_cli
+
+    from geostructure.synthetic import bushes_on, outcrop_scene
+
+    scene = outcrop_scene(width=12.0, height=6.0, seed=4)
+    bushes, hidden = bushes_on(scene, 3, seed=4)
+    rock = scene.cloud.points[~hidden]
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, [500_000, 5_000_000, 0]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (np.vstack([rock, bushes]) + [500_000.0, 5_000_000.0, 100.0]).T
+    las.classification = np.repeat(np.array([1, 4], dtype=np.uint8), [len(rock), len(bushes)])
+    las.write(str(tmp_path / "cut.laz"))
+    out = tmp_path / "out"
+    assert run_cli(capsys, "measure", tmp_path / "cut.laz", "-o", out, "--sets", "-q")[0] == 0
+    regions = laspy.read(str(out / "regions.laz"))
+    part = np.asarray(regions.face_part)
+    z = np.asarray(regions.z) - 100.0
+    from scipy.spatial import cKDTree
+
+    is_bush = cKDTree(bushes).query(np.column_stack([np.asarray(regions.x) - 500_000.0,
+                                                     np.asarray(regions.y) - 5_000_000.0, z]))[0] < 1e-3  # fmt: skip
+    assert is_bush.sum() > 0.9 * len(bushes) and (part[is_bush] == CLUTTER).all()
+    assert (part[~is_bush] == FACE).mean() > 0.95
+    with open(out / "planes.csv", newline="") as fh:
+        planes = list(csv.DictReader(fh))
+    assert all(int(p["set"]) == -1 for p in planes if int(p["clutter"]))
+    assert len(set(int(p["set"]) for p in planes) - {-1}) == 3
+    # From the folder: the same parts again, the vegetation read back from regions.ply.
+    assert run_cli(capsys, "sets", out, "-q")[0] == 0
+    assert (np.asarray(laspy.read(str(out / "regions.laz")).face_part) == part).all()

@@ -60,6 +60,9 @@ class Cloud:
     left_out : dict or None
         Points the input file held but marked to be left out, by why (``{"withheld": 300,
         "noise": 200}`` for a LAS/LAZ), for ``run.json``; None when there were none.
+    vegetation : (N,) bool or None
+        The points the input file classifies as vegetation (LAS classes 3 to 5): clutter on a
+        rock face, not rock (:func:`~.face.face_parts`); None when it classifies none so.
 
     Examples
     --------
@@ -78,6 +81,7 @@ class Cloud:
     enu_origin: tuple | None = None
     las_grid: tuple | None = None
     left_out: dict | None = None
+    vegetation: np.ndarray | None = None
 
     def __post_init__(self):
         self.local = as_points(self.local, "local")
@@ -85,6 +89,12 @@ class Cloud:
         if offset.shape != (3,) or not np.isfinite(offset).all():
             raise ParameterError(f"offset must be three finite numbers; got {offset.tolist()}.")
         self.offset = offset
+        if self.vegetation is not None:
+            self.vegetation = np.asarray(self.vegetation, dtype=bool)
+            if self.vegetation.shape != (len(self.local),):
+                raise ParameterError(
+                    f"vegetation must have one flag per point: {len(self.vegetation)} for {len(self.local)} points."
+                )
         if self.normals is not None:
             self.normals = as_points(self.normals, "normals")
             if len(self.normals) != len(self.local):
@@ -94,7 +104,16 @@ class Cloud:
 
     @classmethod
     def from_points(
-        cls, points, *, source="<memory>", crs=None, normals=None, enu_origin=None, las_grid=None, left_out=None
+        cls,
+        points,
+        *,
+        source="<memory>",
+        crs=None,
+        normals=None,
+        enu_origin=None,
+        las_grid=None,
+        left_out=None,
+        vegetation=None,
     ) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = as_points(points)
@@ -112,6 +131,7 @@ class Cloud:
             enu_origin=enu_origin,
             las_grid=las_grid,
             left_out=left_out,
+            vegetation=vegetation,
         )
 
     @property
@@ -125,8 +145,17 @@ class Cloud:
     def subset(self, mask: np.ndarray) -> "Cloud":
         """The cloud restricted to ``mask`` (boolean or index array)."""
         normals = None if self.normals is None else self.normals[mask]
+        vegetation = None if self.vegetation is None else self.vegetation[mask]
         return Cloud(
-            self.local[mask], self.offset, self.crs, normals, self.source, self.enu_origin, self.las_grid, self.left_out
+            self.local[mask],
+            self.offset,
+            self.crs,
+            normals,
+            self.source,
+            self.enu_origin,
+            self.las_grid,
+            self.left_out,
+            vegetation,
         )
 
     @property

@@ -10,7 +10,9 @@ face as joints are, add crossings that are not there.
   without them is steep (:data:`STEEP_FACE`).
 - **Clutter** (:data:`CLUTTER_CELL`, :data:`~.cells.SURFACE_VARIATION`): points whose
   neighbourhood is a volume, not a surface (vegetation), and the planes most of whose points
-  lie in such neighbourhoods (a bush's shell gives small planes of any orientation).
+  lie in such neighbourhoods (a bush's shell gives small planes of any orientation); and the
+  points the input file classifies as vegetation (a LAS file's classes 3 to 5), with the
+  planes most of whose points they are.
 
 Neither is a discontinuity of the rock: their planes keep their orientation in ``planes.csv``
 but join no set. The design, with the figures it was measured on, is in ``docs/rockmass.md``
@@ -74,7 +76,9 @@ class FaceParts:
         return self.ground | self.clutter
 
 
-def face_parts(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | None = None) -> FaceParts:
+def face_parts(
+    points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | None = None, vegetation=None
+) -> FaceParts:
     """The face of an outcrop cloud, its ground and its clutter (see the module's description).
 
     The ground: the level planes large enough (:data:`GROUND_DIP`, :data:`GROUND_SHARE`) and
@@ -94,6 +98,9 @@ def face_parts(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | 
     up : (3,) array
     spacing : float, optional
         The points' spacing (:func:`~.density.point_spacing`), read when not given.
+    vegetation : (N,) bool array, optional
+        The points the input classifies as vegetation (``Cloud.vegetation``): clutter
+        whatever their shape (a canopy seen from above is a surface).
 
     Examples
     --------
@@ -112,6 +119,10 @@ def face_parts(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | 
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     up = np.asarray(up, dtype=np.float64)
     clutter, clutter_planes = _clutter(points, labels, len(normals), spacing)
+    if vegetation is not None:
+        vegetation = np.asarray(vegetation, dtype=bool)
+        clutter = clutter | vegetation
+        clutter_planes = clutter_planes | _most_in(labels, vegetation, len(normals))
     near = _level_ground(points, labels, normals, up)
     rest = ~clutter & ~near
     steep = rest.any() and abs(mean_face(points[rest])[1][2] @ up) <= np.cos(np.radians(STEEP_FACE))
@@ -149,7 +160,9 @@ def _level_ground(points, labels, normals, up) -> np.ndarray:
     return near
 
 
-def face_members(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | None = None) -> np.ndarray | None:
+def face_members(
+    points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float | None = None, vegetation=None
+) -> np.ndarray | None:
     """The points that make an outcrop's face (:func:`face_parts`), None when all do.
 
     Examples
@@ -158,7 +171,7 @@ def face_members(points, labels, normals, up=(0.0, 0.0, 1.0), *, spacing: float 
     >>> face_members(wall, np.zeros(400, int), [[0.0, 0.0, 1.0]], up=[0, 1, 0]) is None
     True
     """
-    return face_parts(points, labels, normals, up, spacing=spacing).members
+    return face_parts(points, labels, normals, up, spacing=spacing, vegetation=vegetation).members
 
 
 def clutter_points(points, labels, spacing: float | None = None) -> np.ndarray:

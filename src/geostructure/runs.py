@@ -23,7 +23,7 @@ from .face import face_parts
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
-from .io.results import read_planes, read_regions, read_sets
+from .io.results import read_planes, read_region_vegetation, read_regions, read_sets
 from .io.writers import (
     sets_record,
     write_plane_tables,
@@ -196,6 +196,7 @@ def sets_and_rock_mass(
     errors=None,
     spacing: float | None = None,
     metres_per_unit: float = 1.0,
+    vegetation=None,
 ) -> tuple[JointSets, RockMass]:
     """:func:`plane_sets`, then :func:`plane_rock_mass` (``errors`` as it takes them); the
     exposure's grid, which needs the points alone, is made in a thread meanwhile (its
@@ -203,7 +204,8 @@ def sets_and_rock_mass(
     0.7M-point outcrop the two overlap). ``progress(stage)`` is told each stage as it starts;
     ``spacing``, the points' spacing as the facet detector read it (:func:`detected_spacing`),
     spares the exposure reading it again. ``metres_per_unit``: as :func:`plane_rock_mass`
-    takes it.
+    takes it. ``vegetation``: the points the input classifies so, clutter
+    (:func:`~.face.face_parts`).
 
     Examples
     --------
@@ -219,7 +221,7 @@ def sets_and_rock_mass(
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
         f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
         # The face without the ground before it and the clutter (vegetation) on it.
-        parts = face_parts(points, labels, planes.normal, frame.matrix[2], spacing=spacing)
+        parts = face_parts(points, labels, planes.normal, frame.matrix[2], spacing=spacing, vegetation=vegetation)
         face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f, members=parts.members)
         sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=parts.off_face)
         report("spacing and persistence")
@@ -277,6 +279,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         report("read", 0, None)
         planes = read_planes(outputs.outdir)
         points, region = read_regions(outputs.outdir, planes.offset)
+        vegetation = read_region_vegetation(outputs.outdir)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
         if unscaled(outputs.record):
             warnings.warn(
@@ -288,7 +291,8 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         if not outputs.record.get("unit") and not outputs.record.get("crs"):
             note_unstated_unit(spacing, outdir)
         sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, lambda name: report(name, 0, None),
-                                        spacing=spacing, metres_per_unit=recorded_unit(outputs.record)["metres"])  # fmt: skip
+                                        spacing=spacing, metres_per_unit=recorded_unit(outputs.record)["metres"],
+                                        vegetation=vegetation)  # fmt: skip
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))

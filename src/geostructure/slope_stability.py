@@ -16,7 +16,7 @@ from .face import face_members
 from .io.atomic import write_columns_csv, write_figure, write_json, write_table_csv
 from .io.crs import recorded_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
-from .io.results import read_planes, read_regions, read_sets
+from .io.results import read_planes, read_region_vegetation, read_regions, read_sets
 from .kinematics import (
     LATERAL_LIMIT,
     UNIT_WEIGHT,
@@ -140,7 +140,8 @@ def add_kinematics(
                 spacing = detected_spacing(outputs.record.get("detection"))
                 labels = plane_rows(region, planes.region_id)
                 slope = fit_slope(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
-                                                              spacing=spacing))  # fmt: skip
+                                                              spacing=spacing,
+                                                              vegetation=read_region_vegetation(outputs.outdir)))  # fmt: skip
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
                 height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
                 strength["height_source"] = "the cloud's height"

@@ -183,7 +183,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
                                             args.n_sets, lambda stage: progress(stage, 0, None),
                                             errors=result.planes.standard_errors(),  # as measured: no tilt yet
                                             spacing=detected_spacing(result.detection),
-                                            metres_per_unit=cloud_unit(crs, unit)["metres"])  # fmt: skip
+                                            metres_per_unit=cloud_unit(crs, unit)["metres"],
+                                            vegetation=result.filtered.vegetation)  # fmt: skip
         progress("write", 0, None)
         paths = save_measurement(
             result,

@@ -233,6 +233,19 @@ def las_chunk_points(chunk) -> tuple[np.ndarray, np.ndarray]:
     return (points[~(withheld | noise)] if left_out.any() else points), left_out
 
 
+#: LAS classes of vegetation (ASPRS: low, medium and high vegetation): clutter before a rock
+#: face, kept and labelled as every point is, but no part of the face (:mod:`~geostructure.face`).
+VEGETATION_CLASSES = (3, 4, 5)
+
+
+def las_chunk_vegetation(chunk) -> np.ndarray:
+    """Whether each point :func:`las_chunk_points` keeps of a laspy chunk is classified as
+    vegetation (:data:`VEGETATION_CLASSES`)."""
+    classes = np.asarray(chunk.classification)
+    kept = ~(np.asarray(chunk.withheld, dtype=bool) | np.isin(classes, NOISE_CLASSES))
+    return np.isin(classes[kept], VEGETATION_CLASSES)
+
+
 def left_out_record(left_out) -> dict | None:
     """``run.json``'s record of the points left out (:func:`las_chunk_points`'s counts), or None."""
     record = {why: int(n) for why, n in zip(("withheld", "noise"), left_out) if n}
@@ -291,7 +304,8 @@ class LasTally:
 
 def read_las(path: Path) -> Cloud:
     """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared;
-    points marked withheld or noise left out (:func:`las_chunk_points`)."""
+    points marked withheld or noise left out (:func:`las_chunk_points`); those classified as
+    vegetation marked (``Cloud.vegetation``)."""
     import laspy
 
     check_las_header(path)
@@ -301,12 +315,17 @@ def read_las(path: Path) -> Cloud:
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
         tally = LasTally()
-        parts = [tally.add(*las_chunk_points(c)) for c in reader.chunk_iterator(LAS_CHUNK)]
+        parts, vegetation = [], []
+        for chunk in reader.chunk_iterator(LAS_CHUNK):
+            parts.append(tally.add(*las_chunk_points(chunk)))
+            vegetation.append(las_chunk_vegetation(chunk))
     points = np.vstack(parts) if parts else np.empty((0, 3))
+    vegetation = np.concatenate(vegetation) if vegetation else np.zeros(0, dtype=bool)
     left_out = tally.finish(path, expected)
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
     check_coordinate_step(points, las_step(grid[0]), path)
-    return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid, left_out=left_out)
+    return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid, left_out=left_out,
+                             vegetation=vegetation if vegetation.any() else None)  # fmt: skip
 
 
 def check_las_header(path: Path) -> None:

@@ -72,6 +72,18 @@ def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray]:
     return xyz, region
 
 
+def read_region_vegetation(folder) -> np.ndarray | None:
+    """Which points of ``regions.ply`` the input classified as vegetation (its
+    ``vegetation`` property, :func:`~.writers.write_regions_ply`); None when it has none."""
+    from plyfile import PlyData
+
+    vertex = PlyData.read(str(Path(folder) / "regions.ply"), mmap=True)["vertex"].data
+    try:
+        return np.asarray(ply_field(vertex, "vegetation"), dtype=bool)
+    except (KeyError, ValueError):
+        return None
+
+
 def read_spacings(folder) -> dict[int, np.ndarray]:
     """Set -> its normal spacings (m) along the scanlines, from ``spacing.csv``; {} when none."""
     path = Path(folder) / "spacing.csv"

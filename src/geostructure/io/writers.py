@@ -30,16 +30,21 @@ def _ascii(text: str) -> str:
 
 def write_regions_ply(result, path) -> Path:
     """``regions.ply``: the filtered points (double) with an int ``scalar_region_id`` (-1 for
-    none).
+    none), and a ``scalar_vegetation`` flag (1 for a point the input classifies as
+    vegetation) when the input classifies any so, for ``geostructure sets`` to read back.
 
     The ``scalar_`` prefix is what CloudCompare's PLY reader asks, in its command-line mode
     (no dialog), to load a property as a scalar field (named ``region_id`` there).
     """
     filtered = result.filtered
-    vertex = np.empty(len(filtered), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), (SCALAR + "region_id", "i4")])
+    fields = [("x", "f8"), ("y", "f8"), ("z", "f8"), (SCALAR + "region_id", "i4")]
+    fields += [] if filtered.vegetation is None else [(SCALAR + "vegetation", "u1")]
+    vertex = np.empty(len(filtered), dtype=fields)
     for axis, name in enumerate("xyz"):  # Cloud.points column by column, into the record itself
         np.add(filtered.local[:, axis], filtered.offset[axis], out=vertex[name])
     vertex[SCALAR + "region_id"] = result.labels
+    if filtered.vegetation is not None:
+        vertex[SCALAR + "vegetation"] = filtered.vegetation
     return write_vertex_ply(
         path, vertex, ["written by geostructure", f"source {_ascii(Path(result.cloud.source).name)}"]
     )
