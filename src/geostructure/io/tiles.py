@@ -110,6 +110,11 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
         report("read", i + 1, len(paths))
     points = np.vstack([c.points for c in clouds])
     normals = np.vstack([c.normals for c in clouds]) if all(c.normals is not None for c in clouds) else None
+    vegetation = (
+        np.concatenate([np.zeros(len(c), dtype=bool) if c.vegetation is None else c.vegetation for c in clouds])
+        if any(c.vegetation is not None for c in clouds)
+        else None
+    )
     grids = [c.las_grid for c in clouds]
     same_grid = all(g is not None for g in grids) and all(
         np.array_equal(g[0], grids[0][0]) and np.array_equal(g[1], grids[0][1]) for g in grids
@@ -121,6 +126,7 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
         normals=normals,
         las_grid=grids[0] if same_grid else None,
         left_out=merged_left_out(c.left_out for c in clouds),
+        vegetation=vegetation,
     )
     return without_copies(merged)  # overlapping tiles: the copies of one tile's points in another
 
