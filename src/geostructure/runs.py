@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import GeoStructureWarning
+from .errors import GeoStructureNote, GeoStructureWarning
 from .exposure import exposure
 from .face import face_parts
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
@@ -230,6 +230,20 @@ def sets_and_rock_mass(
     return sets, rock
 
 
+def note_vegetation(vegetation, source) -> None:
+    """A note (:class:`~.errors.GeoStructureNote`) of the points the input classifies as
+    vegetation, which the sets' face leaves out (:func:`~.face.face_parts`)."""
+    n = 0 if vegetation is None else int(np.count_nonzero(vegetation))
+    if n:
+        warnings.warn(
+            f"{source}: {n:,} point{'s' if n != 1 else ''} classified as vegetation (LAS classes 3 to 5) are taken "
+            f"for clutter, not rock face: in regions.laz as face_part 2, out of the exposure, the scanlines and "
+            f"the slope.",
+            GeoStructureNote,
+            stacklevel=2,
+        )
+
+
 def detected_spacing(detection: dict | None) -> float | None:
     """The point spacing the facet detector read (a run's ``detection`` record), if it ran.
 
@@ -280,6 +294,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         planes = read_planes(outputs.outdir)
         points, region = read_regions(outputs.outdir, planes.offset)
         vegetation = read_region_vegetation(outputs.outdir)
+        note_vegetation(vegetation, outdir)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
         if unscaled(outputs.record):
             warnings.warn(

@@ -20,7 +20,7 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
-from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
+from ..runs import add_report, detected_spacing, note_vegetation, save_measurement, sets_and_rock_mass
 from ..scoring import add_evaluation
 from ..slope_stability import add_kinematics, fit_slope
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
@@ -179,6 +179,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         if wants_sets(args):
             if crs is None and unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
                 note_unstated_unit(detected_spacing(result.detection), cloud.source)
+            note_vegetation(result.filtered.vegetation, cloud.source)
             sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
                                             args.n_sets, lambda stage: progress(stage, 0, None),
                                             errors=result.planes.standard_errors(),  # as measured: no tilt yet
