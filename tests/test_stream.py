@@ -224,3 +224,28 @@ def test_the_noise_read_on_drawn_voxels_is_the_same_streamed(tiled, monkeypatch)
     streamed = measure_stream(paths, VOXEL, auto={}, chunk_points=9_000)
     assert streamed.params == drawn
     assert drawn.zeta == pytest.approx(every_voxel.zeta, rel=0.05)
+
+
+def test_a_streamed_survey_keeps_its_vegetation_marks_for_the_sets(tmp_path, capsys):
+    """Streamed, a LAS's vegetation classes go to regions.ply (scalar_vegetation) as in
+    memory, so `sets OUTDIR` takes those points for clutter."""
+    from plyfile import PlyData
+
+    rng = np.random.default_rng(0)
+    wall = np.column_stack([rng.random(6000) * 6, np.zeros(6000), rng.random(6000) * 3])
+    bush = rng.normal(size=(1500, 3)) * 0.3 + [3.0, -0.8, 0.6]
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, list(UTM)
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (np.vstack([wall, bush]) + UTM).T
+    las.classification = np.repeat(np.array([1, 3], dtype=np.uint8), [len(wall), len(bush)])
+    las.write(str(tmp_path / "scan.laz"))
+    out = tmp_path / "out"
+    assert run_cli(capsys, "measure", tmp_path / "scan.laz", "-o", out, "--engine", "stream", "-q")[0] == 0
+    vertex = PlyData.read(str(out / "regions.ply"))["vertex"].data
+    marked = np.asarray(vertex["scalar_vegetation"], dtype=bool)
+    y = np.asarray(vertex["y"]) - UTM[1]
+    assert marked.any() and (np.abs(y[~marked]) < 0.05).all() and (y[marked] != 0).any()
+    assert marked.sum() <= len(bush) and marked.sum() > 0.9 * len(bush)
+    code, _, err = run_cli(capsys, "sets", out)
+    assert code == 0 and "classified as vegetation" in err

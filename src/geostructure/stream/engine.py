@@ -286,16 +286,22 @@ class _Run:
         for writer in writers:
             writer.begin(n_kept, lower + self.offset, upper + self.offset, self.spill.cloud())
         hulls, normal_sums = {}, None
+        marks = self.spill.vegetation_path
         with open(labels_path, "wb") as spill_out:
-            for keep, kept, labels, part_hulls, sums in self.map(passes.chunk_labels, context):
+            for chunk, (keep, kept, labels, part_hulls, sums) in zip(
+                self.chunks, self.map(passes.chunk_labels, context)
+            ):
                 every = np.full(len(keep), passes.DROPPED, dtype="<i4")
                 every[keep] = labels
                 every.tofile(spill_out)
                 hulls = passes.merge_hulls(hulls, part_hulls)
                 if sums is not None:
                     normal_sums = sums if normal_sums is None else normal_sums + sums
+                vegetation = None  # the kept points' marks, read here beside the spill
+                if marks is not None:
+                    vegetation = np.fromfile(marks, np.uint8, len(chunk), offset=chunk.start)[keep].astype(bool)
                 for writer in writers:
-                    writer.write(kept, labels)
+                    writer.write(kept, labels, vegetation)
         for writer in writers:
             writer.end()
         return hulls, normal_sums

@@ -14,28 +14,37 @@ from ..io.results import SCALAR
 
 
 class RegionsPly:
-    """``regions.ply``: the kept points (double) with an int ``scalar_region_id``."""
+    """``regions.ply``: the kept points (double) with an int ``scalar_region_id``, and a
+    ``scalar_vegetation`` flag when the survey classifies any point as vegetation."""
 
     def __init__(self, path):
         self.path = Path(path)
         self._file = None
-        self._dtype = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), (SCALAR + "region_id", "<i4")])
+        self._dtype = None
 
     def begin(self, n_points: int, lower, upper, cloud) -> None:
         name = Path(cloud.source.split(",")[0]).name.encode("ascii", "backslashreplace").decode("ascii")
+        fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), (SCALAR + "region_id", "<i4")]
+        marked = cloud.vegetation is not None  # the spill's cloud carries an empty mark when any is
+        fields += [(SCALAR + "vegetation", "u1")] if marked else []
+        self._dtype = np.dtype(fields)
         header = (
             "ply\nformat binary_little_endian 1.0\ncomment written by geostructure\n"
             f"comment source {name}\nelement vertex {n_points}\n"
             "property double x\nproperty double y\nproperty double z\n"
-            f"property int {SCALAR}region_id\nend_header\n"
+            f"property int {SCALAR}region_id\n"
+            + (f"property uchar {SCALAR}vegetation\n" if marked else "")
+            + "end_header\n"
         )
         self._file = open(self.path, "wb")
         self._file.write(header.encode("ascii"))
 
-    def write(self, points: np.ndarray, labels: np.ndarray) -> None:
+    def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None) -> None:
         rows = np.empty(len(points), dtype=self._dtype)
         rows["x"], rows["y"], rows["z"] = points.T
         rows[SCALAR + "region_id"] = labels
+        if SCALAR + "vegetation" in self._dtype.names:
+            rows[SCALAR + "vegetation"] = 0 if vegetation is None else vegetation
         rows.tofile(self._file)
 
     def end(self) -> None:
@@ -63,7 +72,7 @@ class RegionsLaz:
         self._header = header
         self._writer = laspy.open(str(self.path), mode="w", header=header, do_compress=self.path.suffix == ".laz")
 
-    def write(self, points: np.ndarray, labels: np.ndarray) -> None:
+    def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None) -> None:
         import laspy
 
         record = laspy.ScaleAwarePointRecord.zeros(len(points), header=self._header)

@@ -27,6 +27,7 @@ from ..io.readers import (
     LasTally,
     check_las_header,
     las_chunk_points,
+    las_chunk_vegetation,
     las_crs,
     merged_left_out,
     ply_vertices,
@@ -77,6 +78,7 @@ class Spill:
     las_grid: tuple | None = None
     has_normals: bool = False
     left_out: dict | None = None
+    has_vegetation: bool = False  # some point is classified as vegetation (LAS classes 3 to 5)
 
     @property
     def points_path(self) -> str:
@@ -87,12 +89,18 @@ class Spill:
         return str(self.folder / "normals.f8") if self.has_normals else None
 
     @property
+    def vegetation_path(self) -> str | None:
+        """One byte a point, 1 where its file classifies it as vegetation; None if none is."""
+        return str(self.folder / "vegetation.u1") if self.has_vegetation else None
+
+    @property
     def offset(self) -> np.ndarray:
         return np.round((self.lower + self.upper) / 2, 0) + 0.0
 
     def cloud(self) -> Cloud:
         """A Cloud with no points that carries the survey's offset, CRS and LAS grid, for the
-        writers and ``run.json``."""
+        writers and ``run.json``; its ``vegetation`` is empty, not None, when some point of
+        the survey is classified as vegetation."""
         return Cloud(
             np.zeros((0, 3)),
             self.offset,
@@ -100,6 +108,7 @@ class Spill:
             source=self.source,
             las_grid=self.las_grid,
             left_out=self.left_out,
+            vegetation=np.zeros(0, dtype=bool) if self.has_vegetation else None,
         )
 
     def chunks(self, rows: int) -> list[Chunk]:
@@ -108,7 +117,7 @@ class Spill:
         return [Chunk(self.points_path, a, b, self.normals_path) for a, b in zip(edges[:-1], edges[1:])]
 
     def close(self) -> None:
-        for name in ("points.f8", "normals.f8", "labels.i4", "keep.u1"):
+        for name in ("points.f8", "normals.f8", "vegetation.u1", "labels.i4", "keep.u1"):
             (self.folder / name).unlink(missing_ok=True)
         try:
             self.folder.rmdir()
@@ -155,13 +164,20 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     spill = Spill(folder, 0, np.full(3, np.inf), np.full(3, -np.inf), describe(paths))
     grids, left_outs, first, steps_checked = [], [], None, set()
     try:
-        with open(spill.folder / "points.f8", "wb") as out, open(spill.folder / "normals.f8", "wb") as out_n:
+        with (
+            open(spill.folder / "points.f8", "wb") as out,
+            open(spill.folder / "normals.f8", "wb") as out_n,
+            open(spill.folder / "vegetation.u1", "wb") as out_v,
+        ):
             all_normals = True
             for i, path in enumerate(paths):
                 start = spill.n_points
-                for points, normals, meta in _file_chunks(path, rows, mesh_samples, steps_checked):
+                for points, normals, vegetation, meta in _file_chunks(path, rows, mesh_samples, steps_checked):
                     check_coordinates(points, path, spill.n_points - start)
                     points.astype("<f8", copy=False).tofile(out)
+                    flags = np.zeros(len(points), dtype=np.uint8) if vegetation is None else vegetation.astype(np.uint8)
+                    flags.tofile(out_v)
+                    spill.has_vegetation = spill.has_vegetation or bool(flags.any())
                     all_normals = all_normals and normals is not None
                     if all_normals:
                         normals.astype("<f8", copy=False).tofile(out_n)
@@ -192,6 +208,8 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
         spill.las_grid = grids[0] if same and grids else None
         if not spill.has_normals:
             os.unlink(spill.folder / "normals.f8")
+        if not spill.has_vegetation:
+            os.unlink(spill.folder / "vegetation.u1")
     except BaseException:
         spill.close()
         raise
@@ -199,8 +217,9 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
 
 
 def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
-    """(points, normals, meta) chunks of one file; ``meta`` carries a Cloud with its CRS and,
-    for LAS/LAZ, the file's grid.
+    """(points, normals, vegetation, meta) chunks of one file (``vegetation``: a LAS/LAZ
+    file's vegetation classes, :func:`~.io.readers.las_chunk_vegetation`); ``meta`` carries
+    a Cloud with its CRS and, for LAS/LAZ, the file's grid.
 
     A file whose coordinates are stored coarser than its points lie (32-bit floats far from
     the origin, a coarse LAS scale) is refused or warned of as in memory
@@ -220,7 +239,7 @@ def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
         meta = {"cloud": cloud}
         for a in range(0, max(len(points), 1), rows):
             normals = None if cloud.normals is None else cloud.normals[a : a + rows]
-            yield points[a : a + rows], normals, meta
+            yield points[a : a + rows], normals, None, meta
 
 
 def _check_step(points: np.ndarray, step: tuple[float, str] | None, path: Path, steps_checked: set) -> None:
@@ -245,10 +264,10 @@ def _las_chunks(path: Path, rows: int, steps_checked: set):
             points = tally.add(*las_chunk_points(chunk))
             if first:
                 _check_step(points, las_step(header.scales), path, steps_checked)
-            yield points, None, meta
+            yield points, None, las_chunk_vegetation(chunk), meta
         meta["cloud"].left_out = tally.finish(path, header.point_count)
         if not tally.read:
-            yield np.zeros((0, 3)), None, meta
+            yield np.zeros((0, 3)), None, None, meta
 
 
 def _ply_has_faces(path: Path, mesh_samples) -> bool:
@@ -278,7 +297,7 @@ def _ply_chunks(path: Path, rows: int, steps_checked: set):
             if has_normals
             else None
         )
-        yield points, normals, meta
+        yield points, normals, None, meta
 
 
 def estimate_points(paths, mesh_samples: int | None = DEFAULT_MESH_SAMPLES) -> int:
