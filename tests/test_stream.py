@@ -228,20 +228,23 @@ def test_the_noise_read_on_drawn_voxels_is_the_same_streamed(tiled, monkeypatch)
 
 def test_a_streamed_survey_keeps_its_vegetation_marks_for_the_sets(tmp_path, capsys):
     """Streamed, a LAS's vegetation classes go to regions.ply (scalar_vegetation) as in
-    memory, so `sets OUTDIR` takes those points for clutter."""
+    memory, so `sets OUTDIR` takes those points for clutter; the marks start at the first
+    tile that has any, the tiles before it unmarked."""
     from plyfile import PlyData
 
     rng = np.random.default_rng(0)
     wall = np.column_stack([rng.random(6000) * 6, np.zeros(6000), rng.random(6000) * 3])
     bush = rng.normal(size=(1500, 3)) * 0.3 + [3.0, -0.8, 0.6]
-    header = laspy.LasHeader(point_format=6, version="1.4")
-    header.scales, header.offsets = [0.001] * 3, list(UTM)
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = (np.vstack([wall, bush]) + UTM).T
-    las.classification = np.repeat(np.array([1, 3], dtype=np.uint8), [len(wall), len(bush)])
-    las.write(str(tmp_path / "scan.laz"))
+    (tmp_path / "tiles").mkdir()
+    for name, points, classes in (("a", wall[:3000], [1]), ("b", np.vstack([wall[3000:], bush]), [1, 3])):
+        header = laspy.LasHeader(point_format=6, version="1.4")
+        header.scales, header.offsets = [0.001] * 3, list(UTM)
+        las = laspy.LasData(header)
+        las.x, las.y, las.z = (points + UTM).T
+        las.classification = np.repeat(np.array(classes, dtype=np.uint8), [3000, 1500][: len(classes)])
+        las.write(str(tmp_path / "tiles" / f"{name}.laz"))
     out = tmp_path / "out"
-    assert run_cli(capsys, "measure", tmp_path / "scan.laz", "-o", out, "--engine", "stream", "-q")[0] == 0
+    assert run_cli(capsys, "measure", tmp_path / "tiles", "-o", out, "--engine", "stream", "-q")[0] == 0
     vertex = PlyData.read(str(out / "regions.ply"))["vertex"].data
     marked = np.asarray(vertex["scalar_vegetation"], dtype=bool)
     y = np.asarray(vertex["y"]) - UTM[1]

@@ -175,9 +175,12 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                 for points, normals, vegetation, meta in _file_chunks(path, rows, mesh_samples, steps_checked):
                     check_coordinates(points, path, spill.n_points - start)
                     points.astype("<f8", copy=False).tofile(out)
-                    flags = np.zeros(len(points), dtype=np.uint8) if vegetation is None else vegetation.astype(np.uint8)
-                    flags.tofile(out_v)
-                    spill.has_vegetation = spill.has_vegetation or bool(flags.any())
+                    if vegetation is not None and vegetation.any() and not spill.has_vegetation:
+                        _write_zeros(out_v, spill.n_points)  # the marks start with the first vegetation
+                        spill.has_vegetation = True
+                    if spill.has_vegetation:
+                        flags = np.zeros(len(points), np.uint8) if vegetation is None else vegetation.astype(np.uint8)
+                        flags.tofile(out_v)
                     all_normals = all_normals and normals is not None
                     if all_normals:
                         normals.astype("<f8", copy=False).tofile(out_n)
@@ -214,6 +217,12 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
         spill.close()
         raise
     return spill
+
+
+def _write_zeros(out, n: int, block: int = 1 << 24) -> None:
+    """``n`` zero bytes to ``out``, a block at a time."""
+    for a in range(0, n, block):
+        np.zeros(min(block, n - a), dtype=np.uint8).tofile(out)
 
 
 def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
