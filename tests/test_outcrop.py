@@ -51,7 +51,8 @@ def test_joints_of_finite_persistence_are_discs_as_dense_as_the_spacing_says():
     for s, joint in enumerate(sets):
         diameters = 2 * scene.set_plane_radii[s]
         assert diameters.mean() == pytest.approx(3.0, rel=0.1)
-        assert scene.set_spacing[s] == pytest.approx(joint.spacing, rel=0.3)
+        # the realised spacing: a 20 x 8 m face meets a few dozen discs of a set
+        assert scene.set_spacing[s] == pytest.approx(joint.spacing, rel=0.4)
     # planes through the rock mass, the default: radii infinite
     assert all(np.isinf(r).all() for r in outcrop_scene(width=4.0, height=3.0, seed=1).set_plane_radii)
     # each facet lies on its disc (its centre's foot on the disc's plane within the radius)

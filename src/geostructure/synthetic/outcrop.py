@@ -380,8 +380,10 @@ def _joint_discs(joint: JointSet, face_frame, size, rng):
     face_normal, along, up_dip = face_frame
     mean_d = float(joint.persistence)
     mu = np.log(mean_d) - DISC_LOG_SPREAD**2 / 2
-    margin = 1.5 * mean_d  # discs centred beyond the face's edge still cross it
-    depth = 5.0 * joint.spacing  # at least one disc lies this near a point of the face, nearly always
+    # Discs centred beyond the face's edge, or behind or before it, still reach it: the slab
+    # is as deep as the large discs reach, and deep enough that one lies near every point.
+    margin = 1.5 * mean_d
+    depth = 5.0 * joint.spacing + margin
     volume = (size[0] + 2 * margin) * (size[1] + 2 * margin) * 2 * depth
     mean_area = np.pi / 4 * mean_d**2 * np.exp(DISC_LOG_SPREAD**2)  # E[d^2] of the lognormal
     n = int(rng.poisson(volume / joint.spacing / mean_area))
