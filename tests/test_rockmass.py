@@ -49,7 +49,7 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
     # several joints per set are met, each more than once
     assert all(line.joints >= 4 and line.crossings > 2 * line.joints for line in rock.scanlines)
     # planes across the whole face: their traces show over most of it, and no set is read
-    # on its traces alone (the two spacings differ by 1.58 times at most on twenty faces)
+    # on its traces alone (the two spacings differ by 1.55 times at most on twenty faces)
     assert not rock.traces_only.any()
     assert all(row["spacing_basis"] == "persistent" for row in rock.set_rows())
 

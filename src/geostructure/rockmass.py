@@ -275,9 +275,9 @@ def unmeasured_spacing(set_id: int, row: dict) -> str | None:
 
 #: A set's joints are counted only where their traces show when that spacing is this many
 #: times the persistent planes': they are seen over short stretches of the face. On twenty
-#: faces of planes that cross the rock mass the two differ by 1.58 times at most, and by 1.79
+#: faces of planes that cross the rock mass the two differ by 1.55 times at most, and by 1.79
 #: with bushes hiding part of the face (1.75 read it on its traces, 1.62 times too long); on
-#: faces of joints 1.5 to 6 m across, by 2.2 to 8 times (docs/rockmass.md, "Persistence and
+#: faces of joints 1.5 to 6 m across, by 2.2 to 6.3 times (docs/rockmass.md, "Persistence and
 #: spacing").
 TRACE_DISAGREEMENT = 2.0
 
