@@ -148,3 +148,22 @@ def test_points_a_las_classifies_as_vegetation_are_clutter(tmp_path, capsys):
     # From the folder: the same parts again, the vegetation read back from regions.ply.
     assert run_cli(capsys, "sets", out, "-q")[0] == 0
     assert (np.asarray(laspy.read(str(out / "regions.laz")).face_part) == part).all()
+
+
+def test_a_cloud_all_vegetation_is_measured_as_its_face_and_says_so(tmp_path, capsys):
+    """Every point in a vegetation class: there is no rock to tell it from, so the points are
+    the face (as a cloud all clutter is), and the note says that, not that they were left out."""
+    import laspy
+    from helpers import run_cli
+
+    rng = np.random.default_rng(0)
+    points = np.column_stack([rng.random(20_000) * 10, rng.random(20_000) * 10, rng.random(20_000) * 0.05])
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, [500_000, 5_000_000, 0]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (points + [500_000.0, 5_000_000.0, 100.0]).T
+    las.classification = np.full(len(points), 5, dtype=np.uint8)
+    las.write(str(tmp_path / "canopy.laz"))
+    code, _, err = run_cli(capsys, "measure", tmp_path / "canopy.laz", "-o", tmp_path / "out", "--sets")
+    assert code == 0 and "with no rock face to tell them from, they are measured as the face" in err
+    assert "taken for clutter" not in err

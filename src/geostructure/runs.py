@@ -19,7 +19,7 @@ import numpy as np
 
 from .errors import GeoStructureNote, GeoStructureWarning
 from .exposure import exposure
-from .face import face_parts
+from .face import CLUTTER, face_parts
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
@@ -230,15 +230,26 @@ def sets_and_rock_mass(
     return sets, rock
 
 
-def note_vegetation(vegetation, source) -> None:
+def note_vegetation(vegetation, rock: RockMass, source) -> None:
     """A note (:class:`~.errors.GeoStructureNote`) of the points the input classifies as
-    vegetation, which the sets' face leaves out (:func:`~.face.face_parts`)."""
-    n = 0 if vegetation is None else int(np.count_nonzero(vegetation))
+    vegetation that the sets' face left out as clutter (:func:`~.face.face_parts`: none when
+    the cloud has no other face to tell them from)."""
+    if vegetation is None or not np.any(vegetation):
+        return
+    if rock.point_part is None:  # next to no face but the vegetation: it was measured as one
+        warnings.warn(
+            f"{source}: nearly every point is classified as vegetation (LAS classes 3 to 5); with no rock face "
+            f"to tell them from, they are measured as the face.",
+            GeoStructureNote,
+            stacklevel=2,
+        )
+        return
+    n = int(np.count_nonzero(np.asarray(vegetation) & (rock.point_part == CLUTTER)))
     if n:
         warnings.warn(
-            f"{source}: {n:,} point{'s' if n != 1 else ''} classified as vegetation (LAS classes 3 to 5) are taken "
-            f"for clutter, not rock face: in regions.laz as face_part 2, out of the exposure, the scanlines and "
-            f"the slope.",
+            f"{source}: {n:,} point{'s' if n != 1 else ''} classified as vegetation (LAS classes 3 to 5) "
+            f"{'are' if n != 1 else 'is'} taken for clutter, not rock face: in regions.laz as face_part 2, out of "
+            f"the exposure, the scanlines and the slope.",
             GeoStructureNote,
             stacklevel=2,
         )
@@ -294,7 +305,6 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         planes = read_planes(outputs.outdir)
         points, region = read_regions(outputs.outdir, planes.offset)
         vegetation = read_region_vegetation(outputs.outdir)
-        note_vegetation(vegetation, outdir)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
         if unscaled(outputs.record):
             warnings.warn(
@@ -308,6 +318,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, lambda name: report(name, 0, None),
                                         spacing=spacing, metres_per_unit=recorded_unit(outputs.record)["metres"],
                                         vegetation=vegetation)  # fmt: skip
+        note_vegetation(vegetation, rock, outdir)
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))

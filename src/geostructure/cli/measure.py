@@ -179,13 +179,13 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         if wants_sets(args):
             if crs is None and unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
                 note_unstated_unit(detected_spacing(result.detection), cloud.source)
-            note_vegetation(result.filtered.vegetation, cloud.source)
             sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
                                             args.n_sets, lambda stage: progress(stage, 0, None),
                                             errors=result.planes.standard_errors(),  # as measured: no tilt yet
                                             spacing=detected_spacing(result.detection),
                                             metres_per_unit=cloud_unit(crs, unit)["metres"],
                                             vegetation=result.filtered.vegetation)  # fmt: skip
+            note_vegetation(result.filtered.vegetation, rock, cloud.source)
         progress("write", 0, None)
         paths = save_measurement(
             result,
