@@ -44,6 +44,25 @@ def write_xyz(path, points, *, header: str | None = None, delimiter: str = " ", 
     return Path(path)
 
 
+#: Where the LAS files the tests write lie (a UTM-sized offset), and their grid.
+LAS_ORIGIN = (500_000.0, 5_000_000.0, 100.0)
+
+
+def write_classified_las(path, points, classification, origin=LAS_ORIGIN):
+    """``points`` (local, metres) as a LAS 1.4 file at ``origin`` on a millimetre grid, each
+    with its ASPRS ``classification``; returns the path."""
+    import laspy
+    import numpy as np
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, [origin[0], origin[1], 0.0]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (np.asarray(points) + origin).T
+    las.classification = np.asarray(classification, dtype=np.uint8)
+    las.write(str(path))
+    return Path(path)
+
+
 def run_cli(capsys, *argv) -> tuple[int, str, str]:
     """Run the command line in this process; returns (exit status, stdout, stderr)."""
     code = main([str(a) for a in argv])

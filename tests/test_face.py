@@ -116,29 +116,24 @@ def test_points_a_las_classifies_as_vegetation_are_clutter(tmp_path, capsys):
     back from regions.ply. Three bushes before a 12 x 6 m face (seed 4): by their shape alone
     92% of their points are clutter; classified, all."""
     import laspy
-    from helpers import run_cli
+    from helpers import LAS_ORIGIN, run_cli, write_classified_las
 
     from geostructure.synthetic import bushes_on, outcrop_scene
 
     scene = outcrop_scene(width=12.0, height=6.0, seed=4)
     bushes, hidden = bushes_on(scene, 3, seed=4)
     rock = scene.cloud.points[~hidden]
-    header = laspy.LasHeader(point_format=6, version="1.4")
-    header.scales, header.offsets = [0.001] * 3, [500_000, 5_000_000, 0]
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = (np.vstack([rock, bushes]) + [500_000.0, 5_000_000.0, 100.0]).T
-    las.classification = np.repeat(np.array([1, 4], dtype=np.uint8), [len(rock), len(bushes)])
-    las.write(str(tmp_path / "cut.laz"))
+    classes = np.repeat([1, 4], [len(rock), len(bushes)])  # rock unclassified, bushes medium vegetation
+    write_classified_las(tmp_path / "cut.laz", np.vstack([rock, bushes]), classes)
     out = tmp_path / "out"
     code, _, err = run_cli(capsys, "measure", tmp_path / "cut.laz", "-o", out, "--sets")  # notes: not -q
     assert code == 0 and "points classified as vegetation (LAS classes 3 to 5) are taken for clutter" in err
     regions = laspy.read(str(out / "regions.laz"))
     part = np.asarray(regions.face_part)
-    z = np.asarray(regions.z) - 100.0
     from scipy.spatial import cKDTree
 
-    is_bush = cKDTree(bushes).query(np.column_stack([np.asarray(regions.x) - 500_000.0,
-                                                     np.asarray(regions.y) - 5_000_000.0, z]))[0] < 1e-3  # fmt: skip
+    written = np.column_stack([regions.x, regions.y, regions.z]) - LAS_ORIGIN
+    is_bush = cKDTree(bushes).query(written)[0] < 1e-3
     assert is_bush.sum() > 0.9 * len(bushes) and (part[is_bush] == CLUTTER).all()
     assert (part[~is_bush] == FACE).mean() > 0.95
     with open(out / "planes.csv", newline="") as fh:
@@ -153,17 +148,11 @@ def test_points_a_las_classifies_as_vegetation_are_clutter(tmp_path, capsys):
 def test_a_cloud_all_vegetation_is_measured_as_its_face_and_says_so(tmp_path, capsys):
     """Every point in a vegetation class: there is no rock to tell it from, so the points are
     the face (as a cloud all clutter is), and the note says that, not that they were left out."""
-    import laspy
-    from helpers import run_cli
+    from helpers import run_cli, write_classified_las
 
     rng = np.random.default_rng(0)
     points = np.column_stack([rng.random(20_000) * 10, rng.random(20_000) * 10, rng.random(20_000) * 0.05])
-    header = laspy.LasHeader(point_format=6, version="1.4")
-    header.scales, header.offsets = [0.001] * 3, [500_000, 5_000_000, 0]
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = (points + [500_000.0, 5_000_000.0, 100.0]).T
-    las.classification = np.full(len(points), 5, dtype=np.uint8)
-    las.write(str(tmp_path / "canopy.laz"))
+    write_classified_las(tmp_path / "canopy.laz", points, np.full(len(points), 5))  # high vegetation
     code, _, err = run_cli(capsys, "measure", tmp_path / "canopy.laz", "-o", tmp_path / "out", "--sets")
     assert code == 0 and "with no rock face to tell them from, they are measured as the face" in err
     assert "taken for clutter" not in err

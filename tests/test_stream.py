@@ -11,7 +11,7 @@ import sys
 import laspy
 import numpy as np
 import pytest
-from helpers import assert_one_sentence, run_cli
+from helpers import assert_one_sentence, run_cli, write_classified_las
 from test_tiles import UTM, planes_of, tile_index, write_laz
 
 from geostructure import auto, measure
@@ -236,13 +236,9 @@ def test_a_streamed_survey_keeps_its_vegetation_marks_for_the_sets(tmp_path, cap
     wall = np.column_stack([rng.random(6000) * 6, np.zeros(6000), rng.random(6000) * 3])
     bush = rng.normal(size=(1500, 3)) * 0.3 + [3.0, -0.8, 0.6]
     (tmp_path / "tiles").mkdir()
-    for name, points, classes in (("a", wall[:3000], [1]), ("b", np.vstack([wall[3000:], bush]), [1, 3])):
-        header = laspy.LasHeader(point_format=6, version="1.4")
-        header.scales, header.offsets = [0.001] * 3, list(UTM)
-        las = laspy.LasData(header)
-        las.x, las.y, las.z = (points + UTM).T
-        las.classification = np.repeat(np.array(classes, dtype=np.uint8), [3000, 1500][: len(classes)])
-        las.write(str(tmp_path / "tiles" / f"{name}.laz"))
+    write_classified_las(tmp_path / "tiles" / "a.laz", wall[:3000], np.ones(3000), origin=UTM)  # unmarked
+    points, classes = np.vstack([wall[3000:], bush]), np.repeat([1, 3], [3000, len(bush)])
+    write_classified_las(tmp_path / "tiles" / "b.laz", points, classes, origin=UTM)
     out = tmp_path / "out"
     assert run_cli(capsys, "measure", tmp_path / "tiles", "-o", out, "--engine", "stream", "-q")[0] == 0
     vertex = PlyData.read(str(out / "regions.ply"))["vertex"].data

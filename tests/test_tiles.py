@@ -139,16 +139,15 @@ def test_the_order_of_the_points_changes_no_plane():
 def test_the_vegetation_a_tile_classifies_is_kept_when_the_tiles_are_read_as_one(tmp_path):
     """Two tiles, one with points in a vegetation class (LAS 4): the merged cloud marks
     those points and no other."""
+    from helpers import write_classified_las
+
     from geostructure.io.tiles import read_tiles
 
     rng = np.random.default_rng(0)
-    points = rng.random((200, 3)) * [10.0, 10.0, 1.0] + [500_000.0, 4_000_000.0, 0.0]
-    write_laz(tmp_path / "a.laz", points[:100])
-    write_laz(tmp_path / "b.laz", points[100:])
-    las = laspy.read(str(tmp_path / "b.laz"))
-    las.classification = np.r_[np.full(30, 4), np.full(70, 2)].astype(np.uint8)
-    las.write(str(tmp_path / "b.laz"))
+    points = rng.random((200, 3)) * [10.0, 10.0, 1.0]
+    write_classified_las(tmp_path / "a.laz", points[:100], np.full(100, 2), origin=UTM)
+    write_classified_las(tmp_path / "b.laz", points[100:], np.r_[np.full(30, 4), np.full(70, 2)], origin=UTM)
     cloud = read_tiles([tmp_path / "a.laz", tmp_path / "b.laz"])
     assert cloud.vegetation is not None and cloud.vegetation.sum() == 30
-    marked = cloud.points[cloud.vegetation]
+    marked = cloud.points[cloud.vegetation] - UTM
     np.testing.assert_allclose(np.sort(marked[:, 0]), np.sort(points[100:130, 0]), atol=1e-3)

@@ -396,9 +396,10 @@ def rock_mass(
     joints, uv = [], face.project(on_face)
     for s, mean in enumerate(set_normals):
         members = np.flatnonzero(set_labels == s)
-        joint, joint_normal, joint_centre = joint_planes(moments.subset(members), normals[members])
+        own = moments.subset(members)
+        joint, joint_normal, joint_centre = joint_planes(own, normals[members])
         joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
-        traces = joint_traces(moments.subset(members), joint, joint_normal, face.normal)
+        traces = joint_traces(own, joint, joint_normal, face.normal)
         line = scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv)
         result.scanlines.append(line)
         result.trace_scanlines.append(scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv, traces))

@@ -249,14 +249,14 @@ def kinematics_of(
         }
         for i in range(len(planes))
     ]
-    single = np.asarray(w.single_plane)
+    single, ids = np.asarray(w.single_plane), np.asarray(ids).astype(np.int64)
     wedge_columns = {  # columns, not a dict per pair: an outcrop's 1,500 planes make 240,000
-        "region_id_a": np.asarray(ids)[w.a].astype(np.int64),
-        "region_id_b": np.asarray(ids)[w.b].astype(np.int64),
+        "region_id_a": ids[w.a],
+        "region_id_b": ids[w.b],
         "trend": np.asarray(w.trend, dtype=np.float64),
         "plunge": np.asarray(w.plunge, dtype=np.float64),
         "wedge_fs": np.asarray(w.factor_of_safety, dtype=np.float64),
-        "slides_on": np.where(single < 0, "both", np.asarray(ids)[np.maximum(single, 0)].astype(np.int64).astype(str)),
+        "slides_on": np.where(single < 0, "both", ids[np.maximum(single, 0)].astype(str)),
     }
     wedge_area = np.zeros(len(planes))
     in_wedge = np.zeros(len(planes), dtype=bool)
