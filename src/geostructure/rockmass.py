@@ -32,11 +32,11 @@ from .spacing import (
     MIN_SCANLINE_COSINE,
     PlaneMoments,
     joint_planes,
-    joint_traces,
     nearest_plane_gaps,
     scanline_spacing,
     spacing_statistics,
 )
+from .traces import TraceLengths, joint_traces, trace_lengths
 from .uncertainty import correlated_tilt
 
 #: Palmstrom (2005)'s block shape factor for Vb = beta Jv^-3 (equidimensional blocks).
@@ -75,6 +75,11 @@ ROCK_SET_COLUMNS = (
     "trace_dip_median_m",
     "trace_dip_mean_m",
     "n_censored",
+    "joint_traces",
+    "joint_traces_censored",
+    "joint_trace_median_m",
+    "joint_trace_mean_m",
+    "persistence",
 )
 
 
@@ -96,6 +101,7 @@ class RockMass:
     set_labels: np.ndarray
     scanlines: list = field(default_factory=list)
     trace_scanlines: list = field(default_factory=list)  # the joints met only where their traces show
+    joint_trace_lengths: list = field(default_factory=list)  # per set, its joints' traces (TraceLengths)
     nearest_gaps: list = field(default_factory=list)
     p21: np.ndarray = field(default_factory=lambda: np.zeros(0))
     c13: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -228,6 +234,12 @@ class RockMass:
                 # the sum of every trace over the number that end inside the exposure.
                 row[f"trace_{name}_mean_m"] = float(t.sum() / (~cut).sum()) if (~cut).any() else float("nan")
             row["n_censored"] = int(p.censored[members].sum())
+            lengths = self.joint_trace_lengths[s] if self.joint_trace_lengths else TraceLengths.none()
+            row["joint_traces"] = len(lengths.length)
+            row["joint_traces_censored"] = int(lengths.censored.sum())
+            row["joint_trace_median_m"] = lengths.median
+            row["joint_trace_mean_m"] = lengths.mean
+            row["persistence"] = lengths.persistence
             rows.append(row)
         return rows
 
@@ -400,6 +412,7 @@ def rock_mass(
         joint, joint_normal, joint_centre = joint_planes(own, normals[members])
         joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
         traces = joint_traces(own, joint, joint_normal, face.normal)
+        result.joint_trace_lengths.append(trace_lengths(traces, joint_centre, face))
         line = scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv)
         result.scanlines.append(line)
         result.trace_scanlines.append(scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv, traces))

@@ -7,7 +7,7 @@
   :data:`LINE_SPACING`, in the direction of the set's mean normal projected onto the face
   (the direction that meets most of the set's joints), each as long as the cloud under it.
   Every joint is extended as a persistent plane and meets a line where its plane crosses
-  it; or, given its traces (:func:`joint_traces`), only where the stretches of its trace
+  it; or, given its traces (:func:`~.traces.joint_traces`), only where the stretches of its trace
   that its facets show cross it (joints a few metres long on a longer face). The gaps
   between consecutive crossings, times the cosine between line and mean normal (Terzaghi
   1965), are normal spacings; the set's mean normal spacing is the cosine
@@ -266,89 +266,6 @@ class Scanlines:
         return self.spacing / np.sqrt(self.joints) if self.joints > 0 else float("nan")
 
 
-#: A joint's trace on the face runs across a gap of up to this length (m) between its facets
-#: (where another set's facet crosses it, or the face is hidden) ...
-TRACE_GAP = 3.0
-#: ... and this far (m) beyond its outermost facets.
-TRACE_MARGIN = 0.35
-
-
-@dataclass(frozen=True)
-class Traces:
-    """The joints' traces on the face: each joint's trace ``direction`` (J, 3), and the
-    stretches of it that its facets show, ``joint`` (T,), from ``start`` to ``end`` (T,)
-    (m, positions along the direction), sorted by joint and start, apart from each other."""
-
-    direction: np.ndarray
-    joint: np.ndarray
-    start: np.ndarray
-    end: np.ndarray
-
-    def reach(self, joint, position) -> np.ndarray:
-        """Whether each joint's trace reaches ``position`` along it (m)."""
-        if len(self.joint) == 0:
-            return np.zeros(len(joint), dtype=bool)
-        # One sorted key for all stretches: the joints' positions in disjoint ranges.
-        width = 2.0 * max(np.abs(self.start).max(), np.abs(self.end).max(), np.abs(position).max(initial=0)) + 1.0
-        lo, hi = self.joint * width + self.start, self.joint * width + self.end
-        key = np.asarray(joint) * width + position
-        k = np.searchsorted(lo, key, side="right") - 1
-        return (k >= 0) & (key <= hi[np.maximum(k, 0)])
-
-
-def joint_traces(moments: PlaneMoments, joint, joint_normal, face_normal) -> Traces:
-    """Each joint's trace on the face and the stretches its facets show
-    (:class:`Traces`): a facet covers twice its points' standard deviation either side of its
-    centroid along the trace (a disc's edge is 2 sigma out); gaps up to :data:`TRACE_GAP`
-    between them are bridged and :data:`TRACE_MARGIN` is added at each end.
-
-    Examples
-    --------
-    Three facets of one joint (the plane y = 0) on a face normal to z, along x from 0 to 1,
-    1.5 to 2.5 and 6 to 7 m: the first two are one stretch of its trace, the third another.
-
-    >>> rng = np.random.default_rng(0)
-    >>> patch = lambda x0: np.column_stack([x0 + rng.random(300), np.zeros(300), rng.random(300)])
-    >>> points = np.vstack([patch(0.0), patch(1.5), patch(6.0)])
-    >>> moments = PlaneMoments.of(points, np.repeat([0, 1, 2], 300), 3)
-    >>> traces = joint_traces(moments, np.array([0, 0, 0]), np.array([[0.0, 1.0, 0.0]]), [0.0, 0.0, 1.0])
-    >>> traces.joint.tolist(), np.round(traces.end - traces.start, 1).tolist()
-    ([0, 0], [3.3, 1.9])
-    >>> traces.reach(np.zeros(3, dtype=int), np.array([2.0, 4.0, 6.0])).tolist()
-    [True, False, True]
-    """
-    face_normal = np.asarray(face_normal, dtype=np.float64)
-    direction = np.cross(joint_normal, face_normal)
-    norm = np.linalg.norm(direction, axis=1, keepdims=True)
-    # A joint parallel to the face has no trace: any direction in the face will do.
-    direction = np.where(norm > 1e-9, direction / np.maximum(norm, 1e-12), _any_in_face(face_normal))
-    mine = np.flatnonzero(joint >= 0)
-    owner = joint[mine]
-    d = direction[owner]
-    centre = np.einsum("ij,ij->i", moments.centroid[mine], d)
-    spread = np.einsum("ij,ijk,ik->i", d, moments.scatter[mine], d) / np.maximum(moments.count[mine], 1)
-    half = 2.0 * np.sqrt(np.maximum(spread, 0.0)) + TRACE_MARGIN
-    order = np.lexsort((centre - half, owner))
-    owner, start, end = owner[order], (centre - half)[order], (centre + half)[order]
-    if len(owner) == 0:
-        return Traces(direction, owner, start, end)
-    # Each joint's running end so far, by one cumulative maximum over the joints' positions
-    # laid in disjoint ranges: a facet starting a gap beyond it starts a new stretch.
-    width = 2.0 * max(np.abs(start).max(), np.abs(end).max()) + 1.0
-    running = np.maximum.accumulate(end + owner * width) - owner * width
-    new = np.ones(len(owner), dtype=bool)
-    new[1:] = (owner[1:] != owner[:-1]) | (start[1:] > running[:-1] + TRACE_GAP - 2 * TRACE_MARGIN)
-    last = np.append(np.flatnonzero(new)[1:], len(owner)) - 1
-    return Traces(direction, owner[new], start[new], running[last])
-
-
-def _any_in_face(face_normal) -> np.ndarray:
-    """A unit vector in the plane normal to ``face_normal``."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(face_normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    v = np.cross(face_normal, helper)
-    return v / np.linalg.norm(v)
-
-
 def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, uv=None, traces=None) -> Scanlines:
     """One set's joints along virtual scanlines on the face (see the module's description).
 
@@ -363,9 +280,9 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, u
     face : Exposure
     uv : (N, 2) array, optional
         ``face.project(points)``, when made already (one projection serves every set).
-    traces : Traces, optional
+    traces : ~.traces.Traces, optional
         Each joint's trace on the face and the stretches of it its facets show
-        (:func:`joint_traces`): a line meets a joint only there. Without it, every joint is
+        (:func:`~.traces.joint_traces`): a line meets a joint only there. Without it, every joint is
         a persistent plane across the face.
     """
     direction = mean - (mean @ face.normal) * face.normal

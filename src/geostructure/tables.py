@@ -96,11 +96,20 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     if rock is not None and np.isfinite(rock.jv):
         title += f"; Jv {rock.jv:.1f}/m³{jv_scope(rock_rows)}, block {rock.block_volume:.2g} m³"
     table = Table(title=title)
-    columns = ["set", "planes", "area m²", "dip", "dip dir", "Fisher K", "α95 deg", "sph. var."]
-    for column in columns + (["spacing m", "P32 1/m", "censored"] if rock is not None else []):
+    columns = ["set", "planes", "area m²", "dip", "dip dir", "K", "α95°", "sph. var."]
+    for column in columns + (["spacing m", "P32 1/m", "trace m", "persistence"] if rock is not None else []):
         table.add_column(column, justify="right")
     for row, more in zip(sets.rows(), rock_rows):
-        extra = [shown(more["spacing_m"]), shown(more["p32_per_m"]), str(more["n_censored"])] if more else []
+        extra = (
+            [
+                shown(more["spacing_m"]),
+                shown(more["p32_per_m"]),
+                shown(more["joint_trace_mean_m"], 1),
+                more["persistence"] or "—",
+            ]
+            if more
+            else []
+        )
         table.add_row(
             str(row["set"]),
             str(row["n_planes"]),

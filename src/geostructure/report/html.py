@@ -283,10 +283,17 @@ ROCK_COLUMNS = [
     ("spacing_m", "Spacing (m)", 2),
     ("p10_per_m", "P10 (1/m)", 2),
     ("p32_per_m", "P32 (1/m)", 2),
-    ("trace_strike_median_m", "Trace, strike (m)", 2),
-    ("trace_dip_median_m", "Trace, dip (m)", 2),
-    ("n_censored", "Censored", 0),
+    ("joint_trace_mean_m", "Trace (m)", 1),
+    ("persistence", "Persistence", None),
 ]
+
+
+def _set_cell(value, digits: int | None) -> str:
+    """A cell of the set table: words as they are (``digits`` None), a figure to ``digits``
+    decimals; a dash for neither (NaN, or a column a folder written before it lacks)."""
+    if digits is None:
+        return _escape(value) if value else "—"
+    return f"{value:,.{digits}f}" if value is not None and np.isfinite(value) else "—"
 
 
 def set_table(scene: ReportScene) -> str:
@@ -298,7 +305,7 @@ def set_table(scene: ReportScene) -> str:
     rows = []
     for row in scene.sets:
         swatch = _set_swatch(int(row["set"]))
-        cells = ["—" if not np.isfinite(row[key]) else f"{row[key]:,.{digits}f}" for key, _, digits in columns]
+        cells = [_set_cell(row.get(key), digits) for key, _, digits in columns]
         rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
     extra = scene.planes.extra
     unassigned = int((extra["set"] < 0).sum())

@@ -57,3 +57,28 @@ def _segment_in_rectangle(origin, direction, along, up_dip, width, height):
         a, b = (0.0 - o[k]) / d[k], (size - o[k]) / d[k]
         lo, hi = max(lo, min(a, b)), min(hi, max(a, b))
     return (lo, hi) if hi > lo else None
+
+
+def exposed_trace_chords(scene, set_index: int) -> np.ndarray:
+    """The true trace lengths (m) of set ``set_index``'s joints that the face shows (an
+    :class:`~.outcrop.OutcropScene`'s): the chord in which each disc with a facet crosses the
+    mean face's plane (inf for planes through the rock mass). A disc exposed only where the
+    face lies off its mean (in a step) may miss that plane: it is left out.
+
+    Examples
+    --------
+    >>> from geostructure.synthetic import outcrop_scene
+    >>> from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
+    >>> sets = tuple(JointSet(**{**vars(s), "persistence": 3.0}) for s in DEFAULT_SETS)
+    >>> chords = exposed_trace_chords(outcrop_scene(width=6.0, height=4.0, seed=1, sets=sets), 0)
+    >>> bool(2.0 < chords.mean() < 5.0)
+    True
+    """
+    shown = np.unique(scene.facet_plane[scene.facet_set == set_index])
+    normals = scene.set_plane_normals[set_index][shown]
+    centres, radii = scene.set_plane_points[set_index][shown], scene.set_plane_radii[set_index][shown]
+    # The disc's centre lies |c . f| / sin(angle) from the line its plane meets the face in.
+    sine = np.linalg.norm(np.cross(normals, scene.face_normal), axis=1)
+    off = np.abs(centres @ scene.face_normal) / np.maximum(sine, 1e-9)
+    half = np.sqrt(np.maximum(radii**2 - off**2, 0.0))  # inf for a plane
+    return 2.0 * half[half > 0]
