@@ -23,7 +23,8 @@ facets are still counted against the whole face, so those the bushes hide count 
 
 With ``--persistence`` the joints are discs of that mean diameter (Baecher et al. 1977)
 rather than planes through the rock mass. For GeoStructure the benchmark also prints each
-generated set's spacing as measured over the truth (the peer gives none).
+generated set's spacing as measured over the truth, and its joints' mean trace over the
+true traces of the discs the face shows, with ISRM's class of both (the peer gives neither).
 
 The peer is written here from the method of Discontinuity Set Extractor (Riquelme et al.
 2014), as its paper describes it:
@@ -57,14 +58,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-
-
-def write_ply(points: np.ndarray, path: Path) -> None:
-    from plyfile import PlyData, PlyElement
-
-    vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
-    vertex["x"], vertex["y"], vertex["z"] = points.T
-    PlyData([PlyElement.describe(vertex, "vertex")], text=False).write(str(path))
+from common import compile_package, write_ply
 
 
 def dbscan(points: np.ndarray, eps: float, min_samples: int) -> np.ndarray:
@@ -190,13 +184,17 @@ def run_geostructure(path: Path, outdir: Path) -> dict:
 
     return {"seconds": seconds, "peak_mb": peak_mb, "centroids": vectors(rows, "centroid"),
             "normals": vectors(rows, "normal"), "set_normals": vectors(sets, "normal"),
-            "set_spacing": np.array([float(r["spacing_m"]) for r in sets])}  # fmt: skip
+            "set_spacing": np.array([float(r["spacing_m"]) for r in sets]),
+            "set_trace": np.array([float(r["joint_trace_mean_m"]) for r in sets]),
+            "set_persistence": [r["persistence"] for r in sets]}  # fmt: skip
 
 
 def score(scene, found: dict) -> dict:
     from geostructure.evaluate import match_facets
     from geostructure.orientation import angle_between_normals
     from geostructure.planes import Planes
+    from geostructure.synthetic.scanlines import exposed_trace_chords
+    from geostructure.traces import persistence_class
 
     planes = Planes(normal=found["normals"], local_centroid=found["centroids"], fit_residual=0.0)
     match = match_facets(planes, scene)
@@ -208,24 +206,20 @@ def score(scene, found: dict) -> dict:
             errors.append(float(angle_between_normals(tiled, found["set_normals"]).min()))
     # Each generated set's spacing as measured (the set nearest it), over the truth: ours only,
     # the peer gives none.
-    spacing = []
+    # So is its joints' mean trace, over the true traces of the discs the face shows, with
+    # its ISRM class and the truth's.
+    spacing, trace, persistence = [], [], []
     if "set_spacing" in found and len(found["set_normals"]):
         for s, joint in enumerate(scene.sets):
             nearest = int(np.abs(found["set_normals"] @ joint.normal).argmax())
             spacing.append(float(found["set_spacing"][nearest] / scene.set_spacing[s]))
+            chords = exposed_trace_chords(scene, s)
+            if joint.persistence is not None and len(chords):
+                trace.append(float(found["set_trace"][nearest] / chords.mean()))
+                persistence.append(f"{found['set_persistence'][nearest] or '-'} ({persistence_class(chords.mean())})")
     return {"recall": match.recall, "found": int(match.found[match.eligible].sum()), "eligible": int(match.eligible.sum()),
             "planes": len(planes), "sets": len(found["set_normals"]), "set_errors": errors,
-            "spacing_over_truth": spacing}  # fmt: skip
-
-
-def compile_package() -> None:
-    """The package's modules compiled to bytecode (not timed), as installing it does: run
-    from a source tree with PYTHONDONTWRITEBYTECODE set, every timed process compiled them."""
-    import compileall
-
-    import geostructure
-
-    compileall.compile_dir(Path(geostructure.__file__).parent, quiet=1)
+            "spacing_over_truth": spacing, "trace_over_truth": trace, "persistence": persistence}  # fmt: skip
 
 
 def main() -> None:
@@ -297,6 +291,14 @@ def main() -> None:
                         **(
                             {"spacing_over_truth": [round(r, 2) for r in s["spacing_over_truth"]]}
                             if s["spacing_over_truth"]
+                            else {}
+                        ),
+                        **(
+                            {
+                                "trace_over_truth": [round(r, 2) for r in s["trace_over_truth"]],
+                                "persistence (truth)": s["persistence"],
+                            }
+                            if s["trace_over_truth"]
                             else {}
                         ),  # fmt: skip
                     }

@@ -36,17 +36,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+from common import compile_package, write_ply
 
 #: The floor's voxel edge, as a share of the cloud's extent (the paper's zeta).
 FLOOR_ZETA = 0.01
-
-
-def write_ply(points: np.ndarray, path: Path) -> None:
-    from plyfile import PlyData, PlyElement
-
-    vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
-    vertex["x"], vertex["y"], vertex["z"] = points.T
-    PlyData([PlyElement.describe(vertex, "vertex")], text=False).write(str(path))
 
 
 def timed(command: list[str], timeout: float) -> dict:
@@ -165,16 +158,6 @@ def format_row(method: str, n: int, row: dict) -> str:
             else f", {row['found']}/6 surfaces"
         )
     return text
-
-
-def compile_package() -> None:
-    """The package's modules compiled to bytecode (not timed), as installing it does: run
-    from a source tree with PYTHONDONTWRITEBYTECODE set, every timed process compiled them."""
-    import compileall
-
-    import geostructure
-
-    compileall.compile_dir(Path(geostructure.__file__).parent, quiet=1)
 
 
 def main() -> None:

@@ -23,7 +23,7 @@ from .face import CLUTTER, face_parts
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
-from .io.results import read_planes, read_region_vegetation, read_regions, read_sets
+from .io.results import read_planes, read_regions, read_sets
 from .io.writers import (
     sets_record,
     write_plane_tables,
@@ -303,8 +303,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         had_report = (outputs.outdir / "report.html").is_file()
         report("read", 0, None)
         planes = read_planes(outputs.outdir)
-        points, region = read_regions(outputs.outdir, planes.offset)
-        vegetation = read_region_vegetation(outputs.outdir)
+        points, region, vegetation = read_regions(outputs.outdir, planes.offset)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
         if unscaled(outputs.record):
             warnings.warn(

@@ -16,7 +16,7 @@ from .face import face_members
 from .io.atomic import write_columns_csv, write_figure, write_json, write_table_csv
 from .io.crs import recorded_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
-from .io.results import read_planes, read_region_vegetation, read_regions, read_sets
+from .io.results import read_planes, read_regions, read_sets
 from .kinematics import (
     LATERAL_LIMIT,
     UNIT_WEIGHT,
@@ -135,13 +135,12 @@ def add_kinematics(
         strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
         if slope is None or (cohesion and height is None):
             report("slope", 0, None)
-            points, region = read_regions(outputs.outdir, planes.offset)
+            points, region, vegetation = read_regions(outputs.outdir, planes.offset)
             if slope is None:
                 spacing = detected_spacing(outputs.record.get("detection"))
                 labels = plane_rows(region, planes.region_id)
                 slope = fit_slope(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
-                                                              spacing=spacing,
-                                                              vegetation=read_region_vegetation(outputs.outdir)))  # fmt: skip
+                                                              spacing=spacing, vegetation=vegetation))  # fmt: skip
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
                 height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
                 strength["height_source"] = "the cloud's height"

@@ -53,9 +53,11 @@ def read_planes(folder, offset=None) -> Planes:
     return Planes.from_csv(Path(folder) / "planes.csv", offset)
 
 
-def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray]:
+def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """The labelled points of ``regions.ply`` in a measured folder: (N, 3) float64 positions
-    relative to ``offset`` and each point's ``region_id`` (-1 for none)."""
+    relative to ``offset``, each point's ``region_id`` (-1 for none), and which points the
+    input classified as vegetation (its ``vegetation`` property,
+    :func:`~.writers.write_regions_ply`; None when it has none)."""
     from plyfile import PlyData, PlyParseError
 
     path = Path(folder) / "regions.ply"
@@ -67,21 +69,13 @@ def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray]:
         raise OutputError(f"{path}: no such file; run 'geostructure measure' first.") from None
     except (PlyParseError, KeyError, ValueError) as exc:
         raise OutputError(f"{path}: not a GeoStructure regions file ({exc}).") from None
+    try:
+        vegetation = np.asarray(ply_field(vertex, "vegetation"), dtype=bool)
+    except (KeyError, ValueError):
+        vegetation = None
     if offset is not None:
         xyz -= np.asarray(offset, dtype=np.float64)
-    return xyz, region
-
-
-def read_region_vegetation(folder) -> np.ndarray | None:
-    """Which points of ``regions.ply`` the input classified as vegetation (its
-    ``vegetation`` property, :func:`~.writers.write_regions_ply`); None when it has none."""
-    from plyfile import PlyData
-
-    vertex = PlyData.read(str(Path(folder) / "regions.ply"), mmap=True)["vertex"].data
-    try:
-        return np.asarray(ply_field(vertex, "vegetation"), dtype=bool)
-    except (KeyError, ValueError):
-        return None
+    return xyz, region, vegetation
 
 
 def read_spacings(folder) -> dict[int, np.ndarray]:
