@@ -407,6 +407,11 @@ def test_airborne_lidar_in_feet_its_level_roofs_and_the_metric_rock_mass(tmp_pat
     )  # the report once failed on run.json's null Jv
     assert code == 0 and "nan" not in printed.lower()
     assert "lies along the exposed face" in " ".join(printed.split())
+    # the face shows that set's planes whole: no trace, nor a persistence class from one
+    # (its joints' traces along an arbitrary line of the face read 54 m, "very high")
+    with open(out / "sets.csv", newline="") as fh:
+        (row,) = list(csv.DictReader(fh))
+    assert row["joint_trace_mean_m"] == "nan" and row["persistence"] == "" and row["joint_traces"] == "0"
     page = (out / "report.html").read_text()
     assert "lies along the exposed face" in page and "Area (ft" in page and "Roughness (ft)" in page
     # a terrain: the 3D view opens from the south and above, north up the screen as on a map

@@ -272,19 +272,21 @@ def unmeasured_spacing(set_id: int, row: dict) -> str | None:
     --------
     >>> row = {"spacing_m": float("nan"), "scanline_cosine": 0.0229, "spacing_nearest_m": 3.128}
     >>> unmeasured_spacing(0, row)
-    "Set 0 lies along the exposed face (its mean normal 1° from the face's), so no scanline on the face crosses it: its spacing, P10 and P32 are not measured (its nearest-plane spacing, after DSE, is 3.13 m)."
+    "Set 0 lies along the exposed face (its mean normal 1° from the face's), so no scanline on the face crosses it: its spacing, P10, P32 and traces are not measured (its nearest-plane spacing, after DSE, is 3.13 m)."
     """
     if np.isfinite(row["spacing_m"]):
         return None
     cosine = float(row["scanline_cosine"])
+    unmeasured = "spacing, P10 and P32"
     if cosine < MIN_SCANLINE_COSINE:
         angle = np.degrees(np.arcsin(np.clip(cosine, 0.0, 1.0)))
         why = f"lies along the exposed face (its mean normal {angle:.0f}° from the face's), so no scanline on the face crosses it"
+        unmeasured = "spacing, P10, P32 and traces"  # the face shows its planes whole, not their traces
     else:
         why = "has no joint that a scanline on the exposed face crosses"
     near = float(row.get("spacing_nearest_m", np.nan))
     tail = f" (its nearest-plane spacing, after DSE, is {near:.2f} m)" if np.isfinite(near) else ""
-    return f"Set {set_id} {why}: its spacing, P10 and P32 are not measured{tail}."
+    return f"Set {set_id} {why}: its {unmeasured} are not measured{tail}."
 
 
 #: A set's joints are counted only where their traces show when that spacing is this many
@@ -414,9 +416,14 @@ def rock_mass(
         joint, joint_normal, joint_centre = joint_planes(own, normals[members])
         joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
         traces = joint_traces(own, joint, joint_normal, face.normal)
-        result.joint_trace_lengths.append(trace_lengths(traces, joint_centre, face))
         line = scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv)
         result.scanlines.append(line)
+        # A set along the face (no line crosses it: bedding on a level exposure) shows its
+        # planes, not traces: their extents are its size, in the plane table.
+        along_face = line.direction is None
+        result.joint_trace_lengths.append(
+            TraceLengths.none() if along_face else trace_lengths(traces, joint_centre, face)
+        )
         result.trace_scanlines.append(scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv, traces))
         result.nearest_gaps.append(nearest_plane_gaps(normals, centroids, members, mean, persistence))
         result.p21[s] = persistence.trace_face[members].sum() / face.area if face.area > 0 else np.nan
