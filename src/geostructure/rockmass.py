@@ -80,6 +80,7 @@ ROCK_SET_COLUMNS = (
     "joint_traces_censored",
     "joint_trace_median_m",
     "joint_trace_mean_m",
+    "joint_trace_std_error_m",
     "persistence",
 )
 
@@ -240,6 +241,7 @@ class RockMass:
             row["joint_traces_censored"] = int(lengths.censored.sum())
             row["joint_trace_median_m"] = lengths.median
             row["joint_trace_mean_m"] = lengths.mean
+            row["joint_trace_std_error_m"] = lengths.std_error
             row["persistence"] = lengths.persistence
             rows.append(row)
         return rows

@@ -127,6 +127,13 @@ class TraceLengths:
         return float(self.length.sum() / ended) if ended else float("nan")
 
     @property
+    def std_error(self) -> float:
+        """Standard error (m) of :attr:`mean`: the exponential's, the mean over the square
+        root of the stretches not censored (NaN when none is)."""
+        ended = int((~self.censored).sum())
+        return float(self.mean / np.sqrt(ended)) if ended else float("nan")
+
+    @property
     def median(self) -> float:
         """The stretches' median length (m) as seen, censored ones short."""
         return float(np.median(self.length)) if len(self.length) else float("nan")
@@ -158,8 +165,8 @@ def trace_lengths(traces: Traces, joint_centre, face: Exposure) -> TraceLengths:
     >>> face = exposure(np.column_stack([xy, np.zeros(len(xy))]), up=[0, 1, 0])
     >>> traces = Traces(np.array([[1.0, 0.0, 0.0]]), np.array([0, 0]), np.array([1.0, 3.0]), np.array([2.0, 5.0]))
     >>> found = trace_lengths(traces, np.array([[0.0, 1.0, 0.0]]), face)
-    >>> found.length.tolist(), found.censored.tolist(), found.mean
-    ([1.0, 2.0], [False, True], 3.0)
+    >>> found.length.tolist(), found.censored.tolist(), found.mean, found.std_error
+    ([1.0, 2.0], [False, True], 3.0, 3.0)
     """
     joint = traces.joint
     if len(joint) == 0:
