@@ -33,7 +33,7 @@ def test_a_trace_is_censored_where_the_face_ends_or_a_hole_hides_it_and_nowhere_
     assert found.censored.tolist() == [False, True, False, True]
     # Exponential lengths with censoring: the sum over the two that end on the face.
     assert found.mean == pytest.approx(7.6 / 2)
-    assert found.std_error == pytest.approx(7.6 / 2 / np.sqrt(2))  # two ends seen
+    assert found.std_error == pytest.approx(7.6 / 2 / np.sqrt(2))  # two stretches end on the face
     assert found.median == pytest.approx(2.0)
     assert found.persistence == "medium"
 
