@@ -5,8 +5,8 @@ a line, its trace. The cloud shows the joint only where the face runs along it, 
 elsewhere its trace is a crack that the points do not show. :func:`joint_traces` takes the
 stretches of the trace its facets cover, bridging short gaps, and
 :func:`trace_lengths` measures them: a set's persistence (ISRM 1978) from its joints, not
-from its facets, which on faces of joints 1.5 to 6 m across are 0.5 m whatever the joints'
-size. A stretch that may run on out of sight (the face ends, or a hole, at either end) is
+from its facets, whose median trace is 0.5 to 1 m whatever the joints' size (1.5 m discs to
+planes through the rock mass, on the synthetic faces of ``docs/rockmass.md``). A stretch that may run on out of sight (the face ends, or a hole, at either end) is
 censored, and a set's mean trace length is the exponential distribution's estimate with
 censoring (the sum of all lengths over the number not censored), as for the planes' traces.
 """
