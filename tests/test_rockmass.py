@@ -90,7 +90,7 @@ def test_joints_a_few_metres_long_are_counted_only_where_their_traces_show():
     # Their persistence from their traces, not from their facets: the joints' mean trace
     # with censoring 0.96 to 2.0 times the discs' true chords on the face (3.3 to 3.8 m;
     # fifteen sets of 3 m joints read 0.96 to 2.01), ISRM's "medium" as the truth is; the
-    # facets' own traces a third of it or less.
+    # facets' own traces under half of it.
     chords = np.array([exposed_trace_chords(scene, t).mean() for t in truth])
     joint_trace = np.array([row["joint_trace_mean_m"] for row in rows])
     assert np.all((joint_trace > 0.8 * chords) & (joint_trace < 2.2 * chords))
