@@ -352,6 +352,9 @@ def test_a_cloud_in_feet_gives_its_rock_mass_in_metres():
     np.testing.assert_allclose(ft_rock.spacing, m_rock.spacing, rtol=0.05)
     np.testing.assert_allclose(ft_sets.area, m_sets.area, rtol=0.05)
     np.testing.assert_allclose(ft_rock.p21, m_rock.p21, rtol=0.05)
+    # the joints' traces in metres too (their margins and the censoring's reach are metres)
+    trace = {unit: [row["joint_trace_mean_m"] for row in found[unit][1].set_rows()] for unit in found}
+    np.testing.assert_allclose(trace[0.3048], trace[1.0], rtol=0.05)
     assert ft_rock.exposure_area == pytest.approx(m_rock.exposure_area, rel=0.02)
     assert ft_rock.summary(ft_sets.mean_normal)["metres_per_cloud_unit"] == 0.3048
 
