@@ -90,15 +90,10 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     (8, True)
     """
     points = np.asarray(points, dtype=np.float64)
-    up = np.asarray(up, dtype=np.float64)
     others = None
     if members is not None:
         points, others = points[members], points[~members]
-    origin, vt = mean_face(points, seed)
-    normal = vt[2] if vt[2] @ up >= 0 else -vt[2]
-    strike = np.cross(np.asarray(up, float), normal)
-    strike = strike / np.linalg.norm(strike) if np.linalg.norm(strike) > 1e-6 else vt[0]
-    axes = np.array([strike, np.cross(normal, strike)])
+    origin, normal, axes = face_plane(points, up, seed)
     # The cell holds CELL_POINTS points on average, from the density the 8th neighbours give
     # (pi r8^2 holds 8 points): few cells of a sampled surface are then empty by chance,
     # whether its points lie on a grid (SfM) or at random (a scan's overlap).
@@ -130,6 +125,26 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     sizes = np.bincount(holes.ravel(), minlength=n + 1)
     occupied |= (sizes[holes] <= SMALL_HOLE_CELLS) & (holes > 0)
     return Exposure(origin, normal, axes, cell, occupied, lower, float(occupied.sum() * cell**2), members)
+
+
+def face_plane(points, up=(0.0, 0.0, 1.0), seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The least-squares face of ``points``: its centroid, its normal (on the side of ``up``)
+    and its axes (2, 3), strike and up-dip, as :func:`exposure` takes them, without the
+    occupancy grid (a fitted slope needs the plane alone).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> origin, normal, axes = face_plane(np.column_stack([rng.random((500, 2)), np.zeros(500)]), up=[0, 1, 0])
+    >>> np.round(normal, 6).tolist(), np.round(axes, 6).tolist()
+    ([0.0, 0.0, 1.0], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    """
+    up = np.asarray(up, dtype=np.float64)
+    origin, vt = mean_face(points, seed)
+    normal = vt[2] if vt[2] @ up >= 0 else -vt[2]
+    strike = np.cross(up, normal)
+    strike = strike / np.linalg.norm(strike) if np.linalg.norm(strike) > 1e-6 else vt[0]
+    return origin, normal, np.array([strike, np.cross(normal, strike)])
 
 
 def mean_face(points, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ParameterError
-from .exposure import exposure
+from .exposure import face_plane
 from .face import face_members
 from .io.atomic import write_columns_csv, write_figure, write_json, write_table_csv
 from .io.crs import recorded_unit
@@ -54,12 +54,13 @@ def fit_slope(points, frame: Frame = Frame(), members=None) -> Slope:
     """
     points = np.asarray(points, dtype=np.float64)
     up = frame.matrix[2]
-    face = exposure(points, up, members=members)
-    if face.members is not None:
-        points = points[face.members]
+    if members is not None:
+        points = points[members]
+    # The plane alone: the exposure's occupancy grid (and the density read for it) is not needed.
+    origin, normal, axes = face_plane(points, up)
     labels = np.zeros(len(points), dtype=np.int64)
-    errors = normal_standard_errors(points, labels, face.normal[None, :], face.origin[None, :], face.axes[:1], up)
-    o = orientation_from_normals(face.normal, frame)
+    errors = normal_standard_errors(points, labels, normal[None, :], origin[None, :], axes[:1], up)
+    o = orientation_from_normals(normal, frame)
     return Slope(
         float(o.dip[0]),
         float(o.dip_direction[0]),
