@@ -273,8 +273,9 @@ def main() -> None:
             write_ply(points, path)
             ours = run_geostructure(path, Path(tmp) / "out")
             theirs = run_peer_process(path, Path(tmp) / "peer.npz")
+        scores = {"geostructure": score(scene, ours), "DSE-style peer": score(scene, theirs)}
         for name, run in (("geostructure", ours), ("DSE-style peer", theirs)):
-            s = score(scene, run)
+            s = scores[name]
             print(
                 json.dumps(
                     {
@@ -306,7 +307,7 @@ def main() -> None:
             )
         print(
             f"seed {seed}: GeoStructure {theirs['seconds'] / ours['seconds']:.2f}x the peer's speed, "
-            f"{score(scene, ours)['found']} against {score(scene, theirs)['found']} facets found"
+            f"{scores['geostructure']['found']} against {scores['DSE-style peer']['found']} facets found"
         )
 
 

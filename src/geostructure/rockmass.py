@@ -230,11 +230,10 @@ class RockMass:
                 "p32_from_p21_per_m": float(self.p32_from_p21[s]),
             }
             for name, trace in (("strike", p.trace_strike), ("dip", p.trace_dip)):
-                t, cut = trace[members], p.censored[members]
-                row[f"trace_{name}_median_m"] = float(np.median(t)) if len(t) else float("nan")
-                # Exponential trace lengths with right-censoring: the maximum-likelihood mean is
-                # the sum of every trace over the number that end inside the exposure.
-                row[f"trace_{name}_mean_m"] = float(t.sum() / (~cut).sum()) if (~cut).any() else float("nan")
+                # The planes' traces, their mean with censoring as the joints' (TraceLengths.mean).
+                facets = TraceLengths(trace[members], p.censored[members])
+                row[f"trace_{name}_median_m"] = facets.median
+                row[f"trace_{name}_mean_m"] = facets.mean
             row["n_censored"] = int(p.censored[members].sum())
             lengths = self.joint_trace_lengths[s] if self.joint_trace_lengths else TraceLengths.none()
             row["joint_traces"] = len(lengths.length)
