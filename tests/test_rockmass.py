@@ -17,8 +17,9 @@ from geostructure.exposure import exposure, plane_persistence
 from geostructure.face import clutter_points, face_members
 from geostructure.io.crs import metres_per_unit
 from geostructure.io.results import TEXT_SET_COLUMNS
-from geostructure.rockmass import RockMass, jv_scope, persistence_note, unmeasured_spacing
+from geostructure.rockmass import RockMass
 from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
+from geostructure.setnotes import censored_traces_note, jv_scope, persistence_note, set_notes, unmeasured_spacing
 from geostructure.slope_stability import fit_slope
 from geostructure.spacing import Scanlines, spacing_statistics
 from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
@@ -212,6 +213,20 @@ def test_spacing_of_parallel_joints_on_a_clean_face():
     _, _, rock, truth = measured(scene)
     # what is left is two joints of a set nearer than the 2 cm that tells joints apart
     np.testing.assert_allclose(rock.spacing, scene.exposed_set_spacing[truth], rtol=0.12)
+    # Planes through the rock mass run edge to edge of a 10 m face: persistent, or where every
+    # trace runs out of sight (one set here), a lower bound that says so under the table.
+    rows = rock.set_rows()
+    assert {row["persistence"] for row in rows} <= {"very high", "high or more"}
+    hidden = [s for s, row in enumerate(rows) if row["joint_traces"] == row["joint_traces_censored"] > 0]
+    assert hidden, "no set whose traces all run off the face: the case below is not tested"
+    for s, row in enumerate(rows):
+        note = censored_traces_note(s, row)
+        if s in hidden:
+            assert np.isnan(row["joint_trace_mean_m"]) and note in set_notes(s, row)
+            assert note.startswith(f"All {row['joint_traces']} of set {s}'s joint traces run out of sight")
+            assert f"{row['joint_trace_median_m']:.2f} m median seen is a lower bound" in note
+        else:
+            assert np.isfinite(row["joint_trace_mean_m"]) and note is None
 
 
 def test_persistence_traces_and_censoring_at_the_cloud_edge(outcrop):

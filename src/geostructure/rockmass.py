@@ -30,7 +30,6 @@ import numpy as np
 from .exposure import Persistence, exposure, plane_persistence
 from .face import face_parts
 from .spacing import (
-    MIN_SCANLINE_COSINE,
     PlaneMoments,
     joint_planes,
     nearest_plane_gaps,
@@ -120,7 +119,7 @@ class RockMass:
     def traces_only(self) -> np.ndarray:
         """Per set, whether its joints are counted only where their traces show: when that
         spacing is :data:`TRACE_DISAGREEMENT` times or more the persistent planes' (see
-        :func:`persistence_note`)."""
+        :func:`.setnotes.persistence_note`)."""
         if not self.trace_scanlines:
             return np.zeros(len(self.scanlines), dtype=bool)
         persistent = np.array([line.spacing for line in self.scanlines], dtype=np.float64)
@@ -156,7 +155,7 @@ class RockMass:
     @property
     def jv(self) -> float:
         """Volumetric joint count (joints per m^3): the sum of 1 / spacing over the sets whose
-        spacing was measured (:func:`jv_scope` names those left out)."""
+        spacing was measured (:func:`.setnotes.jv_scope` names those left out)."""
         s = self.spacing
         return float(np.sum(1.0 / s[np.isfinite(s)])) if np.isfinite(s).any() else float("nan")
 
@@ -262,33 +261,6 @@ class RockMass:
         }
 
 
-def unmeasured_spacing(set_id: int, row: dict) -> str | None:
-    """Why set ``set_id`` has no scanline spacing (nor P10, nor P32), in a sentence, from its
-    row of ``sets.csv`` (:meth:`RockMass.set_rows`); None when it has one. A set whose planes
-    lie along the exposed face (a horizontal face's bedding, a wall's own joints) is
-    crossed by no line drawn on that face (ISRM 1978's blind zone, Terzaghi 1965).
-
-    Examples
-    --------
-    >>> row = {"spacing_m": float("nan"), "scanline_cosine": 0.0229, "spacing_nearest_m": 3.128}
-    >>> unmeasured_spacing(0, row)
-    "Set 0 lies along the exposed face (its mean normal 1° from the face's), so no scanline on the face crosses it: its spacing, P10, P32 and traces are not measured (its nearest-plane spacing, after DSE, is 3.13 m)."
-    """
-    if np.isfinite(row["spacing_m"]):
-        return None
-    cosine = float(row["scanline_cosine"])
-    unmeasured = "spacing, P10 and P32"
-    if cosine < MIN_SCANLINE_COSINE:
-        angle = np.degrees(np.arcsin(np.clip(cosine, 0.0, 1.0)))
-        why = f"lies along the exposed face (its mean normal {angle:.0f}° from the face's), so no scanline on the face crosses it"
-        unmeasured = "spacing, P10, P32 and traces"  # the face shows its planes whole, not their traces
-    else:
-        why = "has no joint that a scanline on the exposed face crosses"
-    near = float(row.get("spacing_nearest_m", np.nan))
-    tail = f" (its nearest-plane spacing, after DSE, is {near:.2f} m)" if np.isfinite(near) else ""
-    return f"Set {set_id} {why}: its {unmeasured} are not measured{tail}."
-
-
 #: A set's joints are counted only where their traces show when that spacing is this many
 #: times the persistent planes': they are seen over short stretches of the face. On twenty
 #: faces of planes that cross the rock mass the two differ by 1.55 times at most, and by 1.79
@@ -296,57 +268,6 @@ def unmeasured_spacing(set_id: int, row: dict) -> str | None:
 #: faces of joints 1.5 to 6 m across, by 2.2 to 6.3 times (docs/rockmass.md, "Persistence and
 #: spacing").
 TRACE_DISAGREEMENT = 2.0
-
-
-def persistence_note(set_id: int, row: dict) -> str | None:
-    """A sentence when set ``set_id``'s spacing counts its joints only where their traces
-    show (``spacing_basis`` "traces" in its row of ``sets.csv``), naming both spacings.
-
-    Examples
-    --------
-    >>> persistence_note(1, {"spacing_basis": "traces", "spacing_persistent_m": 0.11, "spacing_traces_m": 0.52})
-    "Set 1's joints show over short stretches of the face: its spacing, 0.52 m, counts each only where its trace shows (0.11 m if each were a plane across the whole face)."
-    >>> persistence_note(1, {"spacing_basis": "persistent", "spacing_persistent_m": 0.5}) is None
-    True
-    """
-    if row.get("spacing_basis") != "traces":
-        return None
-    return (
-        f"Set {set_id}'s joints show over short stretches of the face: its spacing, {float(row['spacing_traces_m']):.2f} m, "
-        f"counts each only where its trace shows ({float(row['spacing_persistent_m']):.2f} m if each were a plane "
-        "across the whole face)."
-    )
-
-
-def off_face_scope(ground: int, clutter: int) -> str:
-    """What of the planes in no set is not the rock's: ``"; of them 1 the level ground before
-    the face and 31 in clutter such as vegetation"``, or ``""`` when none is.
-
-    Examples
-    --------
-    >>> off_face_scope(1, 31)
-    '; of them 1 the level ground before the face and 31 in clutter such as vegetation'
-    >>> off_face_scope(0, 0)
-    ''
-    """
-    parts = [f"{n} {what}" for n, what in ((ground, "the level ground before the face"),
-                                           (clutter, "in clutter such as vegetation")) if n]  # fmt: skip
-    return f"; of them {' and '.join(parts)}" if parts else ""
-
-
-def jv_scope(rows: list[dict]) -> str:
-    """What the volumetric joint count leaves out: ``" (without sets 0, 2)"`` when some of
-    the sets' rows (:meth:`RockMass.set_rows`, in set order) have no spacing, else ``""``.
-
-    Examples
-    --------
-    >>> jv_scope([{"spacing_m": float("nan")}, {"spacing_m": 0.4}])
-    ' (without set 0)'
-    """
-    missing = [s for s, row in enumerate(rows) if not np.isfinite(row["spacing_m"])]
-    if not missing:
-        return ""
-    return f" (without set{'s' if len(missing) > 1 else ''} {', '.join(map(str, missing))})"
 
 
 def rock_mass(

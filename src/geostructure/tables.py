@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .orientation import whole_azimuth
-from .rockmass import jv_scope, off_face_scope, persistence_note, unmeasured_spacing
+from .setnotes import jv_scope, off_face_scope, set_notes
 from .sets import MIN_SET_PLANES
 
 
@@ -123,7 +123,7 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         )
     console.print(table)
     for s, more in enumerate(rock_rows):
-        for note in filter(None, (unmeasured_spacing(s, more), persistence_note(s, more)) if more else ()):
+        for note in set_notes(s, more) if more else ():
             console.print(note)
 
 

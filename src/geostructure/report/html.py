@@ -18,7 +18,7 @@ from ..io.atomic import atomic_path, plain
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..rockmass import jv_scope, off_face_scope, persistence_note, unmeasured_spacing
+from ..setnotes import jv_scope, off_face_scope, set_notes
 from ..tables import FAILURE_MODES, SET_KINEMATIC_COLUMNS, failure_mode_cells, set_kinematic_cells
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -319,12 +319,8 @@ def set_table(scene: ReportScene) -> str:
             f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³{jv_scope(scene.sets)}, "
             f"block volume {rock['block_volume_m3']:.3g} m³ (Palmström, 36/Jv³)"
         )
-    notes = (
-        [note(int(row["set"]), row) for row in scene.sets for note in (unmeasured_spacing, persistence_note)]
-        if measured
-        else []
-    )
-    notes = "".join(f'<p class="note">{_escape(n)}</p>' for n in notes if n)
+    notes = [note for row in scene.sets for note in set_notes(int(row["set"]), row)] if measured else []
+    notes = "".join(f'<p class="note">{_escape(n)}</p>' for n in notes)
     return (
         f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead>'
         f"<tbody>{''.join(rows)}</tbody></table>{notes}"

@@ -1,0 +1,128 @@
+"""The sentences under a table of joint sets (the terminal's and the report's).
+
+Each takes a set's row of ``sets.csv`` (:meth:`.rockmass.RockMass.set_rows`, or the file
+read back) and says, in words, what its figures leave out: a spacing that no scanline can
+measure, a spacing counted on the joints' traces, traces that all run out of sight, the
+sets Jv leaves out and the planes in no set that are not the rock's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .spacing import MIN_SCANLINE_COSINE
+
+
+def set_notes(set_id: int, row: dict) -> list[str]:
+    """Every sentence due under set ``set_id``'s row (``sets.csv``), in the tables' order.
+
+    Examples
+    --------
+    >>> set_notes(2, {"spacing_m": 0.4, "spacing_basis": "persistent", "joint_traces": 5, "joint_trace_mean_m": 2.1})
+    []
+    """
+    notes = (unmeasured_spacing(set_id, row), persistence_note(set_id, row), censored_traces_note(set_id, row))
+    return [note for note in notes if note]
+
+
+def unmeasured_spacing(set_id: int, row: dict) -> str | None:
+    """Why set ``set_id`` has no scanline spacing (nor P10, nor P32), in a sentence, from its
+    row of ``sets.csv`` (:meth:`.rockmass.RockMass.set_rows`); None when it has one. A set whose planes
+    lie along the exposed face (a horizontal face's bedding, a wall's own joints) is
+    crossed by no line drawn on that face (ISRM 1978's blind zone, Terzaghi 1965).
+
+    Examples
+    --------
+    >>> row = {"spacing_m": float("nan"), "scanline_cosine": 0.0229, "spacing_nearest_m": 3.128}
+    >>> unmeasured_spacing(0, row)
+    "Set 0 lies along the exposed face (its mean normal 1° from the face's), so no scanline on the face crosses it: its spacing, P10, P32 and traces are not measured (its nearest-plane spacing, after DSE, is 3.13 m)."
+    """
+    if np.isfinite(row["spacing_m"]):
+        return None
+    cosine = float(row["scanline_cosine"])
+    unmeasured = "spacing, P10 and P32"
+    if cosine < MIN_SCANLINE_COSINE:
+        angle = np.degrees(np.arcsin(np.clip(cosine, 0.0, 1.0)))
+        why = f"lies along the exposed face (its mean normal {angle:.0f}° from the face's), so no scanline on the face crosses it"
+        unmeasured = "spacing, P10, P32 and traces"  # the face shows its planes whole, not their traces
+    else:
+        why = "has no joint that a scanline on the exposed face crosses"
+    near = float(row.get("spacing_nearest_m", np.nan))
+    tail = f" (its nearest-plane spacing, after DSE, is {near:.2f} m)" if np.isfinite(near) else ""
+    return f"Set {set_id} {why}: its {unmeasured} are not measured{tail}."
+
+
+def persistence_note(set_id: int, row: dict) -> str | None:
+    """A sentence when set ``set_id``'s spacing counts its joints only where their traces
+    show (``spacing_basis`` "traces" in its row of ``sets.csv``), naming both spacings.
+
+    Examples
+    --------
+    >>> persistence_note(1, {"spacing_basis": "traces", "spacing_persistent_m": 0.11, "spacing_traces_m": 0.52})
+    "Set 1's joints show over short stretches of the face: its spacing, 0.52 m, counts each only where its trace shows (0.11 m if each were a plane across the whole face)."
+    >>> persistence_note(1, {"spacing_basis": "persistent", "spacing_persistent_m": 0.5}) is None
+    True
+    """
+    if row.get("spacing_basis") != "traces":
+        return None
+    return (
+        f"Set {set_id}'s joints show over short stretches of the face: its spacing, {float(row['spacing_traces_m']):.2f} m, "
+        f"counts each only where its trace shows ({float(row['spacing_persistent_m']):.2f} m if each were a plane "
+        "across the whole face)."
+    )
+
+
+def off_face_scope(ground: int, clutter: int) -> str:
+    """What of the planes in no set is not the rock's: ``"; of them 1 the level ground before
+    the face and 31 in clutter such as vegetation"``, or ``""`` when none is.
+
+    Examples
+    --------
+    >>> off_face_scope(1, 31)
+    '; of them 1 the level ground before the face and 31 in clutter such as vegetation'
+    >>> off_face_scope(0, 0)
+    ''
+    """
+    parts = [f"{n} {what}" for n, what in ((ground, "the level ground before the face"),
+                                           (clutter, "in clutter such as vegetation")) if n]  # fmt: skip
+    return f"; of them {' and '.join(parts)}" if parts else ""
+
+
+def jv_scope(rows: list[dict]) -> str:
+    """What the volumetric joint count leaves out: ``" (without sets 0, 2)"`` when some of
+    the sets' rows (:meth:`.rockmass.RockMass.set_rows`, in set order) have no spacing, else ``""``.
+
+    Examples
+    --------
+    >>> jv_scope([{"spacing_m": float("nan")}, {"spacing_m": 0.4}])
+    ' (without set 0)'
+    """
+    missing = [s for s, row in enumerate(rows) if not np.isfinite(row["spacing_m"])]
+    if not missing:
+        return ""
+    return f" (without set{'s' if len(missing) > 1 else ''} {', '.join(map(str, missing))})"
+
+
+def censored_traces_note(set_id: int, row: dict) -> str | None:
+    """A sentence when every joint trace of set ``set_id`` runs out of sight (to the face's
+    edge or a hole): their mean length with censoring cannot be estimated, and what was seen
+    is a lower bound (the ``persistence`` column's "or more"). None otherwise.
+
+    Examples
+    --------
+    >>> row = {"joint_traces": 8, "joint_trace_mean_m": float("nan"), "joint_trace_median_m": 1.327,
+    ...        "persistence": "low or more"}
+    >>> censored_traces_note(0, row)
+    "All 8 of set 0's joint traces run out of sight (to the face's edge or a hole), so their mean length is not measured: the 1.33 m median seen is a lower bound, and its persistence is low or more."
+    >>> censored_traces_note(0, {"joint_traces": 8, "joint_trace_mean_m": 2.0}) is None
+    True
+    """
+    traces = int(float(row.get("joint_traces") or 0))
+    if not traces or np.isfinite(float(row.get("joint_trace_mean_m", np.nan))):
+        return None
+    every = f"All {traces} of set {set_id}'s joint traces run" if traces > 1 else f"Set {set_id}'s one joint trace runs"
+    seen = "median seen" if traces > 1 else "length seen"
+    return (
+        f"{every} out of sight (to the face's edge or a hole), so their mean length is not measured: the "
+        f"{float(row['joint_trace_median_m']):.2f} m {seen} is a lower bound, and its persistence is {row['persistence']}."
+    )
