@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from geostructure.exposure import exposure
-from geostructure.spacing import PlaneMoments
+from geostructure.joints import PlaneMoments
 from geostructure.traces import TRACE_MARGIN, Traces, joint_traces, persistence_class, trace_lengths
 
 

@@ -29,13 +29,8 @@ import numpy as np
 
 from .exposure import Persistence, exposure, plane_persistence
 from .face import face_parts
-from .spacing import (
-    PlaneMoments,
-    joint_planes,
-    nearest_plane_gaps,
-    scanline_spacing,
-    spacing_statistics,
-)
+from .joints import PlaneMoments, joint_planes
+from .spacing import nearest_plane_gaps, scanline_spacing, spacing_statistics
 from .traces import TraceLengths, joint_traces, trace_lengths
 from .uncertainty import correlated_tilt
 

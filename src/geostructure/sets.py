@@ -164,7 +164,7 @@ def find_sets(
     centroids : (P, 3) array, optional
         The planes' centroids. When given with ``weights`` (their areas), a number of sets is
         chosen only if each of its sets holds :data:`MIN_SET_JOINTS` joints or more, facets on
-        one plane counting as one joint (:func:`~.spacing.joint_planes`): the facets of a
+        one plane counting as one joint (:func:`~.joints.joint_planes`): the facets of a
         single joint drawn far from its set's mean are that joint, not a set.
 
     Examples
@@ -235,7 +235,7 @@ def find_sets(
 def _joint_counter(x, centroids, area):
     """A function of (labels, k): the number of distinct joints in each of the k sets, counted
     up to :data:`MIN_SET_JOINTS` (all the choice asks)."""
-    from .spacing import PlaneMoments, joint_planes  # lazy: the sets need the joints only here
+    from .joints import PlaneMoments, joint_planes  # lazy: the sets need the joints only here
 
     # Each facet as a disc of its area: count, centroid and in-plane scatter (r^2 / 4 per axis).
     count = np.maximum(area, 1e-9)

@@ -1,6 +1,6 @@
 """Each joint's trace on the face: the stretches its facets show, and their lengths.
 
-A joint (:func:`~.spacing.joint_planes`, the facets of one plane) meets the mean face along
+A joint (:func:`~.joints.joint_planes`, the facets of one plane) meets the mean face along
 a line, its trace. The cloud shows the joint only where the face runs along it, as facets;
 elsewhere its trace is a crack that the points do not show. :func:`joint_traces` takes the
 stretches of the trace its facets cover, bridging short gaps, and
@@ -20,7 +20,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from .exposure import Exposure
-    from .spacing import PlaneMoments
+    from .joints import PlaneMoments
 
 #: A joint's trace on the face runs across a gap of up to this length (m) between its facets
 #: (where another set's facet crosses it, or the face is hidden) ...
@@ -66,7 +66,7 @@ def joint_traces(moments: PlaneMoments, joint, joint_normal, face_normal) -> Tra
     >>> rng = np.random.default_rng(0)
     >>> patch = lambda x0: np.column_stack([x0 + rng.random(300), np.zeros(300), rng.random(300)])
     >>> points = np.vstack([patch(0.0), patch(1.5), patch(6.0)])
-    >>> from geostructure.spacing import PlaneMoments
+    >>> from geostructure.joints import PlaneMoments
     >>> moments = PlaneMoments.of(points, np.repeat([0, 1, 2], 300), 3)
     >>> traces = joint_traces(moments, np.array([0, 0, 0]), np.array([[0.0, 1.0, 0.0]]), [0.0, 0.0, 1.0])
     >>> traces.joint.tolist(), np.round(traces.end - traces.start, 1).tolist()
@@ -151,7 +151,7 @@ def trace_lengths(traces: Traces, joint_centre, face: Exposure) -> TraceLengths:
     """The lengths of the stretches of ``traces`` (:func:`joint_traces`), each censored when
     the face is not exposed (beyond its edge, or in a hole the cameras left) somewhere
     within :data:`TRACE_MARGIN` of either of its ends: the joint may run on there unseen.
-    ``joint_centre`` (J, 3) is a point on each joint, as :func:`~.spacing.joint_planes`
+    ``joint_centre`` (J, 3) is a point on each joint, as :func:`~.joints.joint_planes`
     gives, in the coordinates of the face (:class:`~.exposure.Exposure`).
 
     Examples
