@@ -7,6 +7,7 @@
   a survey of a rock cut holds besides its rock.
 """
 
+from .joints import fisher_directions
 from .observatory import (
     PAPER_NORMALS,
     PAPER_TABLE,
@@ -17,7 +18,7 @@ from .observatory import (
     paper_to_enu,
     sample_rectangle,
 )
-from .outcrop import JointSet, OutcropScene, fisher_directions, outcrop_scene
+from .outcrop import JointSet, OutcropScene, outcrop_scene
 from .surroundings import bushes_on, crest_above, road_before
 
 __all__ = [
