@@ -105,7 +105,7 @@ def test_bushes_on_the_face_cost_few_facets_and_make_few_planes(outcrop):
     """Vegetation: three bushes (noisy half-shells, 28,573 points; they hide 12% of the
     face's) made so many of the facet grid's cells that its scatter read 31 degrees, the grid
     was coarsened until no facet was trusted, and the recall fell to 0.34 (0.96 without the
-    bushes). The scatter is now read on the surface's cells (cells.surface_cells)."""
+    bushes). The scatter is now read on the surface's cells (gridscatter.surface_cells)."""
     bushes, hidden = bushes_on(outcrop, 3, seed=4)
     result = measure(Cloud(np.vstack([outcrop.cloud.points[~hidden], bushes])))
     assert match_facets(result.planes, outcrop).recall > 0.85  # measured 0.874: the hidden facets are lost

@@ -36,17 +36,10 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .bounds import column_min
-from .cells import (
-    CellGrid,
-    CellPlanes,
-    far_scatter,
-    grid_planes,
-    neighbour_pairs,
-    sampled_far_scatter,
-    with_sparse_cells_filled,
-)
+from .cells import CellGrid, CellPlanes, grid_planes, neighbour_pairs, with_sparse_cells_filled
 from .density import point_spacing
 from .gridkeys import binned_sums
+from .gridscatter import far_scatter, sampled_far_scatter
 from .sampling import sampled_blocks
 from .threads import run_blocks, run_tasks
 
@@ -58,7 +51,7 @@ DETECTORS = ("facets", "voxel")
 #: to 80%.
 CELL_EDGE = 1.35
 #: Largest angle (degrees) between local planes two cells apart for them to be trusted (its
-#: 40th percentile, :data:`~.cells.SCATTER_PERCENTILE`, on the surface's cells); where they
+#: 40th percentile, :data:`~.gridscatter.SCATTER_PERCENTILE`, on the surface's cells); where they
 #: wander more, the grid's edge is doubled, up to COARSENING_ROUNDS times, and where they
 #: still do (a noisy SfM cloud), no facet is trusted: every point is left to the voxel
 #: growing. Measured (as medians, which decided until 2026-12-05): 3.3 to 4.7 on rough
@@ -78,7 +71,7 @@ ANGLE_FACTOR = 2.5
 #: 1,556 facets is under two cells across, and none on the observatory.
 MIN_FACET_CELLS_ACROSS = 2.0
 #: Above this many points, the scatter that decides whether to coarsen the grid is read on
-#: this many cells drawn at random (:func:`~.cells.sampled_far_scatter`), and only the grid
+#: this many cells drawn at random (:func:`~.gridscatter.sampled_far_scatter`), and only the grid
 #: chosen gets its planes: at 8M observatory points each whole grid took some 19 s, and
 #: three were built. Below it, every grid is fitted whole, as before.
 SCATTER_SAMPLE_POINTS = 1_000_000
@@ -370,7 +363,7 @@ def sampled_edge(points: np.ndarray, edge: float, seed: int = 0) -> float:
 
 
 def _sampled_scatter(grid, seed: int, among: np.ndarray) -> float:
-    """:func:`~.cells.sampled_far_scatter` on a tenth of the cells, or all near the limit."""
+    """:func:`~.gridscatter.sampled_far_scatter` on a tenth of the cells, or all near the limit."""
     quick = sampled_far_scatter(grid, SCATTER_SAMPLE_CELLS // 10, seed, among=among)
     if abs(quick - MAX_CELL_SCATTER) > QUICK_SCATTER_MARGIN * MAX_CELL_SCATTER:
         return quick
