@@ -330,7 +330,7 @@ def rock_mass(
         members = np.flatnonzero(set_labels == s)
         own = moments.subset(members)
         joint, joint_normal, joint_centre = joint_planes(own, normals[members])
-        joints += [(members[joint == j], joint_normal[j]) for j in range(len(joint_normal))]
+        joints += [members[joint == j] for j in range(len(joint_normal))]
         traces = joint_traces(own, joint, joint_normal, face.normal)
         line = scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv)
         result.scanlines.append(line)
@@ -349,7 +349,7 @@ def rock_mass(
             sines = np.sqrt(np.clip(1.0 - (normals[members] @ face.normal) ** 2, 0.0, 1.0))
             result.c23[s] = 1.0 / max(sines.mean(), 1e-6)
     if standard_errors is not None:
-        result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, joints)
+        result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, joints, moments)
     return result
 
 

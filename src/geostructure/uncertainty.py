@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .eigen import smallest_eigenpair
 from .threads import run_blocks
 
 #: Blocks along each of a plane's two axes for the regression on block means.
@@ -219,11 +220,29 @@ def errors_from_sums(sums: BlockSums, axes, up=(0.0, 0.0, 1.0)) -> dict:
     }
 
 
-def correlated_tilt(normals, standard_errors, joints) -> tuple[float, int]:
+#: A facet counts in the correlated tilt while its squared angle to its joint's plane is
+#: within this many times its expected value (the tilt's variance plus its own); beyond it,
+#: it is taken for another joint's. 3 keeps 95% of the angles of an isotropic normal error.
+#: On fifteen synthetic faces (planes through the rock mass, joints 1.5 to 10 m across) the
+#: calibration ratio read 0.80 to 1.20 for any value from 2.75 to 3.25; 4 let mixed joints
+#: through (0.60 on a 12 x 6 m face of 1.5 m joints), 2 cut the tilt to nothing on three.
+TILT_KEEP = 3.0
+
+
+def correlated_tilt(normals, standard_errors, joints, moments, iterations: int = 50) -> tuple[float, int]:
     """The tilt (degrees, RMS) that errors correlated over more than a plane give every
     plane alike, read from the cloud itself: the facets of one joint share its normal, so the
     part of their scatter about it that their own standard errors do not explain is that
     tilt. Returns it and the number of facets it was read from (0: no joint had three).
+
+    Each facet is compared with the plane of its joint's other facets (their points pooled),
+    not with the plane it helped fit, which leans towards it. A joint grown on a rough face
+    can hold facets of neighbouring joints of its set a few degrees off (on faces of short
+    joints, a third of its facets): a facet whose squared angle is beyond :data:`TILT_KEEP`
+    times its expected value (the tilt's variance plus its own) is left out, and the tilt read again
+    from the facets kept, until it settles; the mean of the angles kept is scaled for the
+    truncation. A mean over all facets read 2.7 degrees on such faces where the truth is
+    0.9 (docs/rockmass.md, "Honest uncertainty").
 
     Parameters
     ----------
@@ -231,35 +250,72 @@ def correlated_tilt(normals, standard_errors, joints) -> tuple[float, int]:
         The planes' normals.
     standard_errors : (P,) array
         Their standard errors (degrees, :func:`normal_standard_errors`).
-    joints : sequence of (member indices, joint normal)
-        Each joint's planes (three or more count) and its fitted normal.
+    joints : sequence of index arrays
+        Each joint's planes (joints of three or more count).
+    moments : PlaneMoments
+        The planes' point counts, centroids and scatters (:class:`~.joints.PlaneMoments`).
 
     Examples
     --------
+    >>> from geostructure.joints import PlaneMoments
     >>> rng = np.random.default_rng(0)
     >>> tilt = np.radians(1.0) * rng.standard_normal((40, 2)) / np.sqrt(2)  # 1 degree RMS
     >>> normals = np.column_stack([tilt, np.ones(40)])
     >>> normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    >>> value, n = correlated_tilt(normals, np.full(40, 0.2), [(np.arange(40), np.array([0, 0, 1.0]))])
+    >>> u = rng.uniform(-1.0, 1.0, (40, 2))  # facets side by side on the plane z = 0
+    >>> moments = PlaneMoments(np.full(40, 50.0), np.column_stack([4 * u, np.zeros(40)]), np.tile(np.diag([1.0, 1.0, 1e-4]), (40, 1, 1)))
+    >>> value, n = correlated_tilt(normals, np.full(40, 0.2), [np.arange(40)], moments)
     >>> bool(0.8 < value < 1.2), n
     (True, 40)
     """
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    se = np.asarray(standard_errors, dtype=np.float64)
-    excess = []
-    for members, normal in joints:
-        members = np.asarray(members)
-        if len(members) < 3:
-            continue
-        cos = np.clip(np.abs(normals[members] @ np.asarray(normal, dtype=np.float64)), 0.0, 1.0)
-        excess.append(np.degrees(np.arccos(cos)) ** 2 - se[members] ** 2)
-    excess = np.concatenate(excess) if excess else np.zeros(0)
-    excess = excess[np.isfinite(excess)]
-    if len(excess) == 0:
+    se2 = np.asarray(standard_errors, dtype=np.float64) ** 2
+    joints = [np.asarray(j, dtype=np.int64) for j in joints if len(j) >= 3]
+    if not joints:
         return 0.0, 0
-    # A facet joined to the wrong joint would dominate a mean of squares: leave out the top 5%.
-    kept = excess[excess <= np.percentile(excess, 95)]
-    return float(np.sqrt(max(kept.mean(), 0.0))), int(len(excess))
+    member = np.concatenate(joints)
+    joint = np.repeat(np.arange(len(joints)), [len(j) for j in joints])
+    usable = np.isfinite(se2[member]) & np.isfinite(normals[member]).all(axis=1)
+    member, joint = member[usable], joint[usable]
+    n, n_joints = moments.count[member], len(joints)
+    # Each facet's first and second moments about its joint's centroid (no cancellation).
+    centre = np.stack([np.bincount(joint, n * moments.centroid[member, a], n_joints) for a in range(3)], axis=1)
+    centre /= np.maximum(np.bincount(joint, n, n_joints), 1.0)[:, None]
+    d = moments.centroid[member] - centre[joint]
+    first = n[:, None] * d
+    second = (moments.scatter[member] + first[:, :, None] * d[:, None, :]).reshape(-1, 9)
+    own = normals[member]
+
+    def angles_to_the_others(kept):
+        """Each facet's angle (degrees) to the plane of its joint's kept facets, itself left out."""
+        totals = [np.bincount(joint, w * kept, n_joints) for w in (n, *first.T, *second.T)]
+        total = np.column_stack(totals)[joint]
+        mine = np.column_stack([n, first, second]) * kept[:, None]
+        other = total - mine
+        count = np.maximum(other[:, 0], 1e-12)
+        scatter = other[:, 4:].reshape(-1, 3, 3) - other[:, 1:4, None] * other[:, None, 1:4] / count[:, None, None]
+        plane = smallest_eigenpair(scatter)[1]
+        cosine = np.abs(np.einsum("ij,ij->i", own, plane))
+        return np.degrees(np.arccos(np.clip(cosine, 0.0, 1.0)))
+
+    kept = np.ones(len(member), dtype=bool)
+    angle2 = angles_to_the_others(kept) ** 2
+    # A start robust to the other joints' facets: the median of an exponential is ln 2 its mean.
+    tilt2 = max(float(np.median(angle2) / np.log(2) - np.median(se2[member])), 1e-4)
+    truncation = 1.0 - TILT_KEEP * np.exp(-TILT_KEEP) / (1.0 - np.exp(-TILT_KEEP))  # mean kept of Exp(1)
+    for _ in range(iterations):
+        kept = angle2 <= TILT_KEEP * (tilt2 + se2[member])
+        kept &= (np.bincount(joint, kept, n_joints) >= 3)[joint]  # a plane of two others at least
+        if not kept.any():
+            return 0.0, 0
+        angle2 = angles_to_the_others(kept) ** 2
+        counted = kept & (angle2 <= TILT_KEEP * (tilt2 + se2[member]))
+        new = max(float(np.mean(angle2[counted] / truncation - se2[member][counted])), 0.0) if counted.any() else 0.0
+        settled = abs(new - tilt2) <= 1e-4 * max(tilt2, 1e-6)
+        tilt2 = new
+        if settled:
+            break
+    return float(np.sqrt(tilt2)), int(counted.sum())
 
 
 def with_correlated_tilt(errors: dict, tilt: float, normals, up=(0.0, 0.0, 1.0)) -> dict:
