@@ -194,7 +194,20 @@ def find_sets(
         candidates = [int(n_sets)]
     else:
         candidates = list(range(1, max(1, min(max_sets, len(x) // MIN_SET_PLANES)) + 1))
-    fits, bic = {}, {}
+    fits, bic, holds = {}, {}, {}
+    count_joints = (
+        _joint_counter(x, np.asarray(centroids, dtype=np.float64).reshape(len(x), 3), area)
+        if centroids is not None and weights is not None
+        else None
+    )
+
+    def holds_its_joints(k: int) -> bool:  # each set MIN_SET_JOINTS joints or more (counted once per k)
+        if count_joints is None:
+            return True
+        if k not in holds:
+            holds[k] = min(count_joints(_assign(x, fits[k]), k)) >= MIN_SET_JOINTS
+        return holds[k]
+
     for k in candidates:
         if len(x) < k * MIN_SET_PLANES:
             continue
@@ -203,6 +216,13 @@ def find_sets(
         fits[k] = _fit_mixture(x, w, k, rng, starts=EM_STARTS if k > 1 else 1)
         # Weighted, the log-likelihood counts the planes n / n_eff times over: scale it back.
         bic[k] = -2.0 * fits[k]["loglik"] * n_eff / len(x) + (3 * k + k) * np.log(max(n_eff, 2.0))
+        # BIC risen twice running past a fit that would be chosen: more sets only split sets
+        # (on a 40 x 16 m face of three sets, the fits of 4 to 6 sets were 95% of the time).
+        last = sorted(bic)[-3:]
+        if n_sets is None and len(last) == 3 and bic[last[2]] > bic[last[1]] > bic[last[0]]:
+            best = min(bic, key=bic.get)
+            if _separated(fits[best]["means"], MIN_SEPARATION) and holds_its_joints(best):
+                break
     if not fits:
         if n_sets is not None:
             warnings.warn(
@@ -214,11 +234,10 @@ def find_sets(
             )
         return _empty(len(x))
     admissible = sorted((k for k in bic if _separated(fits[k]["means"], MIN_SEPARATION)), key=bic.get)
-    if centroids is not None and weights is not None:
-        joints = _joint_counter(x, np.asarray(centroids, dtype=np.float64).reshape(len(x), 3), area)
+    if count_joints is not None:
         # Tried from the smallest BIC up, the first that passes is the choice: counting the
         # joints of the others would not change it.
-        admissible = next(([k] for k in admissible if min(joints(_assign(x, fits[k]), k)) >= MIN_SET_JOINTS), [])
+        admissible = next(([k] for k in admissible if holds_its_joints(k)), [])
     best = (admissible[0] if admissible else min(bic, key=bic.get)) if n_sets is None else candidates[0]
     labels = _assign(x, fits[best])
     found = _summarise(x, area, labels, frame, "bic" if n_sets is None else "given", bic)
