@@ -238,11 +238,11 @@ def correlated_tilt(normals, standard_errors, joints, moments, iterations: int =
     Each facet is compared with the plane of its joint's other facets (their points pooled),
     not with the plane it helped fit, which leans towards it. A joint grown on a rough face
     can hold facets of neighbouring joints of its set a few degrees off (on faces of short
-    joints, a third of its facets): a facet whose squared angle is beyond :data:`TILT_KEEP`
-    times its expected value (the tilt's variance plus its own) is left out, and the tilt read again
-    from the facets kept, until it settles; the mean of the angles kept is scaled for the
-    truncation. A mean over all facets read 2.7 degrees on such faces where the truth is
-    0.9 (docs/rockmass.md, "Honest uncertainty").
+    joints, up to a third of its facets): a facet whose squared angle is beyond
+    :data:`TILT_KEEP` times its expected value (the tilt's variance plus its own) is left
+    out, and the tilt read again from the facets kept until it settles; the mean of the
+    squared angles kept is scaled for the cut. A mean over all facets read 2.7 degrees on
+    such faces where the truth is 0.9 (docs/rockmass.md, "Honest uncertainty").
 
     Parameters
     ----------
@@ -277,6 +277,8 @@ def correlated_tilt(normals, standard_errors, joints, moments, iterations: int =
     joint = np.repeat(np.arange(len(joints)), [len(j) for j in joints])
     usable = np.isfinite(se2[member]) & np.isfinite(normals[member]).all(axis=1)
     member, joint = member[usable], joint[usable]
+    if not len(member):
+        return 0.0, 0
     n, n_joints = moments.count[member], len(joints)
     # Each facet's first and second moments about its joint's centroid (no cancellation).
     centre = np.stack([np.bincount(joint, n * moments.centroid[member, a], n_joints) for a in range(3)], axis=1)
@@ -303,6 +305,7 @@ def correlated_tilt(normals, standard_errors, joints, moments, iterations: int =
     # A start robust to the other joints' facets: the median of an exponential is ln 2 its mean.
     tilt2 = max(float(np.median(angle2) / np.log(2) - np.median(se2[member])), 1e-4)
     truncation = 1.0 - TILT_KEEP * np.exp(-TILT_KEEP) / (1.0 - np.exp(-TILT_KEEP))  # mean kept of Exp(1)
+    counted = np.zeros(len(member), dtype=bool)
     for _ in range(iterations):
         kept = angle2 <= TILT_KEEP * (tilt2 + se2[member])
         kept &= (np.bincount(joint, kept, n_joints) >= 3)[joint]  # a plane of two others at least
