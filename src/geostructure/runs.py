@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import GeoStructureNote, GeoStructureWarning
+from .errors import GeoStructureWarning
 from .exposure import exposure
-from .face import CLUTTER, face_parts
+from .face import face_parts
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
@@ -36,6 +36,7 @@ from .planes import Planes, plane_rows
 from .reconstruct.georef import unscaled
 from .rockmass import RockMass, rock_mass, with_rock_mass
 from .scoring import Evaluation, stage_evaluation
+from .setnotes import note_vegetation, note_voxel_planes
 from .sets import JointSets, find_sets
 from .uncertainty import normal_standard_errors, with_correlated_tilt
 
@@ -230,31 +231,6 @@ def sets_and_rock_mass(
     return sets, rock
 
 
-def note_vegetation(vegetation, rock: RockMass, source) -> None:
-    """A note (:class:`~.errors.GeoStructureNote`) of the points the input classifies as
-    vegetation that the sets' face left out as clutter (:func:`~.face.face_parts`: none when
-    the cloud has no other face to tell them from)."""
-    if vegetation is None or not np.any(vegetation):
-        return
-    if rock.point_part is None:  # next to no face but the vegetation: it was measured as one
-        warnings.warn(
-            f"{source}: nearly every point is classified as vegetation (LAS classes 3 to 5); with no rock face "
-            f"to tell them from, they are measured as the face.",
-            GeoStructureNote,
-            stacklevel=2,
-        )
-        return
-    n = int(np.count_nonzero(np.asarray(vegetation) & (rock.point_part == CLUTTER)))
-    if n:
-        warnings.warn(
-            f"{source}: {n:,} point{'s' if n != 1 else ''} classified as vegetation (LAS classes 3 to 5) "
-            f"{'are' if n != 1 else 'is'} taken for clutter, not rock face: in regions.laz as face_part 2, out of "
-            f"the exposure, the scanlines and the slope.",
-            GeoStructureNote,
-            stacklevel=2,
-        )
-
-
 def detected_spacing(detection: dict | None) -> float | None:
     """The point spacing the facet detector read (a run's ``detection`` record), if it ran.
 
@@ -318,6 +294,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
                                         spacing=spacing, metres_per_unit=recorded_unit(outputs.record)["metres"],
                                         vegetation=vegetation)  # fmt: skip
         note_vegetation(vegetation, rock, outdir)
+        note_voxel_planes((outputs.record.get("params") or {}).get("detector"), outdir)
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))

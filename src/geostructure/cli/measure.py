@@ -20,8 +20,9 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
-from ..runs import add_report, detected_spacing, note_vegetation, save_measurement, sets_and_rock_mass
+from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
 from ..scoring import add_evaluation
+from ..setnotes import note_vegetation, note_voxel_planes
 from ..slope_stability import add_kinematics, fit_slope
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
@@ -186,6 +187,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
                                             metres_per_unit=cloud_unit(crs, unit)["metres"],
                                             vegetation=result.filtered.vegetation)  # fmt: skip
             note_vegetation(result.filtered.vegetation, rock, cloud.source)
+            note_voxel_planes(params.detector, cloud.source)
         progress("write", 0, None)
         paths = save_measurement(
             result,
