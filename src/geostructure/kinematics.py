@@ -53,14 +53,17 @@ MIN_PAIR_ANGLE = 10.0
 
 @dataclass(frozen=True)
 class Slope:
-    """The slope face: dip, dip direction, their standard errors (degrees), and how it was
-    set (``given``, or ``fitted`` to the cloud)."""
+    """The slope face: dip, dip direction, their standard errors (degrees), how it was set
+    (``given``, or ``fitted`` to the cloud), and for a fitted one how far the face turns along
+    its strike (degrees, :func:`~.exposure.face_bend`): one plane stands for a face that
+    turns by :data:`~.exposure.BENT_FACE` or more for none of its parts."""
 
     dip: float
     dip_direction: float
     dip_uncertainty: float = 0.0
     dip_direction_uncertainty: float = 0.0
     source: str = "given"
+    face_bend: float = 0.0
 
     def __post_init__(self):
         if not (np.isfinite(self.dip) and 0.0 < self.dip <= 90.0):

@@ -104,6 +104,7 @@ class RockMass:
     c23: np.ndarray = field(default_factory=lambda: np.zeros(0))
     correlated_tilt: float = 0.0  # degrees RMS, read from the joints' facets
     correlated_tilt_n: int = 0  # facets it was read from
+    face_bend: float = 0.0  # degrees the face turns along its strike (exposure.face_bend)
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
@@ -250,6 +251,7 @@ class RockMass:
             f"where their traces show for a set whose spacing that makes {TRACE_DISAGREEMENT:g} times as long",
             "correlated_tilt_deg": self.correlated_tilt,
             "correlated_tilt_facets": self.correlated_tilt_n,
+            "face_bend_deg": self.face_bend,
             "metres_per_cloud_unit": self.metres_per_unit,
             "ground_planes": 0 if self.ground is None else int(self.ground.sum()),
             "clutter_planes": 0 if self.clutter is None else int(self.clutter.sum()),
@@ -320,6 +322,7 @@ def rock_mass(
     centroids = moments.centroid
     n_sets = len(set_normals)
     result = RockMass(persistence, face.area, set_labels)
+    result.face_bend = face.bend
     if parts is not None:
         result.ground, result.clutter, result.point_part = parts.ground, parts.clutter, parts.point_part
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)

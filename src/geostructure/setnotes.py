@@ -6,7 +6,7 @@ no scanline can measure, a spacing counted on the joints' traces, traces that al
 of sight, the sets Jv leaves out and the planes in no set that are not the rock's. The
 notes a sets run prints (:class:`~.errors.GeoStructureNote`) say what of the cloud it left
 out or could not see: the points classified as vegetation, the joints a voxel detector
-misses.
+misses, a face that turns.
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ import warnings
 
 import numpy as np
 
-from .errors import GeoStructureNote
+from .errors import GeoStructureNote, GeoStructureWarning
+from .exposure import BENT_FACE
 from .face import CLUTTER
 from .rockmass import RockMass
 from .spacing import MIN_SCANLINE_COSINE
@@ -177,3 +178,55 @@ def note_voxel_planes(detector: str | None, source) -> None:
         GeoStructureNote,
         stacklevel=2,
     )
+
+
+def bent_face(bend: float) -> str | None:
+    """The sentence for a face that turns by :data:`~.exposure.BENT_FACE` degrees or more
+    along its strike (:func:`~.exposure.face_bend`; ``face_bend_deg`` in ``run.json``); None
+    for one that does not. Its scanlines, exposure and P21 lie on one mean face, which stands
+    for none of its parts: two 12 x 6 m faces dipping 75 degrees and turned 90 degrees from
+    each other make a mean face dipping 8.
+
+    Examples
+    --------
+    >>> bent_face(39.2)[:70]
+    'The face turns by 39 degrees along its strike (a corner or a curve): t'
+    >>> bent_face(6.0) is None
+    True
+    """
+    if not bend >= BENT_FACE:
+        return None
+    return (
+        f"The face turns by {bend:.0f} degrees along its strike (a corner or a curve): the sets' scanlines and "
+        f"exposure lie on one mean face, which stands for none of its parts, so their spacing, traces and "
+        f"intensities are approximate. For those, measure each face on its own (a cloud cropped to it)."
+    )
+
+
+def bent_slope(slope: dict) -> str | None:
+    """The sentence for a slope fitted to a face that turns (``kinematics.json``'s ``slope``);
+    None for a slope given, or fitted to a face that does not turn.
+
+    Examples
+    --------
+    >>> bent_slope({"dip": 8.1, "dip_direction": 218.0, "source": "fitted", "face_bend_deg": 76.4})[:60]
+    'The slope fitted, 8/218, is the mean plane of a face that tu'
+    >>> bent_slope({"dip": 75.0, "dip_direction": 180.0, "source": "given"}) is None
+    True
+    """
+    bend = slope.get("face_bend_deg", 0.0)
+    if slope.get("source") != "fitted" or not bend >= BENT_FACE:
+        return None
+    return (
+        f"The slope fitted, {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, is the mean plane of a face that turns "
+        f"by {bend:.0f} degrees along its strike (a corner or a curve): no part of the face has it, and the tests "
+        f"against it mean little. Give the slope of the part to test with --slope DIP/DIPDIR, or measure each face "
+        f"on its own (a cloud cropped to it)."
+    )
+
+
+def note_bent_face(bend: float, source) -> None:
+    """:func:`bent_face`'s sentence as a warning, naming ``source``."""
+    sentence = bent_face(bend)
+    if sentence:
+        warnings.warn(f"{source}: {sentence[0].lower()}{sentence[1:]}", GeoStructureWarning, stacklevel=2)

@@ -8,10 +8,12 @@ per plane, per pair of planes and per set, and adds ``kinematics.csv``, ``wedges
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from .errors import ParameterError
-from .exposure import face_plane
+from .errors import GeoStructureWarning, ParameterError
+from .exposure import face_bend, face_plane
 from .face import face_members
 from .io.atomic import write_columns_csv, write_figure, write_json, write_table_csv
 from .io.crs import recorded_unit
@@ -30,6 +32,7 @@ from .kinematics import (
 )
 from .orientation import Frame, normal_from_orientation, orientation_from_normals
 from .planes import plane_rows
+from .setnotes import bent_slope
 from .uncertainty import normal_standard_errors
 
 #: Pairs are tested among this many of the largest planes at most.
@@ -67,6 +70,7 @@ def fit_slope(points, frame: Frame = Frame(), members=None) -> Slope:
         float(errors["dip"][0]),
         float(errors["dip_direction"][0]),
         "fitted",
+        face_bend(points, up),
     )
 
 
@@ -159,6 +163,9 @@ def add_kinematics(
         summary, rows, wedge_columns, figure = kinematics_of(
             planes, read_sets(outputs.outdir), slope, friction, lateral_limit, strength
         )
+        sentence = bent_slope(summary["slope"])
+        if sentence:
+            warnings.warn(f"{outdir}: {sentence[0].lower()}{sentence[1:]}", GeoStructureWarning, stacklevel=2)
         report("write", 0, None)
         write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
         write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))
@@ -277,6 +284,7 @@ def kinematics_of(
             "dip_uncertainty_deg": slope.dip_uncertainty,
             "dip_direction_uncertainty_deg": slope.dip_direction_uncertainty,
             "source": slope.source,
+            **({"face_bend_deg": slope.face_bend} if slope.source == "fitted" else {}),
         },
         "friction_deg": friction,
         "lateral_limit_deg": lateral_limit,

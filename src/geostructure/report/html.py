@@ -18,7 +18,7 @@ from ..io.atomic import atomic_path, plain
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..setnotes import jv_scope, off_face_scope, set_notes
+from ..setnotes import bent_face, bent_slope, jv_scope, off_face_scope, set_notes
 from ..tables import FAILURE_MODES, SET_KINEMATIC_COLUMNS, failure_mode_cells, set_kinematic_cells
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -320,7 +320,9 @@ def set_table(scene: ReportScene) -> str:
             f"block volume {rock['block_volume_m3']:.3g} m³ (Palmström, 36/Jv³)"
         )
     notes = [note for row in scene.sets for note in set_notes(int(row["set"]), row)] if measured else []
-    notes = "".join(f'<p class="note">{_escape(n)}</p>' for n in notes)
+    notes = "".join(
+        f'<p class="note">{_escape(n)}</p>' for n in notes + [bent_face((rock or {}).get("face_bend_deg", 0))] if n
+    )
     return (
         f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead>'
         f"<tbody>{''.join(rows)}</tbody></table>{notes}"
@@ -348,7 +350,7 @@ def kinematic_table(scene: ReportScene) -> str:
     html = (
         f'<table id="kinematics"><caption>{caption}</caption><thead><tr><th>Failure mode</th><th>Planes critical</th>'
         f"<th>% by count</th><th>% by area</th></tr></thead><tbody>{rows}</tbody></table>"
-    )
+    ) + "".join(f'<p class="note">{_escape(n)}</p>' for n in [bent_slope(slope)] if n)
     # kinematics.json of an older run lacks the set means' orientation: no per-set table then
     sets = [row for row in kinematics.get("sets") or [] if "mean_dip" in row]
     if not sets:
