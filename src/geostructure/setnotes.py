@@ -3,10 +3,10 @@
 The sentences under the table (the terminal's and the report's) each take a set's row of
 ``sets.csv`` (:meth:`.rockmass.RockMass.set_rows`, or the file read back): a spacing that
 no scanline can measure, a spacing counted on the joints' traces, traces that all run out
-of sight, the sets Jv leaves out and the planes in no set that are not the rock's. The
-notes a sets run prints (:class:`~.errors.GeoStructureNote`) say what of the cloud it left
-out or could not see: the points classified as vegetation, the joints a voxel detector
-misses, a face that turns.
+of sight, the sets Jv leaves out and the planes in no set that are not the rock's, a face
+that turns. The notes and warnings a sets run prints say what of the cloud it left out or
+could not see: the points classified as vegetation, the joints a voxel detector misses, a
+face that turns.
 """
 
 from __future__ import annotations
@@ -36,9 +36,9 @@ def set_notes(set_id: int, row: dict) -> list[str]:
 
 def unmeasured_spacing(set_id: int, row: dict) -> str | None:
     """Why set ``set_id`` has no scanline spacing (nor P10, nor P32), in a sentence, from its
-    row of ``sets.csv`` (:meth:`.rockmass.RockMass.set_rows`); None when it has one. A set whose planes
-    lie along the exposed face (a horizontal face's bedding, a wall's own joints) is
-    crossed by no line drawn on that face (ISRM 1978's blind zone, Terzaghi 1965).
+    row of ``sets.csv`` (:meth:`.rockmass.RockMass.set_rows`); None when it has one. A set
+    whose planes lie along the exposed face (a horizontal face's bedding, a wall's own
+    joints) is crossed by no line drawn on that face (ISRM 1978's blind zone, Terzaghi 1965).
 
     Examples
     --------
