@@ -71,7 +71,15 @@ def test_a_killed_measure_leaves_one_complete_set(runs, tmp_path):
         process = subprocess.Popen(measure_command(clouds["new"], work), stderr=subprocess.PIPE, text=True)
         time.sleep(seconds * fraction)
         process.send_signal(signal.SIGINT if i % 2 else signal.SIGKILL)
-        _, err = process.communicate(timeout=120)
+        try:
+            _, err = process.communicate(timeout=120)
+        except subprocess.TimeoutExpired:  # stuck: ask it where its threads are, then end it
+            process.send_signal(signal.SIGUSR1)
+            time.sleep(2.0)
+            process.kill()
+            _, err = process.communicate()
+            pytest.fail(f"measure outlived {'an interrupt' if i % 2 else 'a kill'} at {fraction:.3f} of its run by "
+                        f"120 s; its threads:\n{err}")  # fmt: skip
         assert "Traceback" not in err, err
         if (work / STAGING / JOURNAL).exists():  # killed inside the commit: the next command finishes it
             seen["committed"] += 1

@@ -2,7 +2,9 @@
 interrupt during start-up (while numpy and friends load, or the options are built) answered
 as one during work."""
 
+import faulthandler
 import os
+import signal
 import sys
 
 
@@ -26,8 +28,17 @@ def prefer_small_pages() -> None:
             setter(choice.strip() == "1")
 
 
+def stacks_on_request() -> None:
+    """``kill -USR1 PID`` prints where every thread of a running command is, on stderr, and
+    the command goes on: how a run that seems stuck tells what it is doing (the kill test
+    asks a run that outlives an interrupt for it)."""
+    if hasattr(signal, "SIGUSR1"):  # not on Windows
+        faulthandler.register(signal.SIGUSR1, all_threads=True, chain=False)
+
+
 def run(argv=None) -> int:
     prefer_small_pages()  # before numpy is imported: it reads the switch then
+    stacks_on_request()
     try:
         from .cli import build_parser, main  # lazy on purpose: the import itself may be interrupted
 

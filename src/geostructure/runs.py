@@ -38,6 +38,7 @@ from .rockmass import RockMass, rock_mass, with_rock_mass
 from .scoring import Evaluation, stage_evaluation
 from .setnotes import note_bent_face, note_vegetation, note_voxel_planes
 from .sets import JointSets, find_sets
+from .threads import preload
 from .uncertainty import normal_standard_errors, with_correlated_tilt
 
 
@@ -219,6 +220,7 @@ def sets_and_rock_mass(
     """
     report = progress or (lambda stage: None)
     report("sets")
+    preload("scipy.ndimage")  # the exposure's thread imports it (threads.preload says why)
     with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
         f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
         # The face without the ground before it and the clutter (vegetation) on it.

@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import __version__
 from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
+from ..threads import preload
 from .atomic import atomic_path, write_json, write_table_csv
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
@@ -198,7 +199,9 @@ def write_result(
         planes = with_rock_mass(result.planes, sets, rock)
     # The two point files in threads while the tables are written here: the PLY is mostly
     # the kernel's copy into the page cache, the LAZ lazrs's compression, the tables Python's.
-    # Leaving the pool waits for both, so an error or an interrupt finds them finished.
+    # Leaving the pool waits for both, so an error or an interrupt finds them finished. The
+    # libraries both sides import are imported first, here (threads.preload says why).
+    preload("plyfile", "laspy", "lazrs")
     with ThreadPoolExecutor(2) as pool:
         point_writes = []
         if point_files:
