@@ -213,3 +213,33 @@ def _refit(k: int, weight, first, second, ref, normal, point) -> None:
     fitted = np.linalg.eigh(second[k] - shift[:, None] * first[k])[1][:, 0]
     normal[k] = fitted if fitted @ normal[k] >= 0 else -fitted
     point[k] = ref[k] + shift
+
+
+def joint_counter(normals, centroids, area, enough: int):
+    """A function of (labels, k): the number of distinct joints in each of ``k`` sets of
+    planes (``labels``, -1 for none), counted up to ``enough`` (joints never merge, so a
+    count that need only reach it can stop there). Each plane is a disc of its ``area`` at
+    its centroid, so the sets' choice (:func:`~.sets.find_sets`) needs no points.
+
+    Examples
+    --------
+    >>> normals = np.tile([0.0, 0.0, 1.0], (4, 1))
+    >>> centroids = np.array([[0, 0, 0.0], [3, 0, 0.0], [0, 0, 0.5], [0, 0, 1.0]])  # 3 joints
+    >>> count = joint_counter(normals, centroids, np.ones(4), enough=3)
+    >>> count(np.zeros(4, dtype=int), 1), count(np.array([0, 0, 1, 1]), 2)
+    ([3], [1, 2])
+    """
+    x = np.asarray(normals, dtype=np.float64)
+    area = np.asarray(area, dtype=np.float64)
+    # Each facet as a disc of its area: count, centroid and in-plane scatter (r^2 / 4 per axis).
+    count = np.maximum(area, 1e-9)
+    scatter = (count * area / (4.0 * np.pi))[:, None, None] * (np.eye(3) - np.einsum("pi,pj->pij", x, x))
+    moments = PlaneMoments(count, np.asarray(centroids, dtype=np.float64), scatter)
+
+    def joints(labels, k):
+        return [
+            int(joint_planes(moments.subset(m), x[m], enough=enough)[0].max(initial=-1)) + 1
+            for m in (np.flatnonzero(labels == j) for j in range(k))
+        ]
+
+    return joints

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import GeoStructureWarning, ParameterError
+from .joints import joint_counter
 from .orientation import Frame, orientation_from_normals
 
 #: Sets tried at most when the number is chosen by BIC.
@@ -196,7 +197,7 @@ def find_sets(
         candidates = list(range(1, max(1, min(max_sets, len(x) // MIN_SET_PLANES)) + 1))
     fits, bic, holds = {}, {}, {}
     count_joints = (
-        _joint_counter(x, np.asarray(centroids, dtype=np.float64).reshape(len(x), 3), area)
+        joint_counter(x, np.asarray(centroids, dtype=np.float64).reshape(len(x), 3), area, MIN_SET_JOINTS)
         if centroids is not None and weights is not None
         else None
     )
@@ -249,25 +250,6 @@ def find_sets(
             stacklevel=2,
         )
     return found
-
-
-def _joint_counter(x, centroids, area):
-    """A function of (labels, k): the number of distinct joints in each of the k sets, counted
-    up to :data:`MIN_SET_JOINTS` (all the choice asks)."""
-    from .joints import PlaneMoments, joint_planes  # lazy: the sets need the joints only here
-
-    # Each facet as a disc of its area: count, centroid and in-plane scatter (r^2 / 4 per axis).
-    count = np.maximum(area, 1e-9)
-    scatter = (count * area / (4.0 * np.pi))[:, None, None] * (np.eye(3) - np.einsum("pi,pj->pij", x, x))
-    moments = PlaneMoments(count, centroids, scatter)
-
-    def joints(labels, k):
-        return [
-            int(joint_planes(moments.subset(m), x[m], enough=MIN_SET_JOINTS)[0].max(initial=-1)) + 1
-            for m in (np.flatnonzero(labels == j) for j in range(k))
-        ]
-
-    return joints
 
 
 def _separated(means: np.ndarray, degrees: float) -> bool:
