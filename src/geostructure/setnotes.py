@@ -225,8 +225,13 @@ def bent_slope(slope: dict) -> str | None:
     )
 
 
+def warn_of(sentence: str | None, source) -> None:
+    """A sentence of this module (:func:`bent_face`, :func:`bent_slope`) as a warning naming
+    ``source``; nothing for None."""
+    if sentence:
+        warnings.warn(f"{source}: {sentence[0].lower()}{sentence[1:]}", GeoStructureWarning, stacklevel=3)
+
+
 def note_bent_face(bend: float, source) -> None:
     """:func:`bent_face`'s sentence as a warning, naming ``source``."""
-    sentence = bent_face(bend)
-    if sentence:
-        warnings.warn(f"{source}: {sentence[0].lower()}{sentence[1:]}", GeoStructureWarning, stacklevel=2)
+    warn_of(bent_face(bend), source)

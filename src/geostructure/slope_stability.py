@@ -8,11 +8,9 @@ per plane, per pair of planes and per set, and adds ``kinematics.csv``, ``wedges
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
-from .errors import GeoStructureWarning, ParameterError
+from .errors import ParameterError
 from .exposure import face_bend, face_plane
 from .face import face_members
 from .io.atomic import write_columns_csv, write_figure, write_json, write_table_csv
@@ -32,19 +30,20 @@ from .kinematics import (
 )
 from .orientation import Frame, normal_from_orientation, orientation_from_normals
 from .planes import plane_rows
-from .setnotes import bent_slope
+from .setnotes import bent_slope, warn_of
 from .uncertainty import normal_standard_errors
 
 #: Pairs are tested among this many of the largest planes at most.
 MAX_WEDGE_PLANES = 2000
 
 
-def fit_slope(points, frame: Frame = Frame(), members=None) -> Slope:
+def fit_slope(points, frame: Frame = Frame(), members=None, bend: float | None = None) -> Slope:
     """The overall face of an outcrop cloud: the least-squares plane of all its points (not
     its largest joint), with the standard errors of its dip and dip direction from a block
     regression over the whole face (:func:`~.uncertainty.normal_standard_errors`).
     ``members`` (:func:`~.face.face_members`) leaves the ground before or above the face and
-    the clutter on it out (see :func:`~.exposure.exposure`).
+    the clutter on it out (see :func:`~.exposure.exposure`). ``bend``: how far those points
+    turn (:func:`~.exposure.face_bend`), when the sets' exposure measured it already.
 
     Examples
     --------
@@ -70,7 +69,7 @@ def fit_slope(points, frame: Frame = Frame(), members=None) -> Slope:
         float(errors["dip"][0]),
         float(errors["dip_direction"][0]),
         "fitted",
-        face_bend(points, up),
+        face_bend(points, up) if bend is None else float(bend),
     )
 
 
@@ -163,9 +162,7 @@ def add_kinematics(
         summary, rows, wedge_columns, figure = kinematics_of(
             planes, read_sets(outputs.outdir), slope, friction, lateral_limit, strength
         )
-        sentence = bent_slope(summary["slope"])
-        if sentence:
-            warnings.warn(f"{outdir}: {sentence[0].lower()}{sentence[1:]}", GeoStructureWarning, stacklevel=2)
+        warn_of(bent_slope(summary["slope"]), outdir)
         report("write", 0, None)
         write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
         write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))

@@ -286,13 +286,13 @@ def correlated_tilt(normals, standard_errors, joints, moments, iterations: int =
     d = moments.centroid[member] - centre[joint]
     first = n[:, None] * d
     second = (moments.scatter[member] + first[:, :, None] * d[:, None, :]).reshape(-1, 9)
+    sums = np.column_stack([n, first, second])  # (M, 13): what each facet adds to its joint's plane
     own = normals[member]
 
     def angles_to_the_others(kept):
         """Each facet's angle (degrees) to the plane of its joint's kept facets, itself left out."""
-        totals = [np.bincount(joint, w * kept, n_joints) for w in (n, *first.T, *second.T)]
-        total = np.column_stack(totals)[joint]
-        mine = np.column_stack([n, first, second]) * kept[:, None]
+        mine = sums * kept[:, None]
+        total = np.column_stack([np.bincount(joint, column, n_joints) for column in mine.T])[joint]
         other = total - mine
         count = np.maximum(other[:, 0], 1e-12)
         scatter = other[:, 4:].reshape(-1, 3, 3) - other[:, 1:4, None] * other[:, None, 1:4] / count[:, None, None]
