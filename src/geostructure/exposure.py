@@ -26,9 +26,9 @@ from .sampling import order_free_sample
 SMALL_HOLE_CELLS = 2
 #: Points per occupancy cell, on average.
 CELL_POINTS = 8
-#: A face whose ends (its first and last thirds along strike, or up its dip) face this many
-#: degrees apart or more is not one face but several, or a curve: a road cut that turns, a
-#: quarry's corner. One mean face stands for none of its parts (:func:`face_bend`).
+#: A face whose ends (its first and last thirds along its strike, on the map) face this
+#: many degrees apart or more is not one face but several, or a curve: a road cut that turns,
+#: a quarry's corner. One mean face stands for none of its parts (:func:`face_bend`).
 BENT_FACE = 25.0
 
 
@@ -167,9 +167,8 @@ def face_bend(points, up=(0.0, 0.0, 1.0), seed: int = 0) -> float:
     about 0.3 m RMS), and a plane fitted to a few metres of steps tilts with them. On 29
     synthetic faces, flat but stepped (12 x 6 to 40 x 16 m), it read at most 15.4 degrees
     (on the smallest); on two 12 x 6 m faces side by side turned by 20, 30, 40 and 90
-    degrees, 20, 31, 39 and 76. A terrain
-    (lying within 30 degrees of level, its relief under a tenth of its breadth) has no such
-    trace: 0.
+    degrees, 20, 31, 39 and 76. A terrain (lying within 30 degrees of level, its relief
+    under a tenth of its breadth) has no such trace: 0.
 
     Examples
     --------
@@ -185,13 +184,14 @@ def face_bend(points, up=(0.0, 0.0, 1.0), seed: int = 0) -> float:
     if len(points) < 30:
         return 0.0
     sample = points[order_free_sample(points, min(len(points), 60_000), seed + 2)]
+    sample = sample - sample.mean(axis=0)
     up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
-    spread, axes = np.linalg.svd(sample - sample.mean(axis=0), full_matrices=False)[1:]
+    spread, axes = np.linalg.svd(sample, full_matrices=False)[1:]
     if abs(axes[2] @ up) > np.cos(np.radians(30.0)) and spread[2] <= 0.1 * spread[0]:
         return 0.0  # a terrain (an airborne survey, a quarry floor): it has no trace on the map
     east = np.cross([0.0, 1.0, 0.0] if abs(up[0]) > 0.9 else [1.0, 0.0, 0.0], up)
     east /= np.linalg.norm(east)
-    plan = (sample - sample.mean(axis=0)) @ np.array([east, np.cross(up, east)]).T
+    plan = sample @ np.array([east, np.cross(up, east)]).T
     length, across = np.linalg.svd(plan, full_matrices=False)[2]  # the trace's direction first
     along, offset = plan @ length, plan @ across
     first, last = np.quantile(along, [1.0 / 3.0, 2.0 / 3.0])
