@@ -189,9 +189,22 @@ def face_bend(points, up=(0.0, 0.0, 1.0), seed: int = 0) -> float:
     spread, axes = np.linalg.svd(sample, full_matrices=False)[1:]
     if abs(axes[2] @ up) > np.cos(np.radians(30.0)) and spread[2] <= 0.1 * spread[0]:
         return 0.0  # a terrain (an airborne survey, a quarry floor): it has no trace on the map
-    east = np.cross([0.0, 1.0, 0.0] if abs(up[0]) > 0.9 else [1.0, 0.0, 0.0], up)
-    east /= np.linalg.norm(east)
-    plan = sample @ np.array([east, np.cross(up, east)]).T
+    return trace_turn(sample @ plan_axes(up).T)
+
+
+def trace_turn(plan) -> float:
+    """How far a face's trace on the map turns (degrees): the angle between the straight-line
+    fits of its first and last thirds along its length (see :func:`face_bend`). ``plan``:
+    (N, 2) map coordinates.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 300)
+    >>> round(trace_turn(np.column_stack([np.cos(t), np.sin(t)])))  # an arc of 57 degrees
+    38
+    """
+    plan = np.asarray(plan, dtype=np.float64)
+    plan = plan - plan.mean(axis=0)
     length, across = np.linalg.svd(plan, full_matrices=False)[2]  # the trace's direction first
     along, offset = plan @ length, plan @ across
     first, last = np.quantile(along, [1.0 / 3.0, 2.0 / 3.0])
@@ -200,6 +213,20 @@ def face_bend(points, up=(0.0, 0.0, 1.0), seed: int = 0) -> float:
         t, h = along[end] - along[end].mean(), offset[end] - offset[end].mean()
         turns.append(np.degrees(np.arctan2(float(t @ h), float(t @ t))))
     return abs(turns[1] - turns[0])
+
+
+def plan_axes(up) -> np.ndarray:
+    """The map's two axes (2, 3), east and north, square to ``up`` (a unit vector): the
+    frame a face's trace is read in (:func:`face_bend`, :mod:`.sections`).
+
+    Examples
+    --------
+    >>> plan_axes(np.array([0.0, 0.0, 1.0])).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    """
+    east = np.cross([1.0, 0.0, 0.0] if abs(up[1]) > 0.9 else [0.0, 1.0, 0.0], up)
+    east /= np.linalg.norm(east)
+    return np.array([east, np.cross(up, east)])
 
 
 def mean_face(points, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

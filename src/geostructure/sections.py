@@ -1,0 +1,213 @@
+"""A face that turns, cut into sections: the straight stretches of its trace on the map.
+
+A road cut that bends or a quarry's corner is several faces, and a slope stability analysis
+tests each joint against the face it daylights in, not against their mean plane (two
+12 x 6 m faces dipping 75 degrees and turned 90 degrees from each other fit a plane dipping
+8). Seen from above, such a face is a band that turns. :func:`face_sections` cuts the band
+where it turns, at the break that leaves the two straightest sides (the least squares of
+their points about one line each), while the sides turn from each other by
+:data:`~.exposure.BENT_FACE` or more, and again inside each side; :meth:`FaceSections.of`
+tells which section a point (a plane's centroid) lies in. A face that does not turn
+(:func:`~.exposure.face_bend` under :data:`~.exposure.BENT_FACE`) is one section, so a flat
+face's results are those of its one mean face.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .exposure import BENT_FACE, face_bend, mean_face, plan_axes, trace_turn
+from .sampling import order_free_sample
+
+#: A side of a cut must be at least this many times longer than wide on the map (the ratio of
+#: its spreads along and across its line): shorter, its line turns with the joints' steps
+#: (a face dipping 75 degrees and 6 m high is a band 1.6 m wide on the map).
+ELONGATED = 2.0
+#: Points farther from a side's line than this many times the median are strays (the line is
+#: fitted again without them). A band of even width has its median at a quarter of the width:
+#: 2.5 medians keep all of it.
+STRAY = 2.5
+#: The map grid that tells the face's band from stray points (:func:`_dense`): cells across
+#: the longest side, and the share of the median point's cell a cell must hold.
+MAP_CELLS = 150
+SPARSE = 0.25
+#: Cuts are tried between these shares of the points along the trace: a side needs enough
+#: of the face to have a direction.
+CUT_RANGE = (0.1, 0.9)
+
+
+@dataclass(frozen=True)
+class FaceSections:
+    """The straight stretches of a face's trace on the map, in order along it.
+
+    ``axes`` (2, 3) are the map's east and north in the points' frame; per section,
+    ``centres`` (S, 2) and ``directions`` (S, 2) give its line on the map and ``extents``
+    (S, 2) where along that line its points lie (from, to, about the centre). ``bend`` is how
+    far the whole face turns (:func:`~.exposure.face_bend`).
+    """
+
+    axes: np.ndarray
+    centres: np.ndarray
+    directions: np.ndarray
+    extents: np.ndarray
+    bend: float = 0.0
+
+    def __len__(self) -> int:
+        return len(self.centres)
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Each section's length along its line on the map (in the points' unit)."""
+        return self.extents[:, 1] - self.extents[:, 0]
+
+    def turns(self) -> np.ndarray:
+        """The degrees each section's line turns from the one before it (S - 1)."""
+        cosine = np.sum(self.directions[1:] * self.directions[:-1], axis=1)
+        return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+    def of(self, points) -> np.ndarray:
+        """Which section each point lies in: the nearest stretch on the map (a point beyond
+        a section's end is measured from that end)."""
+        plan = np.asarray(points, dtype=np.float64).reshape(-1, 3) @ self.axes.T
+        if len(self) == 1:
+            return np.zeros(len(plan), dtype=np.int64)
+        distance = np.empty((len(plan), len(self)))
+        for k, (centre, direction, (lo, hi)) in enumerate(zip(self.centres, self.directions, self.extents)):
+            offset = plan - centre
+            along = np.clip(offset @ direction, lo, hi)
+            distance[:, k] = np.sum((offset - along[:, None] * direction) ** 2, axis=1)
+        return np.argmin(distance, axis=1)
+
+
+def face_sections(points, up=(0.0, 0.0, 1.0), seed: int = 0, bend: float | None = None) -> FaceSections:
+    """Cut a face where its trace on the map turns (see the module): one section for a face
+    that does not turn (or a terrain, which has no trace), two for a corner, two or more
+    along a curve. ``bend``: the face's :func:`~.exposure.face_bend`, when measured already.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u, v = rng.random((2, 40_000)) * [[24.0], [6.0]]
+    >>> turn = np.radians(90.0) * (u > 12)  # a vertical cut turning a right angle half way along
+    >>> x = np.where(u > 12, 12 + (u - 12) * np.cos(turn), u)
+    >>> y = np.where(u > 12, (u - 12) * np.sin(turn), 0.0)
+    >>> corner = np.column_stack([x, y, v])
+    >>> sections = face_sections(corner)
+    >>> len(sections), np.round(sections.turns()).tolist(), np.round(sections.lengths).tolist()
+    (2, [90.0], [12.0, 12.0])
+    >>> first, second = sections.of([[6.0, 0.0, 3.0], [12.0, 9.0, 1.0]])  # a point on each arm
+    >>> bool(first != second)
+    True
+    >>> len(face_sections(corner[x < 12]))  # one arm alone does not turn
+    1
+    """
+    points = np.asarray(points, dtype=np.float64)
+    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    axes = plan_axes(up)
+    sample = points[order_free_sample(points, min(len(points), 60_000), seed + 3)]
+    plan = sample @ axes.T
+    if bend is None:
+        bend = face_bend(sample, up, seed)
+    stretches = _stretches(plan[_dense(plan)], turns=True) if bend >= BENT_FACE else [plan]
+    # Numbered from left to right as one faces the rock: along the mean face's strike
+    # (right-hand rule), the map's normal turned a right angle.
+    normal = mean_face(sample, seed)[1][2]
+    across = axes @ (normal if normal @ up >= 0 else -normal)
+    strike = np.array([-across[1], across[0]])
+    lines = [_line(part) for part in stretches]
+    if len(lines) > 1 and (lines[-1][0] - lines[0][0]) @ strike < 0:
+        stretches, lines = stretches[::-1], lines[::-1]
+    whole = lines[-1][0] - lines[0][0] if len(lines) > 1 else strike
+    directions = np.array([d if d @ whole >= 0 else -d for _, d in lines])  # all in order along the trace
+    centres = np.array([c for c, _ in lines])
+    extents = np.array([_extent(part, c, d) for part, c, d in zip(stretches, centres, directions)])
+    return FaceSections(axes, centres, directions, extents, float(bend))
+
+
+def _dense(plan: np.ndarray) -> np.ndarray:
+    """The map points where the face is: in cells of a grid :data:`MAP_CELLS` across its
+    longest side that hold at least :data:`SPARSE` of the median point's cell. Seen from
+    above, the face is a dense band and an SfM cloud's strays are thin streaks off it,
+    metres long, along the cameras' rays; a line fitted to a side turns after them."""
+    low = plan.min(axis=0)
+    cell = max(float(np.ptp(plan, axis=0).max()), 1e-9) / MAP_CELLS
+    ij = np.floor((plan - low) / cell).astype(np.int64)
+    _, cells, counts = np.unique(ij[:, 0] * (MAP_CELLS + 2) + ij[:, 1], return_inverse=True, return_counts=True)
+    held = counts[cells.ravel()]
+    return held >= SPARSE * np.median(held)
+
+
+def _line(plan: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The centre and direction of the least-squares line through map points, fitted again
+    without the points beyond :data:`STRAY` times the median distance from it: an SfM
+    cloud's stray points streak metres off the face, and a side's line turned after them."""
+    return _fit_line(plan[_core(plan)])
+
+
+def _fit_line(plan: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    centre = plan.mean(axis=0)
+    return centre, np.linalg.svd(plan - centre, full_matrices=False)[2][0]
+
+
+def _core(plan: np.ndarray) -> np.ndarray:
+    """The map points within :data:`STRAY` median distances of their least-squares line."""
+    centre, direction = _fit_line(plan)
+    offset = plan - centre
+    across = np.abs(offset[:, 0] * direction[1] - offset[:, 1] * direction[0])
+    return across <= STRAY * np.median(across)
+
+
+def _extent(plan, centre, direction) -> tuple[float, float]:
+    along = (plan - centre) @ direction
+    return float(along.min()), float(along.max())
+
+
+def _stretches(plan: np.ndarray, turns: bool = False) -> list[np.ndarray]:
+    """Map points cut into straight stretches, in order along their line. A stretch that
+    turns (``turns``, or its :func:`~.exposure.trace_turn` :data:`~.exposure.BENT_FACE` or
+    more) is cut at its best cut (:func:`_best_cut`) when the lines of the two sides turn
+    by half that or more (a bend, not the steps of a straight face), and each side is cut
+    again: a curve becomes sections that turn by less than a face that turns."""
+    centre, direction = _line(plan)
+    ordered = plan[np.argsort((plan - centre) @ direction, kind="stable")]
+    cut = _best_cut(ordered)
+    if cut is None or not (turns or trace_turn(ordered) >= BENT_FACE):
+        return [ordered]
+    first, last = ordered[:cut], ordered[cut:]
+    a, b = _line(first)[1], _line(last)[1]
+    turn = np.degrees(np.arccos(np.clip(abs(float(a @ b)), 0.0, 1.0)))
+    if turn < BENT_FACE / 2.0 or not (_elongated(first) and _elongated(last)):
+        return [ordered]
+    return _stretches(first) + _stretches(last)
+
+
+def _elongated(plan: np.ndarray) -> bool:
+    core = plan[_core(plan)]
+    spread = np.linalg.svd(core - core.mean(axis=0), compute_uv=False)
+    return bool(spread[0] >= ELONGATED * spread[1])
+
+
+def _best_cut(ordered: np.ndarray) -> int | None:
+    """The index that cuts map points (ordered along their line) into the two sides with the
+    least sum of squared distances from their own lines, from running sums (every cut at
+    once); None for too few points."""
+    n = len(ordered)
+    lo, hi = int(CUT_RANGE[0] * n), int(CUT_RANGE[1] * n)
+    if n < 60 or hi <= lo:
+        return None
+    p = ordered - ordered.mean(axis=0)
+    sums = np.cumsum(np.column_stack([np.ones(n), p, p[:, 0] ** 2, p[:, 0] * p[:, 1], p[:, 1] ** 2]), axis=0)
+    total = sums[-1]
+    cuts = np.arange(lo, hi)
+    before, after = sums[cuts - 1], total - sums[cuts - 1]
+    return int(cuts[np.argmin(_line_residual(before) + _line_residual(after))])
+
+
+def _line_residual(sums: np.ndarray) -> np.ndarray:
+    """The sum of squared distances of points from their least-squares line, from their
+    running sums (count, x, y, xx, xy, yy): the smaller eigenvalue of their scatter."""
+    n, x, y, xx, xy, yy = sums.T
+    a, b, c = xx - x * x / n, xy - x * y / n, yy - y * y / n
+    return np.maximum((a + c) / 2.0 - np.sqrt(((a - c) / 2.0) ** 2 + b * b), 0.0)
