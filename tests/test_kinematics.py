@@ -431,10 +431,10 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
     from rich.console import Console
 
     from geostructure.io.results import read_planes, read_sets
+    from geostructure.kinematic_summary import kinematics_of
     from geostructure.kinematics import Slope
     from geostructure.projection import great_circle_xy
     from geostructure.report.kinematics_net import kinematic_traces
-    from geostructure.slope_stability import kinematics_of
     from geostructure.tables import print_kinematics
 
     _, out = outcrop_folder

@@ -2,11 +2,17 @@
 a curved road cut in stretches that each turn less than a face that turns, a flat face and a
 terrain left whole."""
 
+import csv
+import json
+
 import numpy as np
 import pytest
+from helpers import run_cli, write_xyz
 from test_face_bend import turned_faces
 
 from geostructure.exposure import BENT_FACE, trace_turn
+from geostructure.io.results import read_planes
+from geostructure.kinematics import Slope, flexural_toppling, planar_sliding
 from geostructure.sections import face_sections
 from geostructure.synthetic import outcrop_scene
 
@@ -51,3 +57,54 @@ def test_flat_faces_and_terrains_are_one_section():
     rng = np.random.default_rng(0)
     ground = np.column_stack([rng.random((5000, 2)) * [400.0, 150.0], rng.normal(0.0, 2.0, 5000)])
     assert len(face_sections(ground)) == 1
+
+
+def corner_faces(turn: float, seed: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """A quarry's corner: two 12 x 6 m faces dipping 75 degrees, the first facing south
+    (x 0 to 12), the second (another face, generated facing south) turned ``turn`` degrees
+    clockwise about the vertical at (12, 0), so that it dips toward 180 + ``turn``.
+    (Generating it with that dip direction would show the default joint sets' two E-W sets
+    end-on to a west face, as facets metres deep.)"""
+    first = outcrop_scene(width=12.0, height=6.0, seed=seed).cloud.points
+    second = outcrop_scene(width=12.0, height=6.0, seed=seed + 50).cloud.points
+    t = np.radians(turn)
+    x, y = second[:, 0], second[:, 1]
+    return first, np.column_stack([12.0 + x * np.cos(t) + y * np.sin(t), y * np.cos(t) - x * np.sin(t), second[:, 2]])
+
+
+def test_a_corner_is_tested_section_by_section(tmp_path, capsys):
+    """Against the mean plane of a right-angled corner (8/225) hardly a plane is critical;
+    each plane against the face it lies on: 114 slide and 136 topple by the truth."""
+    first, second = corner_faces(90.0)
+    path = write_xyz(tmp_path / "corner.xyz", np.vstack([first, second]))
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "measure", path, "-o", out, "--sets", "--kinematics", "--friction", "30")
+    assert code == 0
+    assert "tested in 2 sections" in " ".join(err.split()), err
+    summary = json.loads((out / "kinematics.json").read_text())
+    assert summary["slope"]["dip"] < 15.0 and summary["slope"]["sections"] == 2  # the mean face
+    for section, truth in zip(summary["sections"], (180.0, 270.0)):  # 75.5/180.0 and 74.2/271.1
+        assert section["slope"]["dip"] == pytest.approx(75.0, abs=2.5)
+        assert section["slope"]["dip_direction"] == pytest.approx(truth, abs=2.5)
+    planes = read_planes(out)
+    rows = list(csv.DictReader((out / "kinematics.csv").open()))
+    section = np.array([int(r["section"]) for r in rows])
+    arm = ((planes.centroid[:, :2] - [12.0, 0.0]) @ [0.0, -1.0] > 0).astype(int)  # the second runs south
+    assert np.mean(section == arm) > 0.9  # 0.945: the planes at the corner go either way
+    planar, toppling = (np.array([r[key] == "true" for r in rows]) for key in ("planar_sliding", "flexural_toppling"))
+    true_planar, true_toppling = np.zeros(len(rows), dtype=bool), np.zeros(len(rows), dtype=bool)
+    for k, dip_direction in enumerate((180.0, 270.0)):
+        on = arm == k
+        true_planar[on] = planar_sliding(planes.dip[on], planes.dip_direction[on], Slope(75.0, dip_direction), 30.0)
+        true_toppling[on] = flexural_toppling(
+            planes.dip[on], planes.dip_direction[on], Slope(75.0, dip_direction), 30.0
+        )
+    assert true_planar.sum() > 50 and true_toppling.sum() > 50
+    assert np.mean(planar == true_planar) > 0.95 and np.mean(toppling == true_toppling) > 0.95  # 0.989, 0.981
+    assert summary["planar_sliding"]["planes"] == sum(s["planar_sliding"]["planes"] for s in summary["sections"])
+    wedges = list(csv.DictReader((out / "wedges.csv").open()))
+    assert {int(w["section"]) for w in wedges} == {0, 1}
+    # A slope given is one slope for every plane: no sections.
+    code, _, _ = run_cli(capsys, "kinematics", out, "--friction", "30", "--slope", "75/180", "-q")
+    summary = json.loads((out / "kinematics.json").read_text())
+    assert code == 0 and "sections" not in summary and summary["slope"]["source"] == "given"

@@ -215,7 +215,7 @@ def bent_slope(slope: dict) -> str | None:
     True
     """
     bend = slope.get("face_bend_deg", 0.0)
-    if slope.get("source") != "fitted" or not bend >= BENT_FACE:
+    if slope.get("source") != "fitted" or not bend >= BENT_FACE or slope.get("sections", 1) > 1:
         return None
     return (
         f"The slope fitted, {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, is the mean plane of a face that turns "
@@ -223,6 +223,35 @@ def bent_slope(slope: dict) -> str | None:
         f"against it mean little. Give the slope of the part to test with --slope DIP/DIPDIR, or measure each face "
         f"on its own (a cloud cropped to it)."
     )
+
+
+def sectioned_slope(summary: dict) -> str | None:
+    """The sentence for a face tested in sections (``kinematics.json`` with ``sections``):
+    which slopes, and that each plane was tested against its own section's; None otherwise.
+
+    Examples
+    --------
+    >>> sectioned_slope({"slope": {"face_bend_deg": 76.4, "sections": 2}, "sections": [
+    ...     {"slope": {"dip": 74.6, "dip_direction": 180.2}, "planes": 410},
+    ...     {"slope": {"dip": 75.3, "dip_direction": 268.9}, "planes": 388}]})
+    'The face turns by 76 degrees along its strike, so it was tested in 2 sections from left to right as one faces it: 75/180 (410 planes) and 75/269 (388 planes), each plane against the slope of the section it lies in.'
+    """
+    sections = summary.get("sections") or []
+    if len(sections) < 2:
+        return None
+    parts = [f"{s['slope']['dip']:.0f}/{s['slope']['dip_direction']:03.0f} ({s['planes']:,} planes)" for s in sections]
+    return (
+        f"The face turns by {summary['slope']['face_bend_deg']:.0f} degrees along its strike, so it was tested in "
+        f"{len(sections)} sections from left to right as one faces it: {', '.join(parts[:-1])} and {parts[-1]}, "
+        f"each plane against the slope of the section it lies in."
+    )
+
+
+def note_of(sentence: str | None, source) -> None:
+    """A sentence of this module as a note (:class:`~.errors.GeoStructureNote`) naming
+    ``source``; nothing for None."""
+    if sentence:
+        warnings.warn(f"{source}: {sentence[0].lower()}{sentence[1:]}", GeoStructureNote, stacklevel=3)
 
 
 def warn_of(sentence: str | None, source) -> None:

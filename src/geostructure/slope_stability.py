@@ -8,6 +8,8 @@ per plane, per pair of planes and per set, and adds ``kinematics.csv``, ``wedges
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .errors import ParameterError
@@ -17,24 +19,62 @@ from .io.atomic import write_columns_csv, write_figure, write_json, write_table_
 from .io.crs import recorded_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
 from .io.results import read_planes, read_regions, read_sets
-from .kinematics import (
-    LATERAL_LIMIT,
-    UNIT_WEIGHT,
-    Slope,
-    direct_toppling,
-    flexural_toppling,
-    percent_critical,
-    planar_factor_of_safety,
-    planar_sliding,
-    wedges,
-)
-from .orientation import Frame, normal_from_orientation, orientation_from_normals
+from .kinematic_summary import kinematics_of
+from .kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope
+from .orientation import Frame, orientation_from_normals
 from .planes import plane_rows
-from .setnotes import bent_slope, warn_of
+from .sections import FaceSections, face_sections
+from .setnotes import bent_slope, note_of, sectioned_slope, warn_of
 from .uncertainty import normal_standard_errors
 
-#: Pairs are tested among this many of the largest planes at most.
-MAX_WEDGE_PLANES = 2000
+
+@dataclass(frozen=True)
+class FittedFace:
+    """A slope fitted to a cloud: the whole face's plane (``slope``), and for a face that
+    turns its ``sections`` (:mod:`.sections`) with each one's own fitted slope (``slopes``,
+    in the sections' order; the whole face's alone for a face that does not turn).
+    ``offset``: what the fitted points were relative to (a cloud's ``offset``)."""
+
+    slope: Slope
+    sections: FaceSections | None
+    slopes: tuple[Slope, ...]
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def plane_sections(self, planes) -> np.ndarray:
+        """The section each plane of a table lies in (its centroid's)."""
+        if self.sections is None or len(self.slopes) == 1:
+            return np.zeros(len(planes), dtype=np.int64)
+        return self.sections.of(planes.centroid - np.asarray(self.offset))
+
+
+def fit_face(points, frame: Frame = Frame(), members=None, bend: float | None = None, offset=None) -> FittedFace:
+    """The slope of an outcrop cloud (:func:`fit_slope`), and for a face that turns, the
+    slope of each of its sections (:func:`~.sections.face_sections`), each fitted to the
+    points of its own section. ``members`` and ``bend`` as :func:`fit_slope` takes them;
+    ``offset``: what ``points`` are relative to (a cloud's), for the planes' sections.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u, v = rng.random((2, 40_000)) * [[24.0], [6.0]]
+    >>> arm = u > 12  # a cut dipping 70 degrees that turns a right angle half way along
+    >>> x = np.where(arm, 12.0 + v * np.cos(np.radians(70)), u)
+    >>> y = np.where(arm, 12.0 - u, v * np.cos(np.radians(70)))
+    >>> face = fit_face(np.column_stack([x, y, v * np.sin(np.radians(70))]))
+    >>> round(face.slope.dip), [(round(s.dip), round(s.dip_direction)) for s in face.slopes]
+    (10, [(70, 180), (70, 270)])
+    """
+    points = np.asarray(points, dtype=np.float64)
+    if members is not None:
+        points = points[members]
+    offset = tuple(np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64).reshape(3))
+    slope = fit_slope(points, frame, bend=bend)
+    sections = face_sections(points, frame.matrix[2], bend=slope.face_bend)
+    if len(sections) == 1:
+        return FittedFace(slope, sections, (slope,), offset)
+    label = sections.of(points)
+    slopes = tuple(fit_slope(points[label == k], frame) for k in range(len(sections)))
+    return FittedFace(slope, sections, slopes, offset)
 
 
 def fit_slope(points, frame: Frame = Frame(), members=None, bend: float | None = None) -> Slope:
@@ -93,8 +133,10 @@ def add_kinematics(
         A folder ``geostructure measure`` wrote.
     friction : float
         The joints' friction angle (degrees).
-    slope : Slope, optional
-        The slope face; fitted to the cloud (:func:`fit_slope`) when not given.
+    slope : Slope or FittedFace, optional
+        The slope face, one for all the planes; fitted to the cloud when not given
+        (:func:`fit_face`), and then, on a face that turns, one for each of its sections,
+        each plane tested against its own section's (as a :class:`FittedFace` given is).
     lateral_limit : float
         Degrees either side of the slope's dip direction (of its opposite for toppling).
     cohesion : float
@@ -143,26 +185,32 @@ def add_kinematics(
             if slope is None:
                 spacing = detected_spacing(outputs.record.get("detection"))
                 labels = plane_rows(region, planes.region_id)
-                slope = fit_slope(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
-                                                              spacing=spacing, vegetation=vegetation))  # fmt: skip
+                slope = fit_face(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
+                                                             spacing=spacing, vegetation=vegetation),
+                                 offset=planes.offset)  # fmt: skip
             if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
                 height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
                 strength["height_source"] = "the cloud's height"
         if cohesion:
             strength["height_m"] = float(height)
             strength.setdefault("height_source", "given")
+        face = slope if isinstance(slope, FittedFace) else FittedFace(slope, None, (slope,))
         if upper_slope is not None:
-            if not upper_slope[0] < slope.dip:
+            steepest = min(part.dip for part in face.slopes)
+            if not upper_slope[0] < steepest:
                 raise ParameterError(
-                    f"the upper slope ({upper_slope[0]:g} deg) must dip less than the face ({slope.dip:.1f} deg): "
+                    f"the upper slope ({upper_slope[0]:g} deg) must dip less than the face ({steepest:.1f} deg): "
                     f"there is no crest otherwise."
                 )
             strength["upper_slope_dip"], strength["upper_slope_dip_direction"] = map(float, upper_slope)
         report("kinematics", 0, None)
+        # each plane tested against the slope of the section it lies in
+        sections = (face.plane_sections(planes), face.slopes) if len(face.slopes) > 1 else None
         summary, rows, wedge_columns, figure = kinematics_of(
-            planes, read_sets(outputs.outdir), slope, friction, lateral_limit, strength
+            planes, read_sets(outputs.outdir), face.slope, friction, lateral_limit, strength, sections
         )
         warn_of(bent_slope(summary["slope"]), outdir)
+        note_of(sectioned_slope(summary), outdir)
         report("write", 0, None)
         write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
         write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))
@@ -186,6 +234,7 @@ def add_kinematics(
 KINEMATICS_COLUMNS = (
     "region_id",
     "set",
+    "section",
     "dip",
     "dip_direction",
     "planar_sliding",
@@ -194,195 +243,4 @@ KINEMATICS_COLUMNS = (
     "toppling_base",
     "oblique_toppling_base",
 )
-WEDGE_COLUMNS = ("region_id_a", "region_id_b", "trend", "plunge", "wedge_fs", "slides_on")
-
-
-def kinematics_of(
-    planes, sets: list, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT, strength=None
-):
-    """The tests on a plane table and its sets' rows: (summary, plane rows, wedge columns,
-    figure); ``strength`` holds the cohesion (kPa), unit weight and height for the planar
-    and wedge factors of safety (frictional without it)."""
-    from .report.kinematics_plot import kinematics_figure  # lazy: matplotlib
-
-    dip, dd, area = planes.dip, planes.dip_direction, planes.area
-    set_labels = planes.extra.get("set", np.full(len(planes), -1))
-    planar = planar_sliding(dip, dd, slope, friction, lateral_limit)
-    toppling = flexural_toppling(dip, dd, slope, friction, lateral_limit)
-    strength = strength or {"cohesion_kpa": 0.0, "unit_weight_kn_m3": UNIT_WEIGHT}
-    fs = planar_factor_of_safety(
-        dip,
-        friction,
-        cohesion=strength["cohesion_kpa"],
-        height=strength.get("height_m"),
-        slope_dip=slope.dip,
-        unit_weight=strength["unit_weight_kn_m3"],
-    )
-    tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
-    block = {  # the wedges' strength and the block under the face, for their factors of safety
-        "cohesion": strength["cohesion_kpa"],
-        "height": strength.get("height_m"),
-        "unit_weight": strength["unit_weight_kn_m3"],
-        "upper_normal": normal_from_orientation(strength["upper_slope_dip_direction"], strength["upper_slope_dip"])
-        if "upper_slope_dip" in strength
-        else (0.0, 0.0, 1.0),
-    }
-    w = wedges(dip[tested], dd[tested], slope, friction, max_planes=MAX_WEDGE_PLANES, **block)
-    direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
-    base = np.zeros(len(planes), dtype=bool)
-    base[tested] = direct.base
-    oblique_base = np.zeros(len(planes), dtype=bool)
-    oblique_base[tested] = direct.oblique_base
-    pairs = w.pairs_tested
-    ids = planes.region_id
-    # The sets' mean planes tested as planes are: what a geologist reads off the set table.
-    mean_wedges = wedges(
-        np.array([r["dip"] for r in sets]), np.array([r["dip_direction"] for r in sets]), slope, friction, **block
-    )
-    rows = [
-        {
-            "region_id": int(ids[i]),
-            "set": int(set_labels[i]),
-            "dip": float(dip[i]),
-            "dip_direction": float(dd[i]),
-            "planar_sliding": bool(planar[i]),
-            "flexural_toppling": bool(toppling[i]),
-            "planar_fs": float(fs[i]) if planar[i] else float("nan"),
-            "toppling_base": bool(base[i]),
-            "oblique_toppling_base": bool(oblique_base[i]),
-        }
-        for i in range(len(planes))
-    ]
-    single, ids = np.asarray(w.single_plane), np.asarray(ids).astype(np.int64)
-    wedge_columns = {  # columns, not a dict per pair: an outcrop's 1,500 planes make 240,000
-        "region_id_a": ids[w.a],
-        "region_id_b": ids[w.b],
-        "trend": np.asarray(w.trend, dtype=np.float64),
-        "plunge": np.asarray(w.plunge, dtype=np.float64),
-        "wedge_fs": np.asarray(w.factor_of_safety, dtype=np.float64),
-        "slides_on": np.where(single < 0, "both", ids[np.maximum(single, 0)].astype(str)),
-    }
-    wedge_area = np.zeros(len(planes))
-    in_wedge = np.zeros(len(planes), dtype=bool)
-    in_wedge[w.a], in_wedge[w.b] = True, True
-    wedge_area[in_wedge] = area[in_wedge]
-
-    def mode(critical):
-        return {
-            "planes": int(np.sum(critical)),
-            "percent_by_count": percent_critical(critical),
-            "percent_by_area": percent_critical(critical, np.nan_to_num(area)),
-        }
-
-    summary = {
-        "slope": {
-            "dip": slope.dip,
-            "dip_direction": slope.dip_direction,
-            "dip_uncertainty_deg": slope.dip_uncertainty,
-            "dip_direction_uncertainty_deg": slope.dip_direction_uncertainty,
-            "source": slope.source,
-            **({"face_bend_deg": slope.face_bend} if slope.source == "fitted" else {}),
-        },
-        "friction_deg": friction,
-        "lateral_limit_deg": lateral_limit,
-        "strength": {
-            **strength,
-            "wedge_fs": "with cohesion: the tetrahedral block under the face, "
-            + ("its top the upper slope" if "upper_slope_dip" in strength else "level top")
-            + " (Hoek & Bray 1981)"
-            if strength["cohesion_kpa"]
-            else "frictional",
-        },
-        "planar_sliding": {
-            **mode(planar),
-            "min_fs": float(np.min(fs[planar])) if planar.any() else float("nan"),
-            "median_fs": float(np.median(fs[planar])) if planar.any() else float("nan"),
-        },
-        "flexural_toppling": mode(toppling),
-        "wedge_sliding": {
-            **mode(in_wedge),
-            "pairs_tested": int(pairs),
-            "critical_pairs": int(len(w)),
-            "planes_in_pairs": int(len(tested)),
-        },
-        "direct_toppling": {
-            "critical": direct.critical,
-            "intersections_in_zone": int(len(direct.a)),
-            "percent_of_pairs": 100.0 * len(direct.a) / pairs if pairs else float("nan"),
-            "base_planes": int(direct.base.sum()),
-            "sliding_base_planes": int(direct.sliding_base.sum()),
-            "oblique": {  # Dips' secondary zone: steep columns outside the lateral limits
-                "critical": direct.oblique_critical,
-                "intersections_in_zone": int(len(direct.oblique_a)),
-                "percent_of_pairs": 100.0 * len(direct.oblique_a) / pairs if pairs else float("nan"),
-                "base_planes": int(direct.oblique_base.sum()),
-            },
-        },
-        "sets": _set_summary(
-            sets, mean_wedges, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit
-        ),
-        "set_mean_wedges": [
-            {
-                "sets": [int(sets[a]["set"]), int(sets[b]["set"])],
-                "trend": float(t),
-                "plunge": float(p),
-                "wedge_fs": float(fs),
-            }
-            for a, b, t, p, fs in zip(
-                mean_wedges.a, mean_wedges.b, mean_wedges.trend, mean_wedges.plunge, mean_wedges.factor_of_safety
-            )
-        ],
-    }
-    figure = kinematics_figure(
-        dip, dd, slope=slope, friction=friction, lateral_limit=lateral_limit, planar=planar, toppling=toppling,
-        wedge_lines=(w.trend, w.plunge), toppling_lines=(direct.trend, direct.plunge),
-        oblique_lines=(direct.oblique_trend, direct.oblique_plunge),
-        set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
-        set_wedges=[(*wedge["sets"], wedge["trend"], wedge["plunge"]) for wedge in summary["set_mean_wedges"]],
-    )  # fmt: skip
-    return summary, rows, wedge_columns, figure
-
-
-def _set_summary(
-    sets, mean_wedges, set_labels, planar, toppling, in_wedge, area, slope, friction, lateral_limit
-) -> list[dict]:
-    """Per set: its mean's tests, the share of its planes critical per mode, and the wedges
-    its mean forms with the other sets' means (``mean_wedges``, on the means in ``sets``'s order)."""
-    if not sets:
-        return []
-    mean_dip = np.array([r["dip"] for r in sets])
-    mean_dd = np.array([r["dip_direction"] for r in sets])
-    mean_planar = planar_sliding(mean_dip, mean_dd, slope, friction, lateral_limit)
-    mean_toppling = flexural_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
-    w = mean_wedges
-    direct = direct_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
-    out = []
-    for i, row in enumerate(sets):
-        s = int(row["set"])
-        members = set_labels == s
-        weights = np.nan_to_num(area[members])
-
-        def partners(a, b):  # the sets whose means pair with this one's in (a, b)
-            return [int(sets[y if x == i else x]["set"]) for x, y in zip(a, b) if i in (x, y)]
-
-        out.append(
-            {
-                "set": s,
-                "mean_dip": float(mean_dip[i]),
-                "mean_dip_direction": float(mean_dd[i]),
-                "mean_planar_sliding": bool(mean_planar[i]),
-                "mean_flexural_toppling": bool(mean_toppling[i]),
-                "mean_wedges_with_sets": partners(w.a, w.b),
-                "mean_toppling_blocks_with_sets": partners(direct.a, direct.b) if direct.base.any() else [],
-                "mean_toppling_base": bool(direct.base[i]),
-                "mean_oblique_toppling_blocks_with_sets": partners(direct.oblique_a, direct.oblique_b)
-                if direct.oblique_critical
-                else [],
-                "planar_percent_by_count": percent_critical(planar[members]),
-                "planar_percent_by_area": percent_critical(planar[members], weights),
-                "toppling_percent_by_count": percent_critical(toppling[members]),
-                "toppling_percent_by_area": percent_critical(toppling[members], weights),
-                "wedge_percent_by_count": percent_critical(in_wedge[members]),
-            }
-        )
-    return out
+WEDGE_COLUMNS = ("region_id_a", "region_id_b", "section", "trend", "plunge", "wedge_fs", "slides_on")

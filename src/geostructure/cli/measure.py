@@ -23,7 +23,7 @@ from ..progress import StageProgress
 from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
 from ..scoring import add_evaluation
 from ..setnotes import note_bent_face, note_vegetation, note_voxel_planes
-from ..slope_stability import add_kinematics, fit_slope
+from ..slope_stability import add_kinematics, fit_face
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
@@ -205,7 +205,9 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         # The face the sets' rock mass was read on, fitted here, where its points are:
         # the folder's would be read back and told from their ground and clutter again.
         members = None if rock.point_part is None else rock.point_part == FACE
-        kinematics["slope"] = fit_slope(result.filtered.local, result.frame, members, bend=rock.face_bend)
+        kinematics["slope"] = fit_face(
+            result.filtered.local, result.frame, members, bend=rock.face_bend, offset=result.filtered.offset
+        )
     if kinematics is not None:  # a set of its own, added to the measured folder
         with StageProgress(enabled=not args.quiet) as progress:
             kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics, progress=progress)

@@ -42,6 +42,8 @@ def kinematics_figure(
     oblique_lines=((), ()),
     set_means=(),
     set_wedges=(),
+    fig=None,
+    panel=(0, 1),
 ):
     """Poles (critical for planar sliding red, for flexural toppling orange), the slope's great
     circle (the wedges' daylight envelope), the planar daylight envelope and lateral limits,
@@ -50,15 +52,20 @@ def kinematics_figure(
     circle of lines plunging 90 - slope dip: within the lateral limits, and Dips' secondary
     zone outside them). With joint sets, each set's mean plane (``set_means``: set, dip, dip
     direction) is drawn as a great circle in the set's colour, and the critical wedges their
-    means form (``set_wedges``: set, set, trend, plunge) as stars: the set table on the net."""
+    means form (``set_wedges``: set, set, trend, plunge) as stars: the set table on the net.
+
+    A face tested in sections draws one net per section side by side: ``panel`` (k, n) is
+    the k-th of n, on the ``fig`` the first returned."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(7.0, 8.0))
-    fig.subplots_adjust(left=0.08, right=0.92, top=0.9, bottom=0.22)
+    k, n = panel
+    if fig is None:
+        fig = Figure(figsize=(7.0 * n, 8.0))
+        fig.subplots_adjust(left=0.08 / n, right=1.0 - 0.08 / n, top=0.9, bottom=0.22, wspace=0.3)
     with quiet_mplstereonet():  # importing it registers the projection, with a warning to hush
         import mplstereonet
 
-        ax = fig.add_subplot(111, projection="stereonet")
+        ax = fig.add_subplot(1, n, k + 1, projection="stereonet")
     dip, dip_direction = np.asarray(dip, float), np.asarray(dip_direction, float)
     strike = (dip_direction - 90.0) % 360.0
     alpha_f, psi_f = slope.dip_direction, slope.dip
@@ -116,5 +123,6 @@ def kinematics_figure(
               label=f"wedge of set means {a} and {b}: {plunge:.0f}° toward {whole_azimuth(trend)}")  # fmt: skip
     ax.grid(True)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.04), fontsize=8, frameon=False, ncol=2)
-    ax.set_title(f"Kinematics: slope {psi_f:.0f}/{whole_azimuth(alpha_f)}, friction {friction:g}°", y=1.08)
+    name = f"Section {k}" if n > 1 else "Kinematics"
+    ax.set_title(f"{name}: slope {psi_f:.0f}/{whole_azimuth(alpha_f)}, friction {friction:g}°", y=1.08)
     return fig
