@@ -215,7 +215,10 @@ def add_kinematics(
         write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
         write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))
         write_json(summary, outputs.path("kinematics.json"))
-        write_figure(figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120)
+        # tight: the legend grows with the sets and their wedges
+        write_figure(
+            figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120, bbox_inches="tight"
+        )
         outputs.record["kinematics"] = {
             k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg", "strength")
         }

@@ -153,10 +153,9 @@ def shown(value, digits: int = 2) -> str:
 def print_kinematics(summary: dict, console: Console | None = None) -> None:
     """The kinematic tests' summary (``kinematics.json``), one row per failure mode."""
     console = console or stdout_console()
-    slope = summary["slope"]
     title = (
-        f"Kinematics: slope {slope['dip']:.1f}/{slope['dip_direction']:05.1f} ({slope['source']}), "
-        f"friction {summary['friction_deg']:g}°, lateral limits {summary['lateral_limit_deg']:g}°"
+        f"Kinematics: {slope_text(summary)}, friction {summary['friction_deg']:g}°, "
+        f"lateral limits {summary['lateral_limit_deg']:g}°"
     )
     table = Table(title=title)
     for column in ("failure mode", "planes", "% by count", "% by area"):
@@ -187,8 +186,15 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
             f"{counted(oblique['base_planes'], 'oblique base plane')}: "
             + ("critical." if oblique["critical"] else "not critical.")
         )
+    if summary.get("sections"):
+        table = Table(title="Sections, from left to right as one faces the rock: each plane against its own")
+        for column in SECTION_COLUMNS:
+            table.add_column(column, justify="right")
+        for section in summary["sections"]:
+            table.add_row(*section_cells(section))
+        console.print(table)
     if summary.get("sets"):
-        print_set_kinematics(summary["sets"], console)
+        print_set_kinematics(summary["sets"], console, sectioned=bool(summary.get("sections")))
     for wedge in summary.get("set_mean_wedges", []):
         console.print(set_mean_wedge_line(wedge))
 
@@ -199,6 +205,61 @@ FAILURE_MODES = (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge 
 #: The per-set kinematics table's columns (:func:`set_kinematic_cells`).
 SET_KINEMATIC_COLUMNS = ("set", "mean dip/dd", "mean slides", "% planar", "mean topples", "% toppling",
                          "wedges with sets", "% in wedges")  # fmt: skip
+
+
+#: The per-section kinematics table's columns (:func:`section_cells`).
+SECTION_COLUMNS = ("section", "slope", "planes", "planar sliding", "wedge pairs", "flexural toppling",
+                   "direct toppling")  # fmt: skip
+
+
+def slope_text(summary: dict, whole: bool = False) -> str:
+    """The slope a kinematics summary tested against, in words: one, or a face's sections.
+
+    Examples
+    --------
+    >>> slope_text({"slope": {"dip": 75.4, "dip_direction": 180.2, "source": "given"}})
+    'slope 75.4/180.2 (given)'
+    >>> slope_text({"slope": {"dip": 75.4, "dip_direction": 180.2, "source": "given"}}, whole=True)
+    'slope 75/180 (given)'
+    >>> slope_text({"slope": {"dip": 7.7, "dip_direction": 225.0, "source": "fitted", "sections": 2},
+    ...             "sections": [{"slope": {"dip": 75.5, "dip_direction": 180.0}},
+    ...                          {"slope": {"dip": 74.2, "dip_direction": 271.1}}]})
+    'the face in 2 sections, slopes 76/180 and 74/271 (fitted)'
+    """
+    slope = summary["slope"]
+    sections = summary.get("sections") or []
+    if len(sections) < 2:
+        if whole:  # in whole degrees, as the report gives them
+            return f"slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])} ({slope['source']})"
+        return f"slope {slope['dip']:.1f}/{slope['dip_direction']:05.1f} ({slope['source']})"
+    parts = [f"{s['slope']['dip']:.0f}/{whole_azimuth(s['slope']['dip_direction'])}" for s in sections]
+    return f"the face in {len(sections)} sections, slopes {', '.join(parts[:-1])} and {parts[-1]} ({slope['source']})"
+
+
+def section_cells(section: dict) -> list[str]:
+    """A row of the per-section kinematics table (``kinematics.json``'s ``sections``).
+
+    Examples
+    --------
+    >>> section = {"section": 1, "slope": {"dip": 74.2, "dip_direction": 271.1}, "planes": 174,
+    ...            "planar_sliding": {"planes": 57, "percent_by_count": 32.8}, "wedge_sliding": {"critical_pairs": 3300},
+    ...            "flexural_toppling": {"planes": 60, "percent_by_count": 34.5}, "direct_toppling": {"critical": True}}
+    >>> section_cells(section)
+    ['1', '74/271', '174', '57 (33%)', '3,300', '60 (34%)', 'critical']
+    """
+
+    def share(mode: dict) -> str:
+        return f"{mode['planes']:,} ({shown(mode['percent_by_count'], 0)}%)"
+
+    return [
+        str(section["section"]),
+        f"{section['slope']['dip']:.0f}/{whole_azimuth(section['slope']['dip_direction'])}",
+        f"{section['planes']:,}",
+        share(section["planar_sliding"]),
+        f"{section['wedge_sliding']['critical_pairs']:,}",
+        share(section["flexural_toppling"]),
+        "critical" if section["direct_toppling"]["critical"] else "—",
+    ]
 
 
 def failure_mode_cells(summary: dict, key: str) -> list[str]:
@@ -245,16 +306,25 @@ def set_mean_wedge_line(wedge: dict) -> str:
     'The means of sets 0 and 2 form a critical wedge: its line plunges 41° toward 169, factor of safety 0.64.'
     """
     a, b = wedge["sets"]
+    where = f" in section {wedge['section']}" if "section" in wedge else ""
     return (
-        f"The means of sets {a} and {b} form a critical wedge: its line plunges {wedge['plunge']:.0f}° toward "
-        f"{whole_azimuth(wedge['trend'])}, factor of safety {shown(wedge['wedge_fs'])}."
+        f"The means of sets {a} and {b} form a critical wedge{where}: its line plunges {wedge['plunge']:.0f}° "
+        f"toward {whole_azimuth(wedge['trend'])}, factor of safety {shown(wedge['wedge_fs'])}."
     )
 
 
-def print_set_kinematics(sets: list[dict], console: Console) -> None:
+#: The per-set kinematics table's title, for one slope and for a face tested in sections.
+SET_KINEMATIC_TITLES = (
+    "Sets against the slope: the mean plane's tests, and the set's planes critical",
+    "Sets against the sections' slopes: a mean is critical where it is in any section (kinematics.json has each), "
+    "and the set's planes critical in their own section",
+)
+
+
+def print_set_kinematics(sets: list[dict], console: Console, sectioned: bool = False) -> None:
     """Per set: what its mean plane does, alone and with the other sets' means, and the share
     of its planes critical in each mode."""
-    table = Table(title="Sets against the slope: the mean plane's tests, and the set's planes critical")
+    table = Table(title=SET_KINEMATIC_TITLES[sectioned])
     for column in SET_KINEMATIC_COLUMNS:
         table.add_column(column, justify="right")
     for row in sets:

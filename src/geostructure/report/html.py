@@ -18,8 +18,8 @@ from ..io.atomic import atomic_path, plain
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..setnotes import bent_face, bent_slope, jv_scope, off_face_scope, set_notes
-from ..tables import FAILURE_MODES, SET_KINEMATIC_COLUMNS, failure_mode_cells, set_kinematic_cells
+from ..setnotes import bent_face, jv_scope, off_face_scope, set_notes
+from .kinematic_tables import kinematic_table, set_swatch
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .spacing_plot import figure_spacing
@@ -110,12 +110,16 @@ def render(scene: ReportScene, title: str) -> str:
 def _net_title(scene: ReportScene) -> list[str]:
     if not scene.kinematics:
         return ["Poles and great circles", "lower hemisphere, equal area"]
-    slope = scene.kinematics["slope"]
-    return [
-        "Poles and kinematic envelopes",
-        f"slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])}, friction {scene.kinematics['friction_deg']:g}°, "
-        "lower hemisphere",
-    ]
+    kinematics = scene.kinematics
+    sections = kinematics.get("sections") or []
+    if len(sections) < 2:
+        slope = kinematics["slope"]
+        slopes = f"slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])}"
+    else:  # the legend shows or hides each section's envelopes
+        slopes = "sections " + ", ".join(
+            f"{s['slope']['dip']:.0f}/{whole_azimuth(s['slope']['dip_direction'])}" for s in sections
+        )
+    return ["Poles and kinematic envelopes", f"{slopes}, friction {kinematics['friction_deg']:g}°, lower hemisphere"]
 
 
 def figure_stereonet(scene: ReportScene) -> dict:
@@ -304,7 +308,7 @@ def set_table(scene: ReportScene) -> str:
     head = "".join(f"<th>{label}</th>" for _, label, _ in columns)
     rows = []
     for row in scene.sets:
-        swatch = _set_swatch(int(row["set"]))
+        swatch = set_swatch(int(row["set"]))
         cells = [_set_cell(row.get(key), digits) for key, _, digits in columns]
         rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
     extra = scene.planes.extra
@@ -327,52 +331,6 @@ def set_table(scene: ReportScene) -> str:
         f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead>'
         f"<tbody>{''.join(rows)}</tbody></table>{notes}"
     )
-
-
-def kinematic_table(scene: ReportScene) -> str:
-    """The kinematic tests as an HTML table (empty before ``geostructure kinematics``): a
-    row per failure mode, the planes critical and their share, and, with sets, a row per set
-    (its mean plane's tests, the sets it forms a critical wedge with, its planes' shares)."""
-    kinematics = scene.kinematics
-    if not kinematics:
-        return ""
-    slope = kinematics["slope"]
-    caption = (
-        f"Kinematics: slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])} ({slope['source']}), "
-        f"friction {kinematics['friction_deg']:g}°, lateral limits {kinematics['lateral_limit_deg']:g}°"
-    )
-    rows = "".join(
-        f"<tr><td>{name.capitalize()}</td>"
-        + "".join(f"<td>{c}</td>" for c in failure_mode_cells(kinematics, key))
-        + "</tr>"
-        for key, name in FAILURE_MODES
-    )
-    html = (
-        f'<table id="kinematics"><caption>{caption}</caption><thead><tr><th>Failure mode</th><th>Planes critical</th>'
-        f"<th>% by count</th><th>% by area</th></tr></thead><tbody>{rows}</tbody></table>"
-    ) + "".join(f'<p class="note">{_escape(n)}</p>' for n in [bent_slope(slope)] if n)
-    # kinematics.json of an older run lacks the set means' orientation: no per-set table then
-    sets = [row for row in kinematics.get("sets") or [] if "mean_dip" in row]
-    if not sets:
-        return html
-    rows = "".join(
-        "<tr>"
-        + "".join(
-            f"<td>{_set_swatch(int(row['set'])) if i == 0 else ''}{cell}</td>"
-            for i, cell in enumerate(set_kinematic_cells(row))
-        )
-        + "</tr>"
-        for row in sets
-    )
-    head = "".join(f"<th>{column.capitalize()}</th>" for column in SET_KINEMATIC_COLUMNS)
-    return (
-        f'{html}<table id="kinematic-sets"><caption>Sets against the slope: the mean plane\'s tests, and the share of '
-        f"the set's planes critical</caption><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
-    )
-
-
-def _set_swatch(number: int) -> str:
-    return f'<span class="swatch" style="background:{set_color(number)}"></span>'
 
 
 def table_rows(scene: ReportScene) -> list[dict]:

@@ -56,22 +56,35 @@ def kinematic_traces(kinematics: dict) -> list:
         return []
     seen = set()
     traces = []
-    for name, color, dash, x, y in envelope_curves(kinematics):
-        traces.append(
-            go.Scatter(
-                x=x,
-                y=y,
-                mode="lines",
-                name=name,
-                legendgroup=name,
-                showlegend=name not in seen,
-                line=dict(color=color, width=1.8, dash=dash),
-                hoverinfo="skip",
+    for section in kinematics.get("sections") or [None]:
+        # A face tested in sections: each section's envelopes are one legend entry that shows
+        # or hides them all, the first section's shown.
+        view = kinematics if section is None else {**kinematics, "slope": section["slope"]}
+        group = None
+        if section is not None:
+            slope = section["slope"]
+            group = f"section {section['section']}: slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])}"
+        for name, color, dash, x, y in envelope_curves(view):
+            traces.append(
+                go.Scatter(
+                    x=x,
+                    y=y,
+                    mode="lines",
+                    name=group or name,
+                    legendgroup=group or name,
+                    showlegend=(group or name) not in seen,
+                    visible=True if section is None or section["section"] == 0 else "legendonly",
+                    line=dict(color=color, width=1.8, dash=dash),
+                    hoverinfo="skip",
+                )
             )
-        )
-        seen.add(name)
+            seen.add(group or name)
+    drawn = set()
     for wedge in kinematics.get("set_mean_wedges", []):  # the critical wedges of the sets' means
         a, b = wedge["sets"]
+        if (a, b) in drawn:  # critical in more than one section: the same line
+            continue
+        drawn.add((a, b))
         x, y = _line_xy([wedge["trend"]], [wedge["plunge"]])
         traces.append(
             go.Scatter(
