@@ -35,11 +35,10 @@ def test_flat_faces_and_terrains_do_not_bend():
     assert face_bend(ground) == 0.0  # an airborne survey has no trace on the map to turn
 
 
-def test_sets_on_a_corner_say_that_one_face_stands_for_none(tmp_path, capsys):
+def test_a_corner_records_its_bend(tmp_path, capsys):
     """Two faces dipping 75 degrees and turned 40 degrees: the mean face dips 65, which no
-    part has; at 90 degrees it dips 8. The sets warn (their scanlines lie on the mean face),
-    the bend is recorded, and the kinematic tests take the face in sections
-    (tests/test_sections.py)."""
+    part has; at 90 degrees it dips 8. The bend is recorded, and the sets and the kinematic
+    tests take the face in sections (tests/test_sections.py)."""
     path = write_xyz(tmp_path / "corner.xyz", turned_faces(40.0))
     out = tmp_path / "out"
     code, _, err = run_cli(
@@ -47,10 +46,9 @@ def test_sets_on_a_corner_say_that_one_face_stands_for_none(tmp_path, capsys):
     )
     assert code == 0
     err = " ".join(err.split())
-    assert "the face turns by" in err and "measure each face on its own" in err, err
-    assert "the slope fitted" not in err, err  # tested in sections, not against the mean face
+    assert "warning" not in err, err  # measured and tested in sections (tests/test_sections.py)
     run = json.loads((out / "run.json").read_text())
-    assert run["sets"]["rock_mass"]["face_bend_deg"] > BENT_FACE
+    assert run["sets"]["rock_mass"]["face_bend_deg"] > BENT_FACE and run["sets"]["rock_mass"]["face_sections"] == 2
     slope = json.loads((out / "kinematics.json").read_text())["slope"]
     assert slope["face_bend_deg"] > BENT_FACE and slope["source"] == "fitted" and slope["sections"] == 2
     # a flat face of the same size says nothing of it

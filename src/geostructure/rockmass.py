@@ -27,10 +27,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .exposure import Persistence, exposure, plane_persistence
+from .exposure import Persistence, exposure
 from .face import face_parts
 from .joints import PlaneMoments, joint_planes
-from .spacing import nearest_plane_gaps, scanline_spacing, spacing_statistics
+from .sections import face_sections_of, section_exposures, sectioned_persistence
+from .spacing import nearest_plane_gaps, pooled_scanlines, scanline_spacing, spacing_statistics
 from .traces import TraceLengths, joint_traces, trace_lengths
 from .uncertainty import correlated_tilt
 
@@ -105,6 +106,7 @@ class RockMass:
     correlated_tilt: float = 0.0  # degrees RMS, read from the joints' facets
     correlated_tilt_n: int = 0  # facets it was read from
     face_bend: float = 0.0  # degrees the face turns along its strike (exposure.face_bend)
+    face_sections: int = 1  # the sections it was measured in (sections.section_exposures)
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
@@ -252,6 +254,7 @@ class RockMass:
             "correlated_tilt_deg": self.correlated_tilt,
             "correlated_tilt_facets": self.correlated_tilt_n,
             "face_bend_deg": self.face_bend,
+            "face_sections": self.face_sections,
             "metres_per_cloud_unit": self.metres_per_unit,
             "ground_planes": 0 if self.ground is None else int(self.ground.sum()),
             "clutter_planes": 0 if self.clutter is None else int(self.clutter.sum()),
@@ -317,40 +320,55 @@ def rock_mass(
     if face is None:
         parts = face_parts(points, labels, normals, up)
         face = exposure(points, up, members=parts.members)
-    persistence = plane_persistence(points, labels, normals, face, up)
     moments = PlaneMoments.of(points, labels, len(normals))
     centroids = moments.centroid
+    # A face that turns is measured section by section, each on its own mean face, and a
+    # set's lines, traces and exposure pooled over them (docs/rockmass.md, "A face that turns").
+    exposures, point_section = section_exposures(points, face, up)
+    plane_section = np.zeros(len(normals), dtype=np.int64)
+    if point_section is not None:
+        plane_section = face_sections_of(exposures, point_section, labels, len(normals))
+    persistence = sectioned_persistence(points, labels, normals, exposures, plane_section, up)
     n_sets = len(set_normals)
-    result = RockMass(persistence, face.area, set_labels)
-    result.face_bend = face.bend
+    result = RockMass(persistence, float(sum(f.area for f in exposures)), set_labels)
+    result.face_bend, result.face_sections = face.bend, len(exposures)
     if parts is not None:
         result.ground, result.clutter, result.point_part = parts.ground, parts.clutter, parts.point_part
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)
     # The scanlines run over the face alone (not over the ground before it).
-    on_face = points if face.members is None else points[face.members]
-    joints, uv = [], face.project(on_face)
+    on_face = [points if f.members is None else points[f.members] for f in exposures]
+    uv = [f.project(p) for f, p in zip(exposures, on_face)]
+    joints = []
     for s, mean in enumerate(set_normals):
-        members = np.flatnonzero(set_labels == s)
-        own = moments.subset(members)
-        joint, joint_normal, joint_centre = joint_planes(own, normals[members])
-        joints += [members[joint == j] for j in range(len(joint_normal))]
-        traces = joint_traces(own, joint, joint_normal, face.normal)
-        line = scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv)
-        result.scanlines.append(line)
-        # A set along the face (no line crosses it: bedding on a level exposure) shows its
-        # planes, not traces: their extents are its size, in the plane table.
-        along_face = line.direction is None
-        lengths = TraceLengths.none() if along_face else trace_lengths(traces, joint_centre, face)
+        lines, trace_lines, lengths, crossing, facing = [], [], [], [], []
+        for k, f in enumerate(exposures):
+            members = np.flatnonzero((set_labels == s) & (plane_section == k))
+            own = moments.subset(members)
+            joint, joint_normal, joint_centre = joint_planes(own, normals[members])
+            joints += [members[joint == j] for j in range(len(joint_normal))]
+            traces = joint_traces(own, joint, joint_normal, f.normal)
+            lines.append(scanline_spacing(on_face[k], joint_normal, joint_centre, mean, f, uv[k]))
+            # A set along the face (no line crosses it: bedding on a level exposure) shows its
+            # planes, not traces: their extents are its size, in the plane table.
+            if lines[-1].direction is not None:
+                lengths.append(trace_lengths(traces, joint_centre, f))
+                crossing.append(np.abs(normals[members] @ lines[-1].direction))
+            trace_lines.append(scanline_spacing(on_face[k], joint_normal, joint_centre, mean, f, uv[k], traces))
+            facing.append(np.sqrt(np.clip(1.0 - (normals[members] @ f.normal) ** 2, 0.0, 1.0)))
+        result.scanlines.append(pooled_scanlines(lines))
+        result.trace_scanlines.append(pooled_scanlines(trace_lines))
+        along_face = not lengths
+        lengths = TraceLengths.none() if along_face else TraceLengths.pooled(lengths)
         result.joint_trace_lengths.append(lengths)
-        result.trace_scanlines.append(scanline_spacing(on_face, joint_normal, joint_centre, mean, face, uv, traces))
+        members = np.flatnonzero(set_labels == s)
         result.nearest_gaps.append(nearest_plane_gaps(normals, centroids, members, mean, persistence))
         # The joints' traces, not their facets' (with those, P32 read 0.37 to 1.09 of the truth).
-        result.p21[s] = lengths.length.sum() / face.area if face.area > 0 and not along_face else np.nan
+        area = result.exposure_area
+        result.p21[s] = lengths.length.sum() / area if area > 0 and not along_face else np.nan
         if len(members):
-            if line.direction is not None:
-                result.c13[s] = 1.0 / np.abs(normals[members] @ line.direction).mean()
-            sines = np.sqrt(np.clip(1.0 - (normals[members] @ face.normal) ** 2, 0.0, 1.0))
-            result.c23[s] = 1.0 / max(sines.mean(), 1e-6)
+            if crossing and len(np.concatenate(crossing)):
+                result.c13[s] = 1.0 / np.concatenate(crossing).mean()
+            result.c23[s] = 1.0 / max(np.concatenate(facing).mean(), 1e-6)
     if standard_errors is not None:
         result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, joints, moments)
     return result

@@ -297,7 +297,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
                                         vegetation=vegetation)  # fmt: skip
         note_vegetation(vegetation, rock, outdir)
         note_voxel_planes((outputs.record.get("params") or {}).get("detector"), outdir)
-        note_bent_face(rock.face_bend, outdir)
+        note_bent_face(rock.face_bend, outdir, rock.face_sections)
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))

@@ -14,11 +14,22 @@ face's results are those of its one mean face.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .exposure import BENT_FACE, face_bend, mean_face, plan_axes, trace_turn
+from .exposure import (
+    BENT_FACE,
+    CELL_POINTS,
+    Exposure,
+    Persistence,
+    exposure,
+    face_bend,
+    mean_face,
+    plan_axes,
+    plane_persistence,
+    trace_turn,
+)
 from .sampling import order_free_sample
 
 #: A side of a cut must be at least this many times longer than wide on the map (the ratio of
@@ -124,6 +135,57 @@ def face_sections(points, up=(0.0, 0.0, 1.0), seed: int = 0, bend: float | None 
     centres = np.array([c for c, _ in lines])
     extents = np.array([_extent(part, c, d) for part, c, d in zip(stretches, centres, directions)])
     return FaceSections(axes, centres, directions, extents, float(bend))
+
+
+def section_exposures(points, face: Exposure, up=(0.0, 0.0, 1.0), seed: int = 0):
+    """The exposures of a face's sections (:func:`face_sections` of the points that make
+    ``face``), each its own mean face and occupancy, with its own ground and clutter left out
+    as ``face`` leaves them: (exposures, the section of every point). A face that does not
+    turn is ``[face]`` and None."""
+    points = np.asarray(points, dtype=np.float64)
+    on_face = points if face.members is None else points[face.members]
+    sections = face_sections(on_face, up, seed, bend=face.bend)
+    if len(sections) == 1:
+        return [face], None
+    point_section = sections.of(points)
+    spacing = face.cell / np.sqrt(CELL_POINTS)  # the spacing the face's cells were sized from
+    exposures = []
+    for k in range(len(sections)):
+        mine = point_section == k  # the other sections are not this one's clutter
+        members = None if face.members is None else face.members[mine]
+        part = exposure(points[mine], up, seed=seed, spacing=spacing, members=members)
+        # Its members, as every exposure's, index all the points it is measured with.
+        full = np.zeros(len(points), dtype=bool)
+        full[np.flatnonzero(mine)[members if members is not None else slice(None)]] = True
+        exposures.append(replace(part, members=full))
+    return exposures, point_section
+
+
+def face_sections_of(exposures, point_section, labels, n_planes: int) -> np.ndarray:
+    """Each plane's section: the one most of its points lie in."""
+    labels = np.asarray(labels)
+    mine = labels >= 0
+    counts = np.zeros((n_planes, len(exposures)), dtype=np.int64)
+    np.add.at(counts, (labels[mine], point_section[mine]), 1)
+    return counts.argmax(axis=1)
+
+
+def sectioned_persistence(points, labels, normals, exposures, plane_section, up=(0.0, 0.0, 1.0)) -> Persistence:
+    """Each plane's traces and censoring (:func:`~.exposure.plane_persistence`) on the
+    exposure of the section it lies in (``plane_section``, one per plane)."""
+    labels = np.asarray(labels)
+    if len(exposures) == 1:
+        return plane_persistence(points, labels, normals, exposures[0], up)
+    out = None
+    for k, face in enumerate(exposures):
+        mine = plane_section == k
+        part = plane_persistence(points, np.where((labels >= 0) & mine[labels], labels, -1), normals, face, up)
+        if out is None:
+            out = part
+        else:
+            for name in ("trace_strike", "trace_dip", "trace_face", "censored"):
+                getattr(out, name)[mine] = getattr(part, name)[mine]
+    return out
 
 
 def _dense(plan: np.ndarray) -> np.ndarray:

@@ -180,7 +180,7 @@ def note_voxel_planes(detector: str | None, source) -> None:
     )
 
 
-def bent_face(bend: float) -> str | None:
+def bent_face(bend: float, sections: int = 1) -> str | None:
     """The sentence for a face that turns by :data:`~.exposure.BENT_FACE` degrees or more
     along its strike (:func:`~.exposure.face_bend`; ``face_bend_deg`` in ``run.json``); None
     for one that does not. Its scanlines, exposure and P21 lie on one mean face, which stands
@@ -193,9 +193,16 @@ def bent_face(bend: float) -> str | None:
     'The face turns by 39 degrees along its strike (a corner or a curve): t'
     >>> bent_face(6.0) is None
     True
+    >>> bent_face(39.2, sections=2)[:100]
+    "The face turns by 39 degrees along its strike, so the sets' scanlines, traces and exposure were meas"
     """
     if not bend >= BENT_FACE:
         return None
+    if sections > 1:
+        return (
+            f"The face turns by {bend:.0f} degrees along its strike, so the sets' scanlines, traces and exposure were "
+            f"measured in {sections} sections, each on its own mean face, and pooled per set."
+        )
     return (
         f"The face turns by {bend:.0f} degrees along its strike (a corner or a curve): the sets' scanlines and "
         f"exposure lie on one mean face, which stands for none of its parts, so their spacing, traces and "
@@ -261,6 +268,7 @@ def warn_of(sentence: str | None, source) -> None:
         warnings.warn(f"{source}: {sentence[0].lower()}{sentence[1:]}", GeoStructureWarning, stacklevel=3)
 
 
-def note_bent_face(bend: float, source) -> None:
-    """:func:`bent_face`'s sentence as a warning, naming ``source``."""
-    warn_of(bent_face(bend), source)
+def note_bent_face(bend: float, source, sections: int = 1) -> None:
+    """:func:`bent_face`'s sentence naming ``source``: a warning for a face measured as one,
+    a note for one measured in sections."""
+    (note_of if sections > 1 else warn_of)(bent_face(bend, sections), source)

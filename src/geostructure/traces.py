@@ -118,6 +118,13 @@ class TraceLengths:
     def none(cls) -> "TraceLengths":
         return cls(np.zeros(0), np.zeros(0, dtype=bool))
 
+    @classmethod
+    def pooled(cls, parts: list) -> "TraceLengths":
+        """The stretches of several sections' traces as one set's."""
+        if len(parts) == 1:
+            return parts[0]
+        return cls(np.concatenate([p.length for p in parts]), np.concatenate([p.censored for p in parts]))
+
     @property
     def mean(self) -> float:
         """Mean trace length (m) with censoring: exponential lengths right-censored by the

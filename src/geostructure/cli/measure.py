@@ -188,7 +188,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
                                             vegetation=result.filtered.vegetation)  # fmt: skip
             note_vegetation(result.filtered.vegetation, rock, cloud.source)
             note_voxel_planes(params.detector, cloud.source)
-            note_bent_face(rock.face_bend, cloud.source)
+            note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
         progress("write", 0, None)
         paths = save_measurement(
             result,

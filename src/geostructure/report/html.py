@@ -325,7 +325,9 @@ def set_table(scene: ReportScene) -> str:
         )
     notes = [note for row in scene.sets for note in set_notes(int(row["set"]), row)] if measured else []
     notes = "".join(
-        f'<p class="note">{_escape(n)}</p>' for n in notes + [bent_face((rock or {}).get("face_bend_deg", 0))] if n
+        f'<p class="note">{_escape(n)}</p>'
+        for n in notes + [bent_face((rock or {}).get("face_bend_deg", 0), (rock or {}).get("face_sections", 1))]
+        if n
     )
     return (
         f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead>'
