@@ -107,6 +107,12 @@ def test_a_corner_is_tested_section_by_section(tmp_path, capsys):
     assert summary["planar_sliding"]["planes"] == sum(s["planar_sliding"]["planes"] for s in summary["sections"])
     wedges = list(csv.DictReader((out / "wedges.csv").open()))
     assert {int(w["section"]) for w in wedges} == {0, 1}
+    # The kinematics command fits the same sections to the folder's points.
+    assert run_cli(capsys, "kinematics", out, "--friction", "30", "-q")[0] == 0
+    again = json.loads((out / "kinematics.json").read_text())
+    assert [s["slope"]["dip_direction"] for s in again["sections"]] == pytest.approx(
+        [s["slope"]["dip_direction"] for s in summary["sections"]], abs=1.0
+    )
     # A slope given is one slope for every plane: no sections.
     code, _, _ = run_cli(capsys, "kinematics", out, "--friction", "30", "--slope", "75/180", "-q")
     summary = json.loads((out / "kinematics.json").read_text())
