@@ -7,8 +7,10 @@ from helpers import lidar_outcrop
 from geostructure import Params, measure
 from geostructure.auto import choose_params
 from geostructure.cloud import Cloud
+from geostructure.errors import ParameterError
 from geostructure.evaluate import match_facets
 from geostructure.orientation import angle_between_normals
+from geostructure.slope_stability import fit_slope
 from geostructure.synthetic import bushes_on, outcrop_scene, road_before
 from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
 
@@ -125,3 +127,15 @@ def test_a_lidar_like_outcrop_at_utm_offset():
     match = match_facets(result.planes, scene)
     assert match.recall >= MIN_RECALL, match.recall
     assert result.planes.centroid[:, 1].min() > 5_000_000  # reported back in UTM
+
+
+def test_a_face_facing_west_shows_no_facets_of_sets_end_on_to_it():
+    """The default sets' two E-W sets stand end-on to a west face (cosines 0.18 and 0.09 with
+    its normal): their facets were steps metres deep, and the face fitted 8 to 16 degrees for
+    75. Only J3 makes facets there; its points lie on a face dipping about 75/270."""
+    scene = outcrop_scene(width=12.0, height=6.0, seed=4, face_dip_direction=270.0)
+    assert set(np.unique(scene.facet_set).tolist()) == {2}
+    slope = fit_slope(scene.cloud.points)  # 73.5/276.0
+    assert slope.dip == pytest.approx(75.0, abs=3.0) and slope.dip_direction == pytest.approx(270.0, abs=8.0)
+    with pytest.raises(ParameterError, match="no joint set makes faces"):
+        outcrop_scene(width=4.0, height=3.0, sets=DEFAULT_SETS[:2], face_dip_direction=270.0)

@@ -65,9 +65,9 @@ def test_flat_faces_and_terrains_are_one_section():
 def corner_faces(turn: float, seed: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """A quarry's corner: two 12 x 6 m faces dipping 75 degrees, the first facing south
     (x 0 to 12), the second (another face, generated facing south) turned ``turn`` degrees
-    clockwise about the vertical at (12, 0), so that it dips toward 180 + ``turn``.
-    (Generating it with that dip direction would show the default joint sets' two E-W sets
-    end-on to a west face, as facets metres deep.)"""
+    clockwise about the vertical at (12, 0), so that it dips toward 180 + ``turn``, its joints
+    turned with it: both faces show three sets' facets. (Generated facing west, the second
+    would show only J3's: the default sets' other two stand end-on to it.)"""
     first = outcrop_scene(width=12.0, height=6.0, seed=seed).cloud.points
     second = outcrop_scene(width=12.0, height=6.0, seed=seed + 50).cloud.points
     t = np.radians(turn)
