@@ -7,12 +7,13 @@ import pytest
 
 from geostructure import measure
 from geostructure.evaluate import match_facets
+from geostructure.joints import PlaneMoments
 from geostructure.orientation import angle_between_normals, normal_from_orientation, orientation_from_normals
 from geostructure.runs import plane_rock_mass, plane_sets, with_rock_mass
 from geostructure.synthetic import outcrop_scene
 from geostructure.synthetic.outcrop import DEFAULT_SETS
 from geostructure.synthetic.surface import smooth_field
-from geostructure.uncertainty import normal_standard_errors
+from geostructure.uncertainty import MIN_TILT_FACETS, correlated_tilt, normal_standard_errors
 
 
 def noisy_planes(rng, *, size, spacing, white, correlated=0.0, wavelength=0.0, normal=(0.0, 0.0, 1.0), n=150):
@@ -132,3 +133,21 @@ def test_the_block_sums_of_parts_add_up_to_the_whole():
     for key in whole:
         np.testing.assert_allclose(summed[key], whole[key], rtol=1e-9)
     assert np.isfinite(whole["normal"]).all()
+
+
+def test_the_tilt_is_not_read_from_a_few_facets():
+    """From a few joints the tilt is their waviness as much as the cloud's error, and every
+    plane would carry it (an indoor scan read 9.9 degrees from 9 facets): under
+    MIN_TILT_FACETS facets in joints of three or more, it is not read."""
+    rng = np.random.default_rng(0)
+    n = 2 * MIN_TILT_FACETS
+    tilt = np.radians(5.0) * rng.standard_normal((n, 2)) / np.sqrt(2)  # a wavy joint: 5 degrees RMS
+    normals = np.column_stack([tilt, np.ones(n)])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    u = rng.uniform(-1.0, 1.0, (n, 2))
+    moments = PlaneMoments(np.full(n, 50.0), np.column_stack([4 * u, np.zeros(n)]),
+                           np.tile(np.diag([1.0, 1.0, 1e-4]), (n, 1, 1)))  # fmt: skip
+    few = [np.arange(k, k + 3) for k in range(0, MIN_TILT_FACETS - 2, 3)]  # 18 facets in 6 joints
+    assert correlated_tilt(normals, np.full(n, 0.2), few, moments) == (0.0, 0)
+    value, used = correlated_tilt(normals, np.full(n, 0.2), [np.arange(n)], moments)
+    assert used == n and 4.0 < value < 6.0

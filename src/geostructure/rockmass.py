@@ -105,6 +105,7 @@ class RockMass:
     c23: np.ndarray = field(default_factory=lambda: np.zeros(0))
     correlated_tilt: float = 0.0  # degrees RMS, read from the joints' facets
     correlated_tilt_n: int = 0  # facets it was read from
+    tilt_facets_short: int = 0  # facets in joints when too few to read it (uncertainty.MIN_TILT_FACETS)
     face_bend: float = 0.0  # degrees the face turns along its strike (exposure.face_bend)
     face_sections: int = 1  # the sections it was measured in (sections.section_exposures)
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
@@ -371,6 +372,7 @@ def rock_mass(
             result.c23[s] = 1.0 / max(np.concatenate(facing).mean(), 1e-6)
     if standard_errors is not None:
         result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, joints, moments)
+        result.tilt_facets_short = 0 if result.correlated_tilt_n else sum(len(j) for j in joints if len(j) >= 3)
     return result
 
 

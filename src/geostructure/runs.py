@@ -36,7 +36,7 @@ from .planes import Planes, plane_rows
 from .reconstruct.georef import unscaled
 from .rockmass import RockMass, rock_mass, with_rock_mass
 from .scoring import Evaluation, stage_evaluation
-from .setnotes import note_bent_face, note_vegetation, note_voxel_planes
+from .setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
 from .sets import JointSets, find_sets
 from .threads import preload
 from .uncertainty import normal_standard_errors, with_correlated_tilt
@@ -298,6 +298,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         note_vegetation(vegetation, rock, outdir)
         note_voxel_planes((outputs.record.get("params") or {}).get("detector"), outdir)
         note_bent_face(rock.face_bend, outdir, rock.face_sections)
+        note_tilt_unread(rock.tilt_facets_short, outdir)
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))

@@ -20,6 +20,7 @@ from .exposure import BENT_FACE
 from .face import CLUTTER
 from .rockmass import RockMass
 from .spacing import MIN_SCANLINE_COSINE
+from .uncertainty import MIN_TILT_FACETS
 
 
 def set_notes(set_id: int, row: dict) -> list[str]:
@@ -230,6 +231,20 @@ def bent_slope(slope: dict) -> str | None:
         f"against it mean little. Give the slope of the part to test with --slope DIP/DIPDIR, or measure each face "
         f"on its own (a cloud cropped to it)."
     )
+
+
+def note_tilt_unread(facets: int, source) -> None:
+    """A note that the tilt correlated errors give every plane was not read: ``facets`` (in
+    joints of three or more) are fewer than :data:`~.uncertainty.MIN_TILT_FACETS`; nothing
+    for 0 (it was read, or there was nothing to read it from)."""
+    if facets:
+        warnings.warn(
+            f"{source}: only {facets} facets lie in joints of three or more, and "
+            f"{MIN_TILT_FACETS} are needed to read the tilt that correlated errors give every plane: each plane's "
+            f"uncertainty is its own fit's alone, a lower bound on an SfM cloud.",
+            GeoStructureNote,
+            stacklevel=2,
+        )
 
 
 def sectioned_slope(summary: dict) -> str | None:

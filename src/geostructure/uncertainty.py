@@ -227,13 +227,20 @@ def errors_from_sums(sums: BlockSums, axes, up=(0.0, 0.0, 1.0)) -> dict:
 #: calibration ratio read 0.80 to 1.20 for any value from 2.75 to 3.25; 4 let mixed joints
 #: through (0.60 on a 12 x 6 m face of 1.5 m joints), 2 cut the tilt to nothing on three.
 TILT_KEEP = 3.0
+#: The tilt is read from this many facets at least (in joints of three or more). From a few
+#: joints it is their waviness as much as the cloud's error, and it is given to every plane:
+#: an indoor laser scan read 9.9 degrees from 9 facets of 3 "joints" (a floor and walls that
+#: are not one plane), where its planes' own errors are hundredths of a degree. The synthetic
+#: outcrops read it from 150 to 860.
+MIN_TILT_FACETS = 20
 
 
 def correlated_tilt(normals, standard_errors, joints, moments, iterations: int = 50) -> tuple[float, int]:
     """The tilt (degrees, RMS) that errors correlated over more than a plane give every
     plane alike, read from the cloud itself: the facets of one joint share its normal, so the
     part of their scatter about it that their own standard errors do not explain is that
-    tilt. Returns it and the number of facets it was read from (0: no joint had three).
+    tilt. Returns it and the number of facets it was read from (0: fewer than
+    :data:`MIN_TILT_FACETS` lie in joints of three or more, and it is not read).
 
     Each facet is compared with the plane of its joint's other facets (their points pooled),
     not with the plane it helped fit, which leans towards it. A joint grown on a rough face
@@ -277,7 +284,7 @@ def correlated_tilt(normals, standard_errors, joints, moments, iterations: int =
     joint = np.repeat(np.arange(len(joints)), [len(j) for j in joints])
     usable = np.isfinite(se2[member]) & np.isfinite(normals[member]).all(axis=1)
     member, joint = member[usable], joint[usable]
-    if not len(member):
+    if len(member) < MIN_TILT_FACETS:
         return 0.0, 0
     n, n_joints = moments.count[member], len(joints)
     # Each facet's first and second moments about its joint's centroid (no cancellation).

@@ -22,7 +22,7 @@ from ..pipeline import measure
 from ..progress import StageProgress
 from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
 from ..scoring import add_evaluation
-from ..setnotes import note_bent_face, note_vegetation, note_voxel_planes
+from ..setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
 from ..slope_stability import add_kinematics, fit_face
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
@@ -189,6 +189,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             note_vegetation(result.filtered.vegetation, rock, cloud.source)
             note_voxel_planes(params.detector, cloud.source)
             note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
+            note_tilt_unread(rock.tilt_facets_short, cloud.source)
         progress("write", 0, None)
         paths = save_measurement(
             result,
