@@ -196,10 +196,10 @@ def add_kinematics(
             strength.setdefault("height_source", "given")
         face = slope if isinstance(slope, FittedFace) else FittedFace(slope, None, (slope,))
         if upper_slope is not None:
-            steepest = min(part.dip for part in face.slopes)
-            if not upper_slope[0] < steepest:
+            gentlest = min(part.dip for part in face.slopes)  # of a face in sections, its gentlest
+            if not upper_slope[0] < gentlest:
                 raise ParameterError(
-                    f"the upper slope ({upper_slope[0]:g} deg) must dip less than the face ({steepest:.1f} deg): "
+                    f"the upper slope ({upper_slope[0]:g} deg) must dip less than the face ({gentlest:.1f} deg): "
                     f"there is no crest otherwise."
                 )
             strength["upper_slope_dip"], strength["upper_slope_dip_direction"] = map(float, upper_slope)
