@@ -28,7 +28,8 @@ SMALL_HOLE_CELLS = 2
 CELL_POINTS = 8
 #: A face whose ends (its first and last thirds along its strike, on the map) face this
 #: many degrees apart or more is not one face but several, or a curve: a road cut that turns,
-#: a quarry's corner. One mean face stands for none of its parts (:func:`face_bend`).
+#: a quarry's corner. One mean face stands for none of its parts (:func:`face_bend`): such a face
+#: is measured in sections (:mod:`.sections`).
 BENT_FACE = 25.0
 
 
