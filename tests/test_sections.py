@@ -77,9 +77,12 @@ def corner_faces(turn: float, seed: int = 4) -> tuple[np.ndarray, np.ndarray]:
 
 def test_a_corner_is_tested_section_by_section(tmp_path, capsys):
     """Against the mean plane of a right-angled corner (8/225) hardly a plane is critical;
-    each plane against the face it lies on: 114 slide and 136 topple by the truth."""
+    each plane against the face it lies on: 114 slide and 136 topple by the truth. At UTM
+    coordinates, which the measure holds about an offset and the kinematics command reads
+    back whole."""
     first, second = corner_faces(90.0)
-    path = write_xyz(tmp_path / "corner.xyz", np.vstack([first, second]))
+    utm = np.array([512_000.0, 4_410_000.0, 310.0])
+    path = write_xyz(tmp_path / "corner.xyz", np.vstack([first, second]) + utm)
     out = tmp_path / "out"
     code, _, err = run_cli(capsys, "measure", path, "-o", out, "--sets", "--kinematics", "--friction", "30")
     assert code == 0
@@ -92,7 +95,7 @@ def test_a_corner_is_tested_section_by_section(tmp_path, capsys):
     planes = read_planes(out)
     rows = list(csv.DictReader((out / "kinematics.csv").open()))
     section = np.array([int(r["section"]) for r in rows])
-    arm = ((planes.centroid[:, :2] - [12.0, 0.0]) @ [0.0, -1.0] > 0).astype(int)  # the second runs south
+    arm = ((planes.centroid[:, :2] - utm[:2] - [12.0, 0.0]) @ [0.0, -1.0] > 0).astype(int)  # the second runs south
     assert np.mean(section == arm) > 0.9  # 0.945: the planes at the corner go either way
     planar, toppling = (np.array([r[key] == "true" for r in rows]) for key in ("planar_sliding", "flexural_toppling"))
     true_planar, true_toppling = np.zeros(len(rows), dtype=bool), np.zeros(len(rows), dtype=bool)
