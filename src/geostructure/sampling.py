@@ -54,7 +54,8 @@ def grid_hash(points: np.ndarray, lower, step: float, seed: int = 0, shift: floa
     """
     points, lower = np.asarray(points, dtype=np.float64), np.asarray(lower, dtype=np.float64)
     scaled, key, term = np.empty(len(points)), np.empty(len(points), dtype=np.uint64), np.empty(len(points), np.uint64)
-    h = np.full(len(points), np.uint64(seed) * _MULTIPLIERS[2] + _MULTIPLIERS[0], dtype=np.uint64)
+    with np.errstate(over="ignore"):  # the hash wraps by design, its seed's start too (seed 5 and up)
+        h = np.full(len(points), np.uint64(seed) * _MULTIPLIERS[2] + _MULTIPLIERS[0], dtype=np.uint64)
 
     def hash_rows(rows: slice) -> None:  # elementwise: any split of the rows, the same hashes
         hr, kr, tr = h[rows], key[rows], term[rows]
