@@ -11,11 +11,12 @@ import pytest
 from helpers import run_cli, write_xyz
 from test_face_bend import turned_faces
 
-from geostructure.exposure import BENT_FACE, trace_turn
+from geostructure.exposure import BENT_FACE, face_bend, trace_turn
 from geostructure.io.results import read_planes
 from geostructure.kinematics import Slope, flexural_toppling, planar_sliding
 from geostructure.orientation import normal_from_orientation
 from geostructure.sections import face_sections
+from geostructure.slope_stability import fit_face
 from geostructure.synthetic import outcrop_scene
 from geostructure.synthetic.outcrop import DEFAULT_SETS
 
@@ -165,3 +166,44 @@ def test_the_sets_of_a_bend_are_measured_section_by_section(tmp_path, capsys):
             normal_length = float(line["scanline_cosine"]) * float(line["scanline_length_m"])
             weights, counts = weights + normal_length, counts + normal_length / scene.set_spacing[j]
         assert float(row["spacing_m"]) == pytest.approx(weights / counts, rel=0.1)
+
+
+def bay(widths: tuple[float, float, float], seed: int = 0) -> np.ndarray:
+    """A quarry's bay: three walls 6 m high dipping 75 degrees, up the west side (facing
+    east), along the back (facing south) and down the east side (facing west), ``widths``
+    long; 1 cm of noise."""
+    rng = np.random.default_rng(seed)
+    a, b, c = widths
+    corners = [(0.0, 0.0), (0.0, a), (b, a), (b, a - c)]
+    walls = []
+    for start, end in zip(corners[:-1], corners[1:]):
+        start, end = np.array(start), np.array(end)
+        t, v = rng.random(30_000), rng.random(30_000) * 6.0
+        along = (end - start) / np.linalg.norm(end - start)
+        into = np.array([-along[1], along[0]])  # the rock behind the wall
+        plan = start + t[:, None] * (end - start) + into * (v * np.tan(np.radians(15.0)))[:, None]
+        walls.append(np.column_stack([plan, v]) + rng.normal(0.0, 0.01, (30_000, 3)))
+    return np.vstack(walls)
+
+
+@pytest.mark.parametrize("widths", [(10.0, 20.0, 10.0), (15.0, 15.0, 15.0), (5.0, 30.0, 5.0)])
+def test_a_bay_is_a_section_per_wall(widths):
+    """Its side walls lie parallel on the map, so its trace's ends do not turn from each
+    other (5 to 15 degrees read); but its walls dip 75 where its mean plane dips 0 to 15: it
+    folds back, and reads 180. Each wall is then a section with its own slope."""
+    points = bay(widths)
+    assert face_bend(points) == 180.0
+    face = fit_face(points)
+    assert face.slope.dip < 20.0 and len(face.slopes) == 3  # from left to right as one faces the walls
+    for slope, dip_direction in zip(face.slopes, (90.0, 180.0, 270.0)):
+        assert slope.dip == pytest.approx(75.0, abs=2.0) and slope.dip_direction == pytest.approx(
+            dip_direction, abs=2.0
+        )
+
+
+def test_a_bay_deeper_than_wide_is_one_face_and_says_so(tmp_path, capsys):
+    """Its walls 20 m deep and 10 m apart: cut along its length, its thirds each hold both
+    side walls, and it stays one face; the slope fitted to it warns."""
+    path = write_xyz(tmp_path / "bay.xyz", bay((20.0, 10.0, 20.0)))
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out", "--kinematics", "--friction", "30", "-q")
+    assert code == 0 and "turns by 180 degrees" in " ".join(err.split()), err

@@ -31,6 +31,9 @@ CELL_POINTS = 8
 #: a quarry's corner. One mean face stands for none of its parts (:func:`face_bend`): such a face
 #: is measured in sections (:mod:`.sections`).
 BENT_FACE = 25.0
+#: A face whose parts dip this many degrees more than its mean plane folds back on the map
+#: (:func:`face_bend`): a bay, whose walls face each other.
+FOLDED_FACE = 20.0
 
 
 @dataclass(frozen=True)
@@ -169,7 +172,9 @@ def face_bend(points, up=(0.0, 0.0, 1.0), seed: int = 0) -> float:
     synthetic faces, flat but stepped (12 x 6 to 40 x 16 m), it read at most 15.4 degrees
     (on the smallest); on two 12 x 6 m faces side by side turned by 20, 30, 40 and 90
     degrees, 20, 31, 39 and 76. A terrain (lying within 30 degrees of level, its relief
-    under a tenth of its breadth) has no such trace: 0.
+    under a tenth of its breadth) has no such trace: 0. A face that folds back on the map,
+    a bay of three walls, reads 180: its first and last thirds are its side walls, parallel
+    on the map, and its parts dip far more than its mean plane (:data:`FOLDED_FACE`).
 
     Examples
     --------
@@ -190,7 +195,30 @@ def face_bend(points, up=(0.0, 0.0, 1.0), seed: int = 0) -> float:
     spread, axes = np.linalg.svd(sample, full_matrices=False)[1:]
     if abs(axes[2] @ up) > np.cos(np.radians(30.0)) and spread[2] <= 0.1 * spread[0]:
         return 0.0  # a terrain (an airborne survey, a quarry floor): it has no trace on the map
-    return trace_turn(sample @ plan_axes(up).T)
+    plan = sample @ plan_axes(up).T
+    turn = trace_turn(plan)
+    if turn < BENT_FACE and _folds_back(sample, plan, up):
+        return 180.0  # a bay: its trace turns twice, and its side walls' thirds lie parallel
+    return turn
+
+
+def _folds_back(sample, plan, up) -> bool:
+    """Whether a face folds back on the map (a quarry's bay: three walls, the trace turning
+    twice): its parts, four blocks along its trace, dip :data:`FOLDED_FACE` degrees more
+    than its mean plane, for the walls facing each other cancel in it (three walls dipping
+    75 fit a plane dipping 0 to 15). On 30 flat, stepped synthetic faces the median block
+    dipped at most 8.2 degrees more than the face; on four bays, 24 to 48."""
+    along = plan @ np.linalg.svd(plan - plan.mean(axis=0), full_matrices=False)[2][0]
+    edges = np.quantile(along, np.linspace(0.0, 1.0, 5))
+    dips = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        block = sample[(along >= lo) & (along <= hi)]
+        dips.append(_dip(np.linalg.svd(block - block.mean(axis=0), full_matrices=False)[2][2], up))
+    return float(np.median(dips)) - _dip(np.linalg.svd(sample, full_matrices=False)[2][2], up) >= FOLDED_FACE
+
+
+def _dip(normal, up) -> float:
+    return float(np.degrees(np.arccos(min(1.0, abs(float(normal @ up))))))
 
 
 def trace_turn(plan) -> float:

@@ -128,8 +128,8 @@ def face_sections(points, up=(0.0, 0.0, 1.0), seed: int = 0, bend: float | None 
     across = axes @ (normal if normal @ up >= 0 else -normal)
     strike = np.array([-across[1], across[0]])
     lines = [_line(part) for part in stretches]
-    if len(lines) > 1 and (lines[-1][0] - lines[0][0]) @ strike < 0:
-        stretches, lines = stretches[::-1], lines[::-1]
+    order = np.argsort([centre @ strike for centre, _ in lines], kind="stable")
+    stretches, lines = _merged([stretches[k] for k in order], [lines[k] for k in order])
     whole = lines[-1][0] - lines[0][0] if len(lines) > 1 else strike
     directions = np.array([d if d @ whole >= 0 else -d for _, d in lines])  # all in order along the trace
     centres = np.array([c for c, _ in lines])
@@ -199,6 +199,21 @@ def _dense(plan: np.ndarray) -> np.ndarray:
     _, cells, counts = np.unique(ij[:, 0] * (MAP_CELLS + 2) + ij[:, 1], return_inverse=True, return_counts=True)
     held = counts[cells.ravel()]
     return held >= SPARSE * np.median(held)
+
+
+def _merged(stretches: list, lines: list) -> tuple[list, list]:
+    """Neighbouring stretches whose lines turn by less than half a face that turns, joined:
+    a bay's back wall is cut in two when the first cut falls in its middle."""
+    out, out_lines = [stretches[0]], [lines[0]]
+    for part, line in zip(stretches[1:], lines[1:]):
+        turn = np.degrees(np.arccos(np.clip(abs(float(out_lines[-1][1] @ line[1])), 0.0, 1.0)))
+        if turn < BENT_FACE / 2.0:
+            out[-1] = np.concatenate([out[-1], part])
+            out_lines[-1] = _line(out[-1])
+        else:
+            out.append(part)
+            out_lines.append(line)
+    return out, out_lines
 
 
 def _line(plan: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
