@@ -191,7 +191,7 @@ def bent_face(bend: float, sections: int = 1) -> str | None:
     Examples
     --------
     >>> bent_face(39.2)[:70]
-    'The face turns by 39 degrees along its strike (a corner or a curve): t'
+    'The face turns by 39 degrees along its strike (a corner, a curve or a '
     >>> bent_face(6.0) is None
     True
     >>> bent_face(39.2, sections=2)[:100]
@@ -205,8 +205,8 @@ def bent_face(bend: float, sections: int = 1) -> str | None:
             f"measured in {sections} sections, each on its own mean face, and pooled per set."
         )
     return (
-        f"The face turns by {bend:.0f} degrees along its strike (a corner or a curve): the sets' scanlines and "
-        f"exposure lie on one mean face, which stands for none of its parts, so their spacing, traces and "
+        f"The face turns by {bend:.0f} degrees along its strike (a corner, a curve or a bay): the sets' scanlines "
+        f"and exposure lie on one mean face, which stands for none of its parts, so their spacing, traces and "
         f"intensities are approximate. For those, measure each face on its own (a cloud cropped to it)."
     )
 
@@ -227,8 +227,8 @@ def bent_slope(slope: dict) -> str | None:
         return None
     return (
         f"The slope fitted, {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, is the mean plane of a face that turns "
-        f"by {bend:.0f} degrees along its strike (a corner or a curve): no part of the face has it, and the tests "
-        f"against it mean little. Give the slope of the part to test with --slope DIP/DIPDIR, or measure each face "
+        f"by {bend:.0f} degrees along its strike (a corner, a curve or a bay): no part of the face has it, and the "
+        f"tests against it mean little. Give the slope of the part to test with --slope DIP/DIPDIR, or measure each face "
         f"on its own (a cloud cropped to it)."
     )
 
