@@ -108,6 +108,7 @@ class RockMass:
     tilt_facets_short: int = 0  # facets in joints when too few to read it (uncertainty.MIN_TILT_FACETS)
     face_bend: float = 0.0  # degrees the face turns along its strike (exposure.face_bend)
     face_sections: int = 1  # the sections it was measured in (sections.section_exposures)
+    sections: object = None  # those sections (sections.FaceSections), which a fitted slope takes too
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
@@ -325,14 +326,14 @@ def rock_mass(
     centroids = moments.centroid
     # A face that turns is measured section by section, each on its own mean face, and a
     # set's lines, traces and exposure pooled over them (docs/rockmass.md, "A face that turns").
-    exposures, point_section = section_exposures(points, face, up)
+    sections, exposures, point_section = section_exposures(points, face, up)
     plane_section = np.zeros(len(normals), dtype=np.int64)
     if point_section is not None:
         plane_section = face_sections_of(exposures, point_section, labels, len(normals))
     persistence = sectioned_persistence(points, labels, normals, exposures, plane_section, up)
     n_sets = len(set_normals)
     result = RockMass(persistence, float(sum(f.area for f in exposures)), set_labels)
-    result.face_bend, result.face_sections = face.bend, len(exposures)
+    result.face_bend, result.face_sections, result.sections = face.bend, len(exposures), sections
     if parts is not None:
         result.ground, result.clutter, result.point_part = parts.ground, parts.clutter, parts.point_part
     result.p21, result.c13, result.c23 = np.zeros(n_sets), np.full(n_sets, np.nan), np.full(n_sets, np.nan)

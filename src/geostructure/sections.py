@@ -140,13 +140,13 @@ def face_sections(points, up=(0.0, 0.0, 1.0), seed: int = 0, bend: float | None 
 def section_exposures(points, face: Exposure, up=(0.0, 0.0, 1.0), seed: int = 0):
     """The exposures of a face's sections (:func:`face_sections` of the points that make
     ``face``), each its own mean face and occupancy, with its own ground and clutter left out
-    as ``face`` leaves them: (exposures, the section of every point). A face that does not
-    turn is ``[face]`` and None."""
+    as ``face`` leaves them: (the sections, their exposures, the section of every point). A
+    face that does not turn is one section, ``[face]`` and None."""
     points = np.asarray(points, dtype=np.float64)
     on_face = points if face.members is None else points[face.members]
     sections = face_sections(on_face, up, seed, bend=face.bend)
     if len(sections) == 1:
-        return [face], None
+        return sections, [face], None
     point_section = sections.of(points)
     spacing = face.cell / np.sqrt(CELL_POINTS)  # the spacing the face's cells were sized from
     exposures = []
@@ -158,7 +158,7 @@ def section_exposures(points, face: Exposure, up=(0.0, 0.0, 1.0), seed: int = 0)
         full = np.zeros(len(points), dtype=bool)
         full[np.flatnonzero(mine)[members if members is not None else slice(None)]] = True
         exposures.append(replace(part, members=full))
-    return exposures, point_section
+    return sections, exposures, point_section
 
 
 def face_sections_of(exposures, point_section, labels, n_planes: int) -> np.ndarray:

@@ -47,11 +47,15 @@ class FittedFace:
         return self.sections.of(planes.centroid - np.asarray(self.offset))
 
 
-def fit_face(points, frame: Frame = Frame(), members=None, bend: float | None = None, offset=None) -> FittedFace:
+def fit_face(
+    points, frame: Frame = Frame(), members=None, bend: float | None = None, offset=None, sections=None
+) -> FittedFace:
     """The slope of an outcrop cloud (:func:`fit_slope`), and for a face that turns, the
     slope of each of its sections (:func:`~.sections.face_sections`), each fitted to the
     points of its own section. ``members`` and ``bend`` as :func:`fit_slope` takes them;
-    ``offset``: what ``points`` are relative to (a cloud's), for the planes' sections.
+    ``offset``: what ``points`` are relative to (a cloud's), for the planes' sections;
+    ``sections``: the :class:`~.sections.FaceSections` of the same points, when the sets' rock
+    mass cut them already.
 
     Examples
     --------
@@ -69,7 +73,8 @@ def fit_face(points, frame: Frame = Frame(), members=None, bend: float | None = 
         points = points[members]
     offset = tuple(np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64).reshape(3))
     slope = fit_slope(points, frame, bend=bend)
-    sections = face_sections(points, frame.matrix[2], bend=slope.face_bend)
+    if sections is None:
+        sections = face_sections(points, frame.matrix[2], bend=slope.face_bend)
     if len(sections) == 1:
         return FittedFace(slope, sections, (slope,), offset)
     label = sections.of(points)

@@ -206,9 +206,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         # The face the sets' rock mass was read on, fitted here, where its points are:
         # the folder's would be read back and told from their ground and clutter again.
         members = None if rock.point_part is None else rock.point_part == FACE
-        kinematics["slope"] = fit_face(
-            result.filtered.local, result.frame, members, bend=rock.face_bend, offset=result.filtered.offset
-        )
+        kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=rock.face_bend,
+                                       offset=result.filtered.offset, sections=rock.sections)  # fmt: skip
     if kinematics is not None:  # a set of its own, added to the measured folder
         with StageProgress(enabled=not args.quiet) as progress:
             kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics, progress=progress)
