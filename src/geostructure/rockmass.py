@@ -30,7 +30,7 @@ import numpy as np
 from .exposure import Persistence, exposure
 from .face import face_parts
 from .joints import PlaneMoments, joint_planes
-from .sections import face_sections_of, section_exposures, sectioned_persistence
+from .sections import FaceSections, face_sections_of, section_exposures, sectioned_persistence
 from .spacing import nearest_plane_gaps, pooled_scanlines, scanline_spacing, spacing_statistics
 from .traces import TraceLengths, joint_traces, trace_lengths
 from .uncertainty import correlated_tilt
@@ -108,7 +108,7 @@ class RockMass:
     tilt_facets_short: int = 0  # facets in joints when too few to read it (uncertainty.MIN_TILT_FACETS)
     face_bend: float = 0.0  # degrees the face turns along its strike (exposure.face_bend)
     face_sections: int = 1  # the sections it was measured in (sections.section_exposures)
-    sections: object = None  # those sections (sections.FaceSections), which a fitted slope takes too
+    sections: FaceSections | None = None  # those sections, which a fitted slope takes too
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
