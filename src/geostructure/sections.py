@@ -44,6 +44,10 @@ STRAY = 2.5
 #: the longest side, and the share of the median point's cell a cell must hold.
 MAP_CELLS = 150
 SPARSE = 0.25
+#: A folded face's walls are told apart by local planes on map blocks this many across its
+#: longest side, whose normals' azimuths part by this many degrees (:func:`_by_facing`).
+FACING_BLOCKS = 8
+FACING_GAP = 45.0
 #: Cuts are tried between these shares of the points along the trace: a side needs enough
 #: of the face to have a direction.
 CUT_RANGE = (0.1, 0.9)
@@ -122,6 +126,8 @@ def face_sections(points, up=(0.0, 0.0, 1.0), seed: int = 0, bend: float | None 
     if bend is None:
         bend = face_bend(sample, up, seed)
     stretches = _stretches(plan[_dense(plan)], turns=True) if bend >= BENT_FACE else [plan]
+    if len(stretches) == 1 and bend >= 180.0:  # a bay deeper than wide: cut by where its walls face
+        stretches = _by_facing(sample, plan, up) or stretches
     # Numbered from left to right as one faces the rock: along the mean face's strike
     # (right-hand rule), the map's normal turned a right angle.
     normal = mean_face(sample, seed)[1][2]
@@ -199,6 +205,45 @@ def _dense(plan: np.ndarray) -> np.ndarray:
     _, cells, counts = np.unique(ij[:, 0] * (MAP_CELLS + 2) + ij[:, 1], return_inverse=True, return_counts=True)
     held = counts[cells.ravel()]
     return held >= SPARSE * np.median(held)
+
+
+def _by_facing(sample, plan, up) -> list | None:
+    """A folded face's points grouped by the way its walls face: local planes on map blocks
+    :data:`FACING_BLOCKS` across the longest side, their normals' azimuths clustered where
+    they part by :data:`FACING_GAP` degrees or more. None when they do not part, or a group
+    holds under a tenth of the points. (Along its length, each third of a bay deeper than
+    wide holds both its side walls, and the trace cut finds no turn.)"""
+    low = plan.min(axis=0)
+    size = max(float(np.ptp(plan, axis=0).max()), 1e-9) / FACING_BLOCKS
+    ij = np.floor((plan - low) / size).astype(np.int64)
+    codes, block = np.unique(ij[:, 0] * (FACING_BLOCKS + 2) + ij[:, 1], return_inverse=True)
+    block = block.ravel()
+    azimuth = np.full(len(codes), np.nan)
+    for k in range(len(codes)):
+        mine = sample[block == k]
+        if len(mine) < 50:
+            continue
+        normal = np.linalg.svd(mine - mine.mean(axis=0), full_matrices=False)[2][2]
+        across = plan_axes(up) @ (normal if normal @ up >= 0 else -normal)
+        if np.hypot(*across) >= 0.3:  # a wall, not a ledge or the floor
+            azimuth[k] = np.degrees(np.arctan2(across[0], across[1])) % 360.0
+    seen = np.flatnonzero(np.isfinite(azimuth))
+    if len(seen) < 2:
+        return None
+    order = seen[np.argsort(azimuth[seen])]
+    gaps = np.diff(np.concatenate([azimuth[order], [azimuth[order][0] + 360.0]]))
+    cuts = np.flatnonzero(gaps >= FACING_GAP)
+    if len(cuts) < 2:  # the azimuths part in one place at most: one way of facing
+        return None
+    group = np.full(len(codes), -1)
+    for g, (start, end) in enumerate(zip(cuts, np.roll(cuts, -1))):
+        members = order[(np.arange(start + 1, end + 1 + (len(order) if end < start else 0))) % len(order)]
+        group[members] = g
+    point_group = group[block]
+    parts = [plan[point_group == g] for g in range(len(cuts))]
+    if min(len(part) for part in parts) < 0.1 * len(plan):
+        return None
+    return parts
 
 
 def _merged(stretches: list, lines: list) -> tuple[list, list]:
