@@ -57,8 +57,9 @@ def kinematic_traces(kinematics: dict) -> list:
     seen = set()
     traces = []
     for section in kinematics.get("sections") or [None]:
-        # A face tested in sections: each section's envelopes are one legend entry that shows
-        # or hides them all, the first section's shown.
+        # A face tested in sections: every section's envelopes are drawn (the net shows no
+        # legend to switch them with), each trace named by its section; kinematics.png has a
+        # net per section.
         view = kinematics if section is None else {**kinematics, "slope": section["slope"]}
         group = None
         if section is not None:
@@ -73,7 +74,6 @@ def kinematic_traces(kinematics: dict) -> list:
                     name=group or name,
                     legendgroup=group or name,
                     showlegend=(group or name) not in seen,
-                    visible=True if section is None or section["section"] == 0 else "legendonly",
                     line=dict(color=color, width=1.8, dash=dash),
                     hoverinfo="skip",
                 )
