@@ -113,15 +113,6 @@ def test_streamed_command_writes_every_point_on_its_own_integers(tiled, tmp_path
     assert written.header.parse_crs().to_epsg() == 32633
 
 
-def test_streamed_run_refuses_what_needs_the_points_in_memory(tiled, tmp_path, capsys):
-    paths, _, _ = tiled
-    out = tmp_path / "out"
-    code, _, err = run_cli(capsys, "measure", str(paths[0]), "-o", str(out), "--engine", "stream", "--sets")
-    assert code == 2
-    assert_one_sentence(err, "--sets", "'geostructure sets OUTDIR'")  # what to run instead
-    assert not out.exists()
-
-
 @pytest.mark.slow
 def test_a_memory_bound_far_below_the_cloud_is_kept(tmp_path):
     """2.5M points, which take about 2.8 GB in memory, measured under --max-memory 700M: the

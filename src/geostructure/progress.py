@@ -25,6 +25,8 @@ LABELS = {
     "orientation": "Orientation",
     "write": "Writing",
     "stream": "Streamed passes",
+    "thin": "Thinning",
+    "label": "Labelling points",
 }
 
 

@@ -54,6 +54,7 @@ def save_measurement(
     inputs=(),
     sets=None,
     rock=None,
+    point_files=True,
 ) -> dict[str, Path]:
     """Write a measurement's files, and optionally its evaluation and report, as one set.
 
@@ -76,6 +77,8 @@ def save_measurement(
     rock : RockMass, optional
         Their spacing, persistence and intensity (:func:`plane_rock_mass`), in ``sets.csv``,
         ``planes.csv`` and ``run.json``.
+    point_files : bool or callable
+        How ``regions.ply`` and ``regions.laz`` are written (:func:`~.io.writers.write_result`).
 
     Returns
     -------
@@ -93,7 +96,7 @@ def save_measurement(
     ['dips', 'planes', 'regions']
     """
     with output_set(outdir, inputs=inputs) as outputs:
-        paths = write_result(result, outputs, extra, sets, rock)
+        paths = write_result(result, outputs, extra, sets, rock, point_files=point_files)
         if evaluation is not None:
             paths.update(stage_evaluation(outputs, evaluation, evaluation_extra))
         if report:

@@ -129,6 +129,7 @@ def add_kinematics(
     height: float | None = None,
     upper_slope: tuple[float, float] | None = None,
     progress=None,
+    points: tuple | None = None,
 ):
     """Run the kinematic tests on a measured folder and add their files (see the module).
 
@@ -158,6 +159,10 @@ def add_kinematics(
     progress : callable, optional
         ``progress(stage, done, total)``, called as each stage starts (the slope's fit, the
         tests, the files).
+    points : tuple, optional
+        The measured points, when the caller holds them: positions relative to the planes'
+        offset, each point's ``region_id`` and vegetation mark (or None), as
+        :func:`~.io.results.read_regions` reads them from ``regions.ply`` otherwise.
 
     Returns
     -------
@@ -186,7 +191,7 @@ def add_kinematics(
         strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
         if slope is None or (cohesion and height is None):
             report("slope", 0, None)
-            points, region, vegetation = read_regions(outputs.outdir, planes.offset)
+            points, region, vegetation = points or read_regions(outputs.outdir, planes.offset)
             if slope is None:
                 spacing = detected_spacing(outputs.record.get("detection"))
                 labels = plane_rows(region, planes.region_id)

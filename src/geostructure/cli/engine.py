@@ -29,6 +29,9 @@ ENGINES = ("auto", "memory", "stream", "dask")
 #: 300 bytes a point past it, which is what the automatic engine expects.
 MEMORY_BASE_BYTES = 2**30
 MEMORY_BYTES_PER_POINT = 300
+#: With the sets' rock mass and the kinematics: 955 MB for a 1.65M-point outcrop, 521 MB for
+#: 0.70M (2026-12-05), 460 bytes a point past the first; with a margin.
+MEMORY_BYTES_PER_POINT_ROCK = 600
 #: What the interpreter and the libraries take before any point, in a streamed run.
 BASELINE_BYTES = 300 * 2**20
 #: What a streamed run holds per point of a chunk (its temporaries, measured), and the
@@ -88,6 +91,18 @@ def add_engine_options(p) -> None:
     )
 
 
+def measures_in_memory(args) -> bool:
+    """What a streamed run cannot measure chunk by chunk: the sets' rock mass, the slope's
+    kinematics and the facet detector, all on each point's neighbours. A survey too large
+    for memory is thinned for them (:mod:`.thinned`)."""
+    return bool(wants_sets(args) or args.kinematics or args.detector == "facets")
+
+
+def memory_bytes_per_point(args) -> int:
+    """What a run in memory takes a point, past :data:`MEMORY_BASE_BYTES`."""
+    return MEMORY_BYTES_PER_POINT_ROCK if wants_sets(args) or args.kinematics else MEMORY_BYTES_PER_POINT
+
+
 def chosen_engine(args, paths) -> str:
     """The engine a run takes: the one asked, or for ``auto`` memory when the cloud fits."""
     engine = getattr(args, "engine", "memory")
@@ -99,7 +114,7 @@ def chosen_engine(args, paths) -> str:
     if engine != "auto":
         return engine
     limit = args.max_memory or default_max_memory()
-    need = MEMORY_BASE_BYTES + MEMORY_BYTES_PER_POINT * estimate_points(paths, args.mesh_samples or None)
+    need = MEMORY_BASE_BYTES + memory_bytes_per_point(args) * estimate_points(paths, args.mesh_samples or None)
     return "memory" if need <= limit else "stream"
 
 
@@ -109,23 +124,6 @@ def chunk_points(args) -> int:
         return DEFAULT_CHUNK_POINTS
     budget = (args.max_memory - BASELINE_BYTES) // 2
     return int(max(50_000, min(DEFAULT_CHUNK_POINTS, budget // CHUNK_BYTES_PER_POINT)))
-
-
-def check_streamable(args, engine: str) -> None:
-    """Refuse, before any work, what a streamed run cannot give yet."""
-    wanted = [name for name, on in (("--sets", wants_sets(args)), ("--kinematics", args.kinematics)) if on]
-    if wanted:
-        later = " and ".join(f"'geostructure {name[2:]} OUTDIR'" for name in wanted)
-        raise GeoStructureError(
-            f"{' and '.join(wanted)} {'need' if len(wanted) > 1 else 'needs'} the points in memory (spacing, the "
-            f"slope face), which the {engine} engine does not hold; give --engine memory, or measure streamed and "
-            f"run {later} on the folder afterwards."
-        )
-    if args.detector == "facets":
-        raise GeoStructureError(
-            f"the facet detector needs each point's neighbours in memory; the {engine} engine measures with "
-            f"the voxel detector: give --detector voxel or --engine memory."
-        )
 
 
 def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=None, inputs=()) -> int:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import time
 import warnings
 from pathlib import Path
@@ -28,7 +29,7 @@ from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
 from ..tables import print_evaluation, print_kinematics, print_match, print_planes, print_sets, print_sweep
-from .engine import add_engine_options, check_streamable, chosen_engine, run_streamed
+from .engine import add_engine_options, chosen_engine, measures_in_memory, run_streamed
 from .options import (
     add_measure_options,
     base_params,
@@ -46,6 +47,7 @@ from .options import (
     whole,
 )
 from .rockmass import add_kinematic_options, add_set_options, kinematic_settings, wants_sets
+from .thinned import thinned_survey
 
 
 def add_measure_commands(sub) -> None:
@@ -133,9 +135,10 @@ def run_measure(args) -> int:
     check_before_work(args, [*paths, args.truth])
     check_unit_given(args, paths)
     engine = chosen_engine(args, paths)
-    if engine != "memory":
-        check_streamable(args, engine)
     truth = read_truth(args.truth, frame) if args.truth else None
+    if engine != "memory" and measures_in_memory(args):
+        extra = {"inputs": [str(p) for p in paths]} if len(paths) > 1 else None
+        return measure_thinned(args, paths, frame, engine, extra, truth=truth, inputs=[*paths, args.truth])
     if engine != "memory":
         if args.engine == "auto":
             warnings.warn(
@@ -155,8 +158,22 @@ def run_measure(args) -> int:
     )
 
 
-def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=()) -> int:
-    """Measure; write the outputs, the evaluation and the report as one set; print the planes."""
+def measure_thinned(args, paths, frame, engine: str, extra: dict | None, *, truth=None, inputs=()) -> int:
+    """Measure a survey too large for memory on a thinned cloud of it (:mod:`.thinned`), and
+    label every one of its points in the point files."""
+    t = time.perf_counter()
+    with thinned_survey(args, paths, engine) as survey:
+        record = {**(extra or {}), "engine": engine, "thinned": survey.record()}
+        seconds = {"read": time.perf_counter() - t}
+        return measure_cloud(survey.cloud(), args, frame, seconds, record, truth=truth, inputs=inputs,
+                             point_files=survey.write_points)  # fmt: skip
+
+
+def measure_cloud(
+    cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=(), point_files=True
+) -> int:
+    """Measure; write the outputs, the evaluation and the report as one set; print the planes.
+    ``point_files`` writes ``regions.ply`` and ``regions.laz`` (:func:`~.runs.save_measurement`)."""
     crs = given_crs(crs_from(args), cloud.crs, cloud.source)
     unit = getattr(args, "unit", None)  # checked against the CRS before reading (a reconstruction has none)
     if crs != cloud.crs:
@@ -191,6 +208,8 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
             note_tilt_unread(rock.tilt_facets_short, cloud.source)
         progress("write", 0, None)
+        if callable(point_files):  # a thinned survey's: a pass over all its points, with its own bar
+            point_files = functools.partial(point_files, progress=progress)
         paths = save_measurement(
             result,
             args.outdir,
@@ -200,6 +219,7 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
             inputs=inputs,
             sets=sets,
             rock=rock,
+            point_files=point_files,
         )
     kinematics = kinematic_settings(args)
     if kinematics is not None and kinematics["slope"] is None and rock is not None:
@@ -209,8 +229,11 @@ def measure_cloud(cloud, args, frame, seconds: dict, extra: dict | None = None, 
         kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=rock.face_bend,
                                        offset=result.filtered.offset, sections=rock.sections)  # fmt: skip
     if kinematics is not None:  # a set of its own, added to the measured folder
+        held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # the folder's points
         with StageProgress(enabled=not args.quiet) as progress:
-            kinematic_summary, kinematic_paths = add_kinematics(args.outdir, **kinematics, progress=progress)
+            kinematic_summary, kinematic_paths = add_kinematics(
+                args.outdir, **kinematics, progress=progress, points=(held, result.labels, result.filtered.vegetation)
+            )
         paths.update(kinematic_paths)
     say_what_was_left(len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None)
     if not args.quiet:

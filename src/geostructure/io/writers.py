@@ -178,13 +178,14 @@ def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) ->
 
 
 def write_result(
-    result, outputs: OutputSet, extra: dict | None = None, sets=None, rock=None, *, point_files: bool = True
+    result, outputs: OutputSet, extra: dict | None = None, sets=None, rock=None, *, point_files=True
 ) -> dict[str, Path]:
     """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`;
     with ``sets``, the plane tables carry a ``set`` column and ``sets.csv`` is written; with
     ``rock``, the planes' traces and the sets' spacing and intensity too. Without
     ``point_files``, ``regions.ply`` and ``regions.laz`` are taken as staged already (a
-    streamed run writes them chunk by chunk)."""
+    streamed run writes them chunk by chunk); a callable ``point_files(outputs, result,
+    planes, rock)`` stages them itself (a thinned survey's, every point of the survey)."""
     files = {
         "planes": "planes.csv",
         "dips": "planes_dips.csv",
@@ -202,9 +203,11 @@ def write_result(
     # Leaving the pool waits for both, so an error or an interrupt finds them finished. The
     # libraries both sides import are imported first, here (threads.preload says why).
     preload("plyfile", "laspy", "lazrs")
+    if callable(point_files):
+        point_files(outputs, result, planes if sets is not None else None, rock)
     with ThreadPoolExecutor(2) as pool:
         point_writes = []
-        if point_files:
+        if point_files is True:
             labelled = None if sets is None else point_sets(result.labels, planes)
             part = None if rock is None else rock.point_part
             point_writes = [

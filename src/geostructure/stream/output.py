@@ -39,7 +39,7 @@ class RegionsPly:
         self._file = open(self.path, "wb")
         self._file.write(header.encode("ascii"))
 
-    def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None) -> None:
+    def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None, fields=None) -> None:
         rows = np.empty(len(points), dtype=self._dtype)
         rows["x"], rows["y"], rows["z"] = points.T
         rows[SCALAR + "region_id"] = labels
@@ -53,10 +53,12 @@ class RegionsPly:
 
 class RegionsLaz:
     """``regions.laz`` (LAS 1.4, point format 6): the kept points on the input's grid when
-    every tile shares one, with ``region_id`` as an extra dimension and the CRS kept."""
+    every tile shares one, with ``region_id`` as an extra dimension and the CRS kept, and
+    the ``extra`` dimensions (name -> dtype) that each chunk's ``fields`` give."""
 
-    def __init__(self, path):
+    def __init__(self, path, extra: dict | None = None):
         self.path = Path(path)
+        self.extra = dict(extra or {})
         self._writer = None
         self._header = None
 
@@ -66,18 +68,21 @@ class RegionsLaz:
         header = laspy.LasHeader(point_format=6, version="1.4")
         header.scales, header.offsets = las_grid(np.vstack([lower, upper]), cloud.offset, cloud.las_grid)
         header.generating_software = "geostructure"
-        header.add_extra_dim(laspy.ExtraBytesParams(name="region_id", type=np.int32))
+        for name, kind in {"region_id": np.int32, **self.extra}.items():
+            header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
         if cloud.crs:
             header.add_crs(parse_crs(cloud.crs))
         self._header = header
         self._writer = laspy.open(str(self.path), mode="w", header=header, do_compress=self.path.suffix == ".laz")
 
-    def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None) -> None:
+    def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None, fields: dict | None = None) -> None:
         import laspy
 
         record = laspy.ScaleAwarePointRecord.zeros(len(points), header=self._header)
         record.x, record.y, record.z = points[:, 0], points[:, 1], points[:, 2]
         record.region_id = np.asarray(labels, dtype=np.int32)
+        for name, kind in self.extra.items():
+            record[name] = np.asarray(fields[name], dtype=kind)
         self._writer.write_points(record)
 
     def end(self) -> None:

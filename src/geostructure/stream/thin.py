@@ -1,0 +1,219 @@
+"""A survey too large for memory, thinned to one that fits: one point per cell of a grid,
+the first the files give in it.
+
+The facet detector, the joint sets and the rock mass need each point's neighbours and the
+face's exposure, so they run in memory. Their joints are some decimetres across: a
+point every centimetre or two says no more of them than one every few. A survey that does
+not fit is therefore read chunk by chunk (:func:`~.source.spill_inputs`) and thinned on a
+grid whose edge makes it fit (:func:`thin_spill`); the thinned cloud is measured in memory,
+and a last pass gives every point of the survey its cell's label (:func:`label_survey`).
+
+The point kept in a cell is the first of the survey's points in it, in the files' order,
+whatever the chunks: it is an input point, on its own float64 coordinates, and the same
+cell of a later pass finds it again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import GeoStructureError
+from .executor import SerialExecutor
+from .source import Chunk, Spill
+
+#: Points the grid's edge is first judged on, spread evenly through the spill.
+EDGE_SAMPLE = 1_000_000
+#: The sample's points per occupied cell at the finest edge whose cells it takes as all the
+#: survey's: a cell so full in the sample is surely occupied in the survey.
+FULL_CELL = 16
+#: A thinning that keeps this share of the target or more is taken; a new try aims at
+#: ``ENOUGH_AIM`` of it.
+ENOUGH, ENOUGH_AIM = 0.6, 0.85
+#: Thinning passes at most: each misses by the face's roughness, which adds cells that a
+#: flat face's count (the area over the edge squared) does not foresee.
+MAX_THINNING_PASSES = 4
+
+
+@dataclass(frozen=True)
+class ThinGrid:
+    """A grid of cubes of side ``edge`` from ``lower`` (absolute coordinates), its cells
+    numbered ``(i * ny + j) * nz + k``."""
+
+    lower: np.ndarray
+    edge: float
+    shape: tuple[int, int, int]
+
+    @classmethod
+    def over(cls, lower, upper, edge: float) -> ThinGrid:
+        lower = np.asarray(lower, dtype=np.float64)
+        shape = tuple(int(n) for n in np.floor((np.asarray(upper) - lower) / edge).astype(np.int64) + 1)
+        if float(shape[0]) * shape[1] * shape[2] >= 2.0**62:
+            raise GeoStructureError(f"a grid of {edge:g} over the survey has too many cells to number")
+        return cls(lower, float(edge), shape)
+
+    def codes(self, points: np.ndarray) -> np.ndarray:
+        """Each point's cell number (int64)."""
+        index = np.floor((points - self.lower) / self.edge).astype(np.int64)
+        np.clip(index, 0, np.array(self.shape) - 1, out=index)  # the upper bound's own cell
+        _, ny, nz = self.shape
+        return (index[:, 0] * ny + index[:, 1]) * nz + index[:, 2]
+
+
+@dataclass
+class Thinned:
+    """A thinned survey: each kept point's absolute coordinates (in the files' order), its
+    row in the spill and its cell on ``grid``."""
+
+    grid: ThinGrid | None  # None: every point kept, none thinned
+    points: np.ndarray
+    rows: np.ndarray
+    codes: np.ndarray | None
+    counts: np.ndarray  # the survey's points in each kept point's cell
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def finder(self) -> CellFinder | None:
+        return None if self.grid is None else CellFinder(self.grid, self.codes)
+
+
+@dataclass(frozen=True)
+class CellFinder:
+    """Which kept point stands for each point's cell: what the label pass sends to workers."""
+
+    grid: ThinGrid
+    codes: np.ndarray
+
+    def __post_init__(self):
+        order = np.argsort(self.codes, kind="stable")
+        object.__setattr__(self, "_order", order)
+        object.__setattr__(self, "_sorted", self.codes[order])
+
+    def find(self, points: np.ndarray) -> np.ndarray:
+        """Each point's kept point (its index in the thinned cloud), -1 for a cell none
+        stands for (never, for the survey's own points)."""
+        codes = self.grid.codes(points)
+        at = np.minimum(np.searchsorted(self._sorted, codes), max(len(self._sorted) - 1, 0))
+        found = self._order[at]
+        found[self._sorted[at] != codes] = -1
+        return found
+
+
+def chunk_cells(chunk: Chunk, grid: ThinGrid):
+    """A chunk's cells, each with its first point: (codes, spill rows, points, counts)."""
+    points = chunk.points()
+    codes, first, counts = np.unique(grid.codes(points), return_index=True, return_counts=True)
+    return codes, first + chunk.start, points[first], counts
+
+
+def _first_of_each(codes, rows, points, counts):
+    """The first row (in the spill's order) of each cell among gathered parts, and the
+    cell's points counted over all of them."""
+    order = np.lexsort((rows, codes))
+    codes, rows, points, counts = codes[order], rows[order], points[order], counts[order]
+    first = np.ones(len(codes), dtype=bool)
+    first[1:] = codes[1:] != codes[:-1]
+    return codes[first], rows[first], points[first], np.add.reduceat(counts, np.flatnonzero(first))
+
+
+def thin_with(spill: Spill, grid: ThinGrid, chunks, executor, report=None) -> Thinned:
+    """One pass over ``chunks`` keeping each cell's first point; ``report()`` after each chunk."""
+    parts, held, limit = [], 0, None
+    for part in executor.map(chunk_cells, chunks, grid):
+        parts.append(part)
+        held += len(part[0])
+        if report is not None:
+            report()
+        if limit is None:
+            limit = max(4 * held, 1_000_000)
+        if held > limit:  # cells seen in several chunks: fold them, so memory stays bounded
+            parts = [_first_of_each(*(np.concatenate(c) for c in zip(*parts)))]
+            held, limit = len(parts[0][0]), 2 * len(parts[0][0]) + 1_000_000
+    codes, rows, points, counts = _first_of_each(*(np.concatenate(c) for c in zip(*parts)))
+    order = np.argsort(rows)  # the files' order
+    return Thinned(grid, points[order], rows[order], codes[order], counts[order])
+
+
+def first_edge(spill: Spill, target: int, sample: int = EDGE_SAMPLE) -> float:
+    """The edge at which ``spill`` would keep about ``target`` cells were it a surface: its
+    area read on an even sample at the finest edge whose cells are all full."""
+    n = spill.n_points
+    rows = np.unique(np.linspace(0, n - 1, min(n, sample)).astype(np.int64))
+    points = np.memmap(spill.points_path, dtype="<f8", mode="r", shape=(n, 3))[rows]
+    extent = float(np.max(spill.upper - spill.lower))
+    area = None
+    for level in range(2, 21):
+        edge = extent / 2**level
+        try:
+            grid = ThinGrid.over(spill.lower, spill.upper, edge)
+        except GeoStructureError:
+            break
+        cells = len(np.unique(grid.codes(points)))
+        if len(points) / cells < FULL_CELL:
+            break
+        area = cells * edge**2
+    if area is None:
+        return extent / 4
+    return float(np.sqrt(area / target))
+
+
+def thin_spill(spill: Spill, target: int, chunk_points: int, executor=None, progress=None) -> Thinned:
+    """``spill`` thinned to at most ``target`` points (and :data:`ENOUGH` of it where the
+    tries reach it), one per cell of a grid (a pass over the spill a try,
+    :data:`MAX_THINNING_PASSES` at most).
+
+    ``progress("thin", done, total)`` over the passes' chunks."""
+    if not np.max(spill.upper - spill.lower) > 0:
+        raise GeoStructureError(f"{spill.source}: all points lie at one spot; there is no plane to measure.")
+    executor = executor or SerialExecutor()
+    report = progress or (lambda stage, done, total: None)
+    chunks = spill.chunks(chunk_points)
+    if spill.n_points <= target:  # it fits: every point, read back in one piece
+        rows = np.arange(spill.n_points)
+        points = np.fromfile(spill.points_path, dtype="<f8").reshape(-1, 3)
+        return Thinned(None, points, rows, None, np.ones(spill.n_points, dtype=np.int64))
+    edge = first_edge(spill, target)
+    done = [0]
+    total = len(chunks)
+
+    def step():
+        done[0] += 1
+        report("thin", done[0], total)
+
+    best = None
+    for _ in range(MAX_THINNING_PASSES):
+        grid = ThinGrid.over(spill.lower, spill.upper, edge)
+        thinned = thin_with(spill, grid, chunks, executor, step)
+        if len(thinned) <= target and (best is None or len(thinned) > len(best)):
+            best = thinned
+        if best is not None and len(best) >= ENOUGH * target:
+            break
+        # The count goes about as the edge's square on a face: aim a little under the target.
+        edge *= np.sqrt(len(thinned) / (ENOUGH_AIM * target))
+        total += len(chunks)
+    if best is not None:
+        return best
+    raise GeoStructureError(
+        f"{spill.source}: could not thin the survey to {target:,} points in {MAX_THINNING_PASSES} passes; "
+        f"give more --max-memory."
+    )
+
+
+def label_survey(spill: Spill, thinned: Thinned, chunk_points: int, executor=None, progress=None):
+    """Yield, chunk by chunk in the files' order, each chunk, its points (absolute) and the
+    index in ``thinned`` of the kept point that stands for each (:meth:`CellFinder.find`)."""
+    executor = executor or SerialExecutor()
+    report = progress or (lambda stage, done, total: None)
+    chunks = spill.chunks(chunk_points)
+    for i, (points, found) in enumerate(executor.map(_chunk_found, chunks, thinned.finder())):
+        report("label", i + 1, len(chunks))
+        yield chunks[i], points, found
+
+
+def _chunk_found(chunk: Chunk, finder: CellFinder | None):
+    points = chunk.points()
+    if finder is None:  # nothing thinned: each point stands for itself
+        return points, np.arange(chunk.start, chunk.stop)
+    return points, finder.find(points)
