@@ -154,3 +154,32 @@ def test_too_little_memory_for_a_rock_mass_is_refused_before_any_work(survey, tm
     code, _, err = run_cli(capsys, "measure", tiles, "-o", out, "--sets", "--max-memory", "1.01G")
     assert code == 2 and "--max-memory" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_sets_and_kinematics_on_a_thinned_folder_read_the_measured_points(survey, tmp_path, capsys):
+    """``sets OUTDIR`` and ``kinematics OUTDIR`` on a thinned run's folder take each cell's
+    first point of ``regions.ply`` (every point of the survey) on the recorded grid: the
+    points the run measured, so the sets come out as the run's own; ``regions.laz`` is
+    written again chunk by chunk, every point with its set."""
+    from test_rockmass import TEXT_SET_COLUMNS
+
+    _, tiles, _ = survey
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "measure", tiles, "-o", out, "--sets", "--max-memory", BOUND, "-q")
+    assert code == 0, err
+    first = list(csv.DictReader(open(out / "sets.csv", newline="")))
+    before = laspy.read(str(out / "regions.laz"))
+    assert run_cli(capsys, "sets", out, "-q")[0] == 0
+    again = list(csv.DictReader(open(out / "sets.csv", newline="")))
+    assert len(again) == len(first) == 3
+    for a, b in zip(first, again):
+        assert [a[k] for k in TEXT_SET_COLUMNS] == [b[k] for k in TEXT_SET_COLUMNS]
+        keys = [k for k in a if k not in TEXT_SET_COLUMNS]
+        np.testing.assert_allclose([float(a[k]) for k in keys], [float(b[k]) for k in keys], rtol=1e-4)
+    after = laspy.read(str(out / "regions.laz"))
+    assert np.array_equal(after.X, before.X) and np.array_equal(after.region_id, before.region_id)
+    assert np.array_equal(after["set"], before["set"]) and np.array_equal(after.face_part, before.face_part)
+    assert after.header.parse_crs().to_epsg() == 32633
+    code, _, err = run_cli(capsys, "kinematics", out, "--friction", "30", "-q")
+    assert code == 0, err
+    assert abs(json.loads((out / "kinematics.json").read_text())["slope"]["dip"] - 75.0) < 3.0

@@ -23,7 +23,7 @@ from .face import face_parts
 from .io.crs import in_metres, note_unstated_unit, recorded_unit
 from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
-from .io.results import read_planes, read_regions, read_sets
+from .io.results import read_planes, read_sets
 from .io.writers import (
     sets_record,
     write_plane_tables,
@@ -38,6 +38,8 @@ from .rockmass import RockMass, rock_mass, with_rock_mass
 from .scoring import Evaluation, stage_evaluation
 from .setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
 from .sets import JointSets, find_sets
+from .stream.output import rewrite_regions_laz
+from .stream.thin import FOLDER_ROWS, cell_point_sets, read_measured
 from .threads import preload
 from .uncertainty import normal_standard_errors, with_correlated_tilt
 
@@ -284,7 +286,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         had_report = (outputs.outdir / "report.html").is_file()
         report("read", 0, None)
         planes = read_planes(outputs.outdir)
-        points, region, vegetation = read_regions(outputs.outdir, planes.offset)
+        points, region, vegetation, cells = read_measured(outputs.outdir, outputs.record, planes.offset)
         labels, spacing = plane_rows(region, planes.region_id), detected_spacing(outputs.record.get("detection"))
         if unscaled(outputs.record):
             warnings.warn(
@@ -313,8 +315,12 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         paths["dips"] = outputs.final("planes_dips.csv")
         if "planes.gpkg" in staged:
             paths.update(geojson=outputs.final("planes.geojson"), gpkg=outputs.final("planes.gpkg"))
-        if (outputs.outdir / "regions.laz").is_file():  # folders before 2026-12-02 have none
+        if (outputs.outdir / "regions.laz").is_file() and cells is None:  # folders before 2026-12-02 have none
             add_point_sets(outputs.outdir / "regions.laz", outputs.path("regions.laz"), planes, rock.point_part)
+            paths["regions_laz"] = outputs.final("regions.laz")
+        elif (outputs.outdir / "regions.laz").is_file():  # a thinned survey's: every point, chunk by chunk
+            values = cell_point_sets(outputs.outdir, cells, planes, rock.point_part)
+            rewrite_regions_laz(outputs.outdir / "regions.laz", outputs.path("regions.laz"), values, FOLDER_ROWS)
             paths["regions_laz"] = outputs.final("regions.laz")
         if had_report:  # the report shows the sets: draw it again from the new set of files
             paths.update(redraw_report(outputs))

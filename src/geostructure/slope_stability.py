@@ -18,13 +18,14 @@ from .face import face_members
 from .io.atomic import write_columns_csv, write_figure, write_json, write_table_csv
 from .io.crs import recorded_unit
 from .io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
-from .io.results import read_planes, read_regions, read_sets
+from .io.results import read_planes, read_sets
 from .kinematic_summary import kinematics_of
 from .kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope
 from .orientation import Frame, orientation_from_normals
 from .planes import plane_rows
 from .sections import FaceSections, face_sections
 from .setnotes import bent_slope, note_of, sectioned_slope, warn_of
+from .stream.thin import read_measured
 from .uncertainty import normal_standard_errors
 
 
@@ -191,7 +192,7 @@ def add_kinematics(
         strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
         if slope is None or (cohesion and height is None):
             report("slope", 0, None)
-            points, region, vegetation = points or read_regions(outputs.outdir, planes.offset)
+            points, region, vegetation = points or read_measured(outputs.outdir, outputs.record, planes.offset)[:3]
             if slope is None:
                 spacing = detected_spacing(outputs.record.get("detection"))
                 labels = plane_rows(region, planes.region_id)

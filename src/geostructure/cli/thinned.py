@@ -72,7 +72,7 @@ class ThinnedSurvey:
         return {
             "survey_points": self.spill.n_points,
             "points": len(self.thinned),
-            "cell": None if grid is None else grid.edge,
+            **({"cell": None} if grid is None else grid.to_record()),
         }
 
     def note(self, limit: int) -> None:

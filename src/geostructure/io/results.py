@@ -53,22 +53,33 @@ def read_planes(folder, offset=None) -> Planes:
     return Planes.from_csv(Path(folder) / "planes.csv", offset)
 
 
-def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """The labelled points of ``regions.ply`` in a measured folder: (N, 3) float64 positions
-    relative to ``offset``, each point's ``region_id`` (-1 for none), and which points the
-    input classified as vegetation (its ``vegetation`` property,
-    :func:`~.writers.write_regions_ply`; None when it has none)."""
+def open_regions(folder):
+    """``regions.ply``'s vertices in a measured folder, memory-mapped (a structured array with
+    ``x``, ``y``, ``z`` and ``region_id``), checked to be GeoStructure's."""
     from plyfile import PlyData, PlyParseError
 
     path = Path(folder) / "regions.ply"
     try:
         vertex = PlyData.read(str(path), mmap=True)["vertex"].data
-        xyz = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
-        region = np.asarray(ply_field(vertex, "region_id"), dtype=np.int64)
+        names = vertex.dtype.names or ()
+        missing = [n for n in ("x", "y", "z", "region_id") if n not in names and SCALAR + n not in names]
+        if missing:
+            raise KeyError(", ".join(missing))
     except FileNotFoundError:
         raise OutputError(f"{path}: no such file; run 'geostructure measure' first.") from None
     except (PlyParseError, KeyError, ValueError) as exc:
         raise OutputError(f"{path}: not a GeoStructure regions file ({exc}).") from None
+    return vertex
+
+
+def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """The labelled points of ``regions.ply`` in a measured folder: (N, 3) float64 positions
+    relative to ``offset``, each point's ``region_id`` (-1 for none), and which points the
+    input classified as vegetation (its ``vegetation`` property,
+    :func:`~.writers.write_regions_ply`; None when it has none)."""
+    vertex = open_regions(folder)
+    xyz = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
+    region = np.asarray(ply_field(vertex, "region_id"), dtype=np.int64)
     try:
         vegetation = np.asarray(ply_field(vertex, "vegetation"), dtype=bool)
     except (KeyError, ValueError):

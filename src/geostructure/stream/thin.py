@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GeoStructureError
+from ..io.laz import point_sets
+from ..io.results import open_regions, ply_field, read_regions
 from .executor import SerialExecutor
 from .source import Chunk, Spill
 
@@ -44,6 +46,18 @@ class ThinGrid:
     lower: np.ndarray
     edge: float
     shape: tuple[int, int, int]
+
+    @classmethod
+    def from_record(cls, record: dict | None) -> ThinGrid | None:
+        """The grid a thinned run recorded in ``run.json`` (``thinned``); None for a run
+        that thinned nothing."""
+        if not record or record.get("cell") is None or "grid_lower" not in record:
+            return None
+        return cls(np.asarray(record["grid_lower"], dtype=np.float64), float(record["cell"]),
+                   tuple(int(n) for n in record["grid_shape"]))  # fmt: skip
+
+    def to_record(self) -> dict:
+        return {"cell": self.edge, "grid_lower": self.lower.tolist(), "grid_shape": list(self.shape)}
 
     @classmethod
     def over(cls, lower, upper, edge: float) -> ThinGrid:
@@ -102,38 +116,47 @@ class CellFinder:
 
 
 def chunk_cells(chunk: Chunk, grid: ThinGrid):
-    """A chunk's cells, each with its first point: (codes, spill rows, points, counts)."""
+    """A chunk's cells, each with its first point: (codes, spill rows, counts, points)."""
     points = chunk.points()
     codes, first, counts = np.unique(grid.codes(points), return_index=True, return_counts=True)
-    return codes, first + chunk.start, points[first], counts
+    return codes, first + chunk.start, counts, points[first]
 
 
-def _first_of_each(codes, rows, points, counts):
-    """The first row (in the spill's order) of each cell among gathered parts, and the
-    cell's points counted over all of them."""
+def _first_of_each(codes, rows, counts, *payload):
+    """The first row (in the files' order) of each cell among gathered parts, the cell's
+    points counted over all of them, and the first row's ``payload``."""
     order = np.lexsort((rows, codes))
-    codes, rows, points, counts = codes[order], rows[order], points[order], counts[order]
+    codes, rows = codes[order], rows[order]
     first = np.ones(len(codes), dtype=bool)
     first[1:] = codes[1:] != codes[:-1]
-    return codes[first], rows[first], points[first], np.add.reduceat(counts, np.flatnonzero(first))
+    counts = np.add.reduceat(counts[order], np.flatnonzero(first)) if len(codes) else counts
+    return (codes[first], rows[first], counts, *(p[order][first] for p in payload))
 
 
-def thin_with(spill: Spill, grid: ThinGrid, chunks, executor, report=None) -> Thinned:
-    """One pass over ``chunks`` keeping each cell's first point; ``report()`` after each chunk."""
-    parts, held, limit = [], 0, None
-    for part in executor.map(chunk_cells, chunks, grid):
-        parts.append(part)
+def fold_first(parts, report=None):
+    """Each cell's first row over ``parts`` ((codes, rows, counts, *payload) each, as
+    :func:`chunk_cells` gives), folded as they come so that memory stays bounded, in the
+    files' order; ``report()`` after each part."""
+    gathered, held, limit = [], 0, None
+    for part in parts:
+        gathered.append(part)
         held += len(part[0])
         if report is not None:
             report()
         if limit is None:
             limit = max(4 * held, 1_000_000)
-        if held > limit:  # cells seen in several chunks: fold them, so memory stays bounded
-            parts = [_first_of_each(*(np.concatenate(c) for c in zip(*parts)))]
-            held, limit = len(parts[0][0]), 2 * len(parts[0][0]) + 1_000_000
-    codes, rows, points, counts = _first_of_each(*(np.concatenate(c) for c in zip(*parts)))
-    order = np.argsort(rows)  # the files' order
-    return Thinned(grid, points[order], rows[order], codes[order], counts[order])
+        if held > limit:  # cells seen in several chunks: fold them
+            gathered = [_first_of_each(*(np.concatenate(c) for c in zip(*gathered)))]
+            held, limit = len(gathered[0][0]), 2 * len(gathered[0][0]) + 1_000_000
+    whole = _first_of_each(*(np.concatenate(c) for c in zip(*gathered)))
+    order = np.argsort(whole[1])  # the files' order
+    return tuple(c[order] for c in whole)
+
+
+def thin_with(spill: Spill, grid: ThinGrid, chunks, executor, report=None) -> Thinned:
+    """One pass over ``chunks`` keeping each cell's first point; ``report()`` after each chunk."""
+    codes, rows, counts, points = fold_first(executor.map(chunk_cells, chunks, grid), report)
+    return Thinned(grid, points, rows, codes, counts)
 
 
 def first_edge(spill: Spill, target: int, sample: int = EDGE_SAMPLE) -> float:
@@ -217,3 +240,56 @@ def _chunk_found(chunk: Chunk, finder: CellFinder | None):
     if finder is None:  # nothing thinned: each point stands for itself
         return points, np.arange(chunk.start, chunk.stop)
     return points, finder.find(points)
+
+
+#: Points of ``regions.ply`` read at a time from a thinned run's folder.
+FOLDER_ROWS = 2_000_000
+
+
+def _ply_cells(vertex, start: int, stop: int, grid: ThinGrid):
+    """Rows ``start`` to ``stop`` of ``regions.ply``: their cells, each with its first point's
+    row, coordinates, region and vegetation mark (as :func:`chunk_cells`)."""
+    part = vertex[start:stop]
+    xyz = np.column_stack([np.asarray(part[a], dtype=np.float64) for a in "xyz"])
+    codes, first, counts = np.unique(grid.codes(xyz), return_index=True, return_counts=True)
+    region = np.asarray(ply_field(part, "region_id"), dtype=np.int64)[first]
+    try:
+        vegetation = np.asarray(ply_field(part, "vegetation"), dtype=np.int8)[first]
+    except (KeyError, ValueError):
+        vegetation = np.full(len(first), -1, dtype=np.int8)
+    return codes, first + start, counts, xyz[first], region, vegetation
+
+
+def read_measured(folder, record: dict, offset=None):
+    """The points a folder's planes were measured on, as :func:`~..io.results.read_regions`
+    reads them (positions less ``offset``, regions, vegetation marks or None), and a
+    :class:`CellFinder` of them (None but for a thinned run's folder).
+
+    A thinned run's ``regions.ply`` holds every point of its survey; the points it measured
+    are each cell's first (:mod:`.thin`), read here again chunk by chunk on the grid
+    ``run.json`` recorded."""
+    grid = ThinGrid.from_record(record.get("thinned"))
+    if grid is None:
+        return (*read_regions(folder, offset), None)
+    vertex = open_regions(folder)
+    parts = (_ply_cells(vertex, a, min(a + FOLDER_ROWS, len(vertex)), grid) for a in range(0, len(vertex), FOLDER_ROWS))
+    codes, _, _, xyz, region, vegetation = fold_first(parts)
+    if offset is not None:
+        xyz -= np.asarray(offset, dtype=np.float64)
+    marks = None if (vegetation < 0).any() else vegetation.astype(bool)
+    return xyz, region, marks, CellFinder(grid, codes)
+
+
+def cell_point_sets(folder, finder: CellFinder, planes, face_part=None):
+    """Per :data:`FOLDER_ROWS` rows of a thinned run's ``regions.ply``: each point's set (by
+    its region) and face part (its cell's measured point's), for ``regions.laz``."""
+    vertex = open_regions(folder)
+    for a in range(0, len(vertex), FOLDER_ROWS):
+        part = vertex[a : a + FOLDER_ROWS]
+        region = np.asarray(ply_field(part, "region_id"), dtype=np.int64)
+        if face_part is None:
+            parts = np.zeros(len(part), dtype=np.uint8)
+        else:
+            xyz = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
+            parts = np.asarray(face_part, dtype=np.uint8)[finder.find(xyz)]
+        yield point_sets(region, planes), parts
