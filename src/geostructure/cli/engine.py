@@ -72,8 +72,9 @@ def add_engine_options(p) -> None:
         choices=ENGINES,
         default="auto",
         help="memory: the whole cloud at once (all detectors); stream: in chunks, the voxel detector, memory "
-        "bounded by --max-memory; dask: the chunks as tasks on a dask.distributed cluster; auto (default): "
-        "memory when the cloud fits in --max-memory, else stream",
+        "bounded by --max-memory (with --sets, --kinematics or --detector facets: the survey thinned to what "
+        "fits, measured in memory, every point labelled); dask: the chunks as tasks on a dask.distributed "
+        "cluster; auto (default): memory when the cloud fits in --max-memory, else stream",
     )
     g.add_argument(
         "--max-memory",

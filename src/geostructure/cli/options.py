@@ -166,7 +166,8 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
         default=None,
         help="facets: grown on per-point planes, down to small joints on rough rock, with the paper's "
         f"voxel growing where a facet is curved; voxel: the paper's region growing alone (default "
-        f"{defaults.detector} in memory; voxel when streamed)",
+        f"{defaults.detector} in memory; voxel when streamed, unless --sets, --kinematics or --detector facets "
+        f"thin the survey to what fits)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
 
