@@ -246,8 +246,10 @@ def measure_cloud(
             print_evaluation(evaluation)
         # From reading to the last file written: what the user waited, less Python's start.
         took = seconds.get("read", 0.0) + time.perf_counter() - t
+        thinned = (extra or {}).get("thinned") or {}
+        of_survey = f" of the survey's {thinned['survey_points']:,}" if thinned.get("cell") else ""
         print(
-            f"{len(result)} planes from {len(cloud):,} points in {took:{'.2f' if took < 1 else '.1f'}} s; "
+            f"{len(result)} planes from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
             f"wrote {', '.join(str(p) for p in paths.values())}"
         )
     return 0

@@ -80,7 +80,7 @@ class ThinnedSurvey:
         if grid is None:
             return
         warnings.warn(
-            f"{self.spill.source}: its {n:,} points do not fit in {limit / 2**30:.1f} GiB (--max-memory); "
+            f"{self.spill.source}: its {n:,} points do not fit in {limit / 2**30:.3g} GiB (--max-memory); "
             f"measured on {len(self.thinned):,} of them, the first in each cell of {grid.edge:.3g} on a side, "
             f"and every point labelled in regions.ply and regions.laz.",
             GeoStructureNote,
