@@ -315,12 +315,12 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         paths["dips"] = outputs.final("planes_dips.csv")
         if "planes.gpkg" in staged:
             paths.update(geojson=outputs.final("planes.geojson"), gpkg=outputs.final("planes.gpkg"))
-        if (outputs.outdir / "regions.laz").is_file() and cells is None:  # folders before 2026-12-02 have none
-            add_point_sets(outputs.outdir / "regions.laz", outputs.path("regions.laz"), planes, rock.point_part)
-            paths["regions_laz"] = outputs.final("regions.laz")
-        elif (outputs.outdir / "regions.laz").is_file():  # a thinned survey's: every point, chunk by chunk
-            values = cell_point_sets(outputs.outdir, cells, planes, rock.point_part)
-            rewrite_regions_laz(outputs.outdir / "regions.laz", outputs.path("regions.laz"), values, FOLDER_ROWS)
+        if (outputs.outdir / "regions.laz").is_file():  # folders before 2026-12-02 have none
+            if cells is None:
+                add_point_sets(outputs.outdir / "regions.laz", outputs.path("regions.laz"), planes, rock.point_part)
+            else:  # a thinned survey's: every point of it, chunk by chunk
+                values = cell_point_sets(outputs.outdir, cells, planes, rock.point_part)
+                rewrite_regions_laz(outputs.outdir / "regions.laz", outputs.path("regions.laz"), values, FOLDER_ROWS)
             paths["regions_laz"] = outputs.final("regions.laz")
         if had_report:  # the report shows the sets: draw it again from the new set of files
             paths.update(redraw_report(outputs))

@@ -22,7 +22,9 @@ import numpy as np
 from ..errors import GeoStructureError
 from ..io.laz import point_sets
 from ..io.results import open_regions, ply_field, read_regions
+from ..voxel import MAX_CELLS_PER_AXIS, voxel_keys
 from .executor import SerialExecutor
+from .passes import VoxelTable
 from .source import Chunk, Spill
 
 #: Points the grid's edge is first judged on, spread evenly through the spill.
@@ -63,9 +65,14 @@ class ThinGrid:
     def over(cls, lower, upper, edge: float) -> ThinGrid:
         lower = np.asarray(lower, dtype=np.float64)
         shape = tuple(int(n) for n in np.floor((np.asarray(upper) - lower) / edge).astype(np.int64) + 1)
-        if float(shape[0]) * shape[1] * shape[2] >= 2.0**62:
+        if max(shape) > MAX_CELLS_PER_AXIS or float(shape[0]) * shape[1] * shape[2] >= 2.0**62:
             raise GeoStructureError(f"a grid of {edge:g} over the survey has too many cells to number")
         return cls(lower, float(edge), shape)
+
+    def table(self, points: np.ndarray) -> VoxelTable:
+        """The cells of ``points`` (one a cell), each found again from any point in it as
+        its row in ``points`` (:meth:`~.passes.VoxelTable.find`; -1 for a cell none holds)."""
+        return VoxelTable.of(voxel_keys(points, self.edge, self.lower), self.edge, self.lower)
 
     def codes(self, points: np.ndarray) -> np.ndarray:
         """Each point's cell number (int64)."""
@@ -78,41 +85,19 @@ class ThinGrid:
 @dataclass
 class Thinned:
     """A thinned survey: each kept point's absolute coordinates (in the files' order), its
-    row in the spill and its cell on ``grid``."""
+    row in the spill and how many of the survey's points its cell on ``grid`` holds."""
 
     grid: ThinGrid | None  # None: every point kept, none thinned
     points: np.ndarray
     rows: np.ndarray
-    codes: np.ndarray | None
-    counts: np.ndarray  # the survey's points in each kept point's cell
+    counts: np.ndarray
 
     def __len__(self) -> int:
         return len(self.rows)
 
-    def finder(self) -> CellFinder | None:
-        return None if self.grid is None else CellFinder(self.grid, self.codes)
-
-
-@dataclass(frozen=True)
-class CellFinder:
-    """Which kept point stands for each point's cell: what the label pass sends to workers."""
-
-    grid: ThinGrid
-    codes: np.ndarray
-
-    def __post_init__(self):
-        order = np.argsort(self.codes, kind="stable")
-        object.__setattr__(self, "_order", order)
-        object.__setattr__(self, "_sorted", self.codes[order])
-
-    def find(self, points: np.ndarray) -> np.ndarray:
-        """Each point's kept point (its index in the thinned cloud), -1 for a cell none
-        stands for (never, for the survey's own points)."""
-        codes = self.grid.codes(points)
-        at = np.minimum(np.searchsorted(self._sorted, codes), max(len(self._sorted) - 1, 0))
-        found = self._order[at]
-        found[self._sorted[at] != codes] = -1
-        return found
+    def finder(self) -> VoxelTable | None:
+        """Which kept point stands for each point's cell: what the label pass sends to workers."""
+        return None if self.grid is None else self.grid.table(self.points)
 
 
 def chunk_cells(chunk: Chunk, grid: ThinGrid):
@@ -155,8 +140,8 @@ def fold_first(parts, report=None):
 
 def thin_with(spill: Spill, grid: ThinGrid, chunks, executor, report=None) -> Thinned:
     """One pass over ``chunks`` keeping each cell's first point; ``report()`` after each chunk."""
-    codes, rows, counts, points = fold_first(executor.map(chunk_cells, chunks, grid), report)
-    return Thinned(grid, points, rows, codes, counts)
+    _, rows, counts, points = fold_first(executor.map(chunk_cells, chunks, grid), report)
+    return Thinned(grid, points, rows, counts)
 
 
 def first_edge(spill: Spill, target: int, sample: int = EDGE_SAMPLE) -> float:
@@ -196,7 +181,7 @@ def thin_spill(spill: Spill, target: int, chunk_points: int, executor=None, prog
     if spill.n_points <= target:  # it fits: every point, read back in one piece
         rows = np.arange(spill.n_points)
         points = np.fromfile(spill.points_path, dtype="<f8").reshape(-1, 3)
-        return Thinned(None, points, rows, None, np.ones(spill.n_points, dtype=np.int64))
+        return Thinned(None, points, rows, np.ones(spill.n_points, dtype=np.int64))
     edge = first_edge(spill, target)
     done = [0]
     total = len(chunks)
@@ -226,7 +211,7 @@ def thin_spill(spill: Spill, target: int, chunk_points: int, executor=None, prog
 
 def label_survey(spill: Spill, thinned: Thinned, chunk_points: int, executor=None, progress=None):
     """Yield, chunk by chunk in the files' order, each chunk, its points (absolute) and the
-    index in ``thinned`` of the kept point that stands for each (:meth:`CellFinder.find`)."""
+    index in ``thinned`` of the kept point that stands for each (:meth:`Thinned.finder`)."""
     executor = executor or SerialExecutor()
     report = progress or (lambda stage, done, total: None)
     chunks = spill.chunks(chunk_points)
@@ -235,7 +220,7 @@ def label_survey(spill: Spill, thinned: Thinned, chunk_points: int, executor=Non
         yield chunks[i], points, found
 
 
-def _chunk_found(chunk: Chunk, finder: CellFinder | None):
+def _chunk_found(chunk: Chunk, finder: VoxelTable | None):
     points = chunk.points()
     if finder is None:  # nothing thinned: each point stands for itself
         return points, np.arange(chunk.start, chunk.stop)
@@ -263,7 +248,7 @@ def _ply_cells(vertex, start: int, stop: int, grid: ThinGrid):
 def read_measured(folder, record: dict, offset=None):
     """The points a folder's planes were measured on, as :func:`~..io.results.read_regions`
     reads them (positions less ``offset``, regions, vegetation marks or None), and a
-    :class:`CellFinder` of them (None but for a thinned run's folder).
+    :class:`~.passes.VoxelTable` of their cells (None but for a thinned run's folder).
 
     A thinned run's ``regions.ply`` holds every point of its survey; the points it measured
     are each cell's first (:mod:`.thin`), read here again chunk by chunk on the grid
@@ -273,14 +258,15 @@ def read_measured(folder, record: dict, offset=None):
         return (*read_regions(folder, offset), None)
     vertex = open_regions(folder)
     parts = (_ply_cells(vertex, a, min(a + FOLDER_ROWS, len(vertex)), grid) for a in range(0, len(vertex), FOLDER_ROWS))
-    codes, _, _, xyz, region, vegetation = fold_first(parts)
+    _, _, _, xyz, region, vegetation = fold_first(parts)
+    cells = grid.table(xyz)
     if offset is not None:
         xyz -= np.asarray(offset, dtype=np.float64)
     marks = None if (vegetation < 0).any() else vegetation.astype(bool)
-    return xyz, region, marks, CellFinder(grid, codes)
+    return xyz, region, marks, cells
 
 
-def cell_point_sets(folder, finder: CellFinder, planes, face_part=None):
+def cell_point_sets(folder, finder: VoxelTable, planes, face_part=None):
     """Per :data:`FOLDER_ROWS` rows of a thinned run's ``regions.ply``: each point's set (by
     its region) and face part (its cell's measured point's), for ``regions.laz``."""
     vertex = open_regions(folder)
