@@ -98,6 +98,7 @@ def test_streamed_command_writes_every_point_on_its_own_integers(tiled, tmp_path
     assert code == 0, err
     page = (out / "report.html").read_text()
     assert f'"n_planes":{len(memory)}' in page and '"points_total":' in page  # from a sample of regions.ply
+    assert "<title>GeoStructure: tile_00.laz, tile_01.laz, tile_02.laz, ... (16 files)</title>" in page
     centroid, normal = planes_of(out)
     assert len(centroid) == len(memory)
     assert np.abs(centroid - memory.centroid).max() < 1e-3

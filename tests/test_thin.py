@@ -5,6 +5,7 @@ point. The thinning is the same whatever the chunks; a Dask cluster gives the sa
 
 import csv
 import json
+import re
 
 import laspy
 import numpy as np
@@ -90,6 +91,7 @@ def test_a_rock_face_larger_than_memory_is_measured_thinned_and_every_point_labe
                            "--max-memory", BOUND)  # fmt: skip
     assert code == 0, err
     assert "do not fit in" in err and "labelled in regions.ply and regions.laz" in err
+    assert re.search(r"the first in each cell of [0-9.]+ m on a side", err)
     record = json.loads((out / "run.json").read_text())
     thinned = record["thinned"]
     assert record["engine"] == "stream" and thinned["survey_points"] == len(points)

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..cloud import Cloud
 from ..errors import GeoStructureError, GeoStructureNote
+from ..io.crs import cloud_unit
 from ..io.laz import point_sets
 from ..progress import StageProgress
 from ..stream import DaskExecutor, SerialExecutor, spill_inputs
@@ -75,13 +76,13 @@ class ThinnedSurvey:
             **({"cell": None} if grid is None else grid.to_record()),
         }
 
-    def note(self, limit: int) -> None:
+    def note(self, limit: int, unit: str | None = None) -> None:
         grid, n = self.thinned.grid, self.spill.n_points
         if grid is None:
             return
         warnings.warn(
             f"{self.spill.source}: its {n:,} points do not fit in {limit / 2**30:.3g} GiB (--max-memory); "
-            f"measured on {len(self.thinned):,} of them, the first in each cell of {grid.edge:.3g} on a side, "
+            f"measured on {len(self.thinned):,} of them, the first in each cell of {grid.edge:.3g} {cloud_unit(self.spill.crs, unit)['symbol']} on a side, "
             f"and every point labelled in regions.ply and regions.laz.",
             GeoStructureNote,
             stacklevel=2,
@@ -134,7 +135,7 @@ def thinned_survey(args, paths, engine: str):
                                  folder=args.spill_dir)  # fmt: skip
             thinned = thin_spill(spill, target, rows, executor, progress)
         survey = ThinnedSurvey(spill, thinned, executor, rows)
-        survey.note(args.max_memory or default_max_memory())
+        survey.note(args.max_memory or default_max_memory(), args.unit)
         yield survey
     finally:
         if spill is not None:

@@ -47,11 +47,27 @@ def build_report(outdir, path=None, *, max_points: int | None = None, title: str
     """Write ``report.html`` for a measured output folder; returns its path."""
     outdir = Path(outdir)
     scene = load_scene(outdir, max_points=max_points or MAX_DISPLAY_POINTS)
-    html = render(scene, title=title or f"GeoStructure: {Path(scene.source).name or outdir.name}")
+    html = render(scene, title=title or f"GeoStructure: {source_title(scene.source) or outdir.name}")
     path = Path(path or outdir / "report.html")
     with atomic_path(path) as tmp:
         tmp.write_text(html, encoding="utf-8")
     return path
+
+
+def source_title(source: str) -> str:
+    """The input's file names as a title: ``run.json`` names one file by its path, and
+    several as ``"a/t1.laz, a/t2.laz, ... (4 files)"`` (:func:`~..io.tiles.describe`);
+    each path is cut to its name, not the whole description at its last slash.
+
+    Examples
+    --------
+    >>> source_title("/data/face.ply")
+    'face.ply'
+    >>> source_title("/s/tile_0.laz, /s/tile_1.laz, /s/tile_2.laz, ... (4 files)")
+    'tile_0.laz, tile_1.laz, tile_2.laz, ... (4 files)'
+    """
+    parts = source.split(", ")
+    return ", ".join(part if part.startswith("... (") else Path(part).name for part in parts)
 
 
 def _georeference_note(record: dict | None) -> dict | None:
