@@ -38,9 +38,10 @@ The peer is written here from the method of Discontinuity Set Extractor (Riquelm
 5. a least-squares plane per cluster of at least 30 points.
 
 It is a peer written for this benchmark, not DSE itself (MATLAB), and not part of the package.
-Both run with numpy's small pages (``NUMPY_MADVISE_HUGEPAGE=0``), the setting the
-``geostructure`` command chooses for itself: on a VM that returns freed memory to its host it
-takes a third off each one's time, and the peer is given it too.
+Both run with the memory settings the ``geostructure`` command chooses for itself: numpy's
+small pages (``NUMPY_MADVISE_HUGEPAGE=0``; on a VM that returns freed memory to its host it
+takes a third off each one's time) and glibc's malloc reusing freed memory; the peer is given
+them too.
 """
 
 from __future__ import annotations
@@ -48,7 +49,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
 import resource
 import subprocess
 import sys
@@ -58,7 +58,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from common import compile_package, write_ply
+from common import compile_package, the_commands_memory_settings, write_ply
 
 
 def dbscan(points: np.ndarray, eps: float, min_samples: int) -> np.ndarray:
@@ -236,7 +236,7 @@ def main() -> None:
     parser.add_argument("--peer", nargs=2, metavar=("PLY", "OUT"), help=argparse.SUPPRESS)
     parser.add_argument("--measure", nargs=2, metavar=("PLY", "OUTDIR"), help=argparse.SUPPRESS)
     args = parser.parse_args()
-    os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")  # the command's own choice, for both
+    the_commands_memory_settings()  # for every method's process
     if args.measure:
         from geostructure.__main__ import run as geostructure  # the command, as its script runs it
 

@@ -13,8 +13,9 @@ a process of its own so that the seconds and peak memory are its own:
 
 It prints seconds, points per second, peak memory, the observatory's six surfaces found
 and their mean normal error, and the ratios Open3D / GeoStructure and GeoStructure / floor.
-Every process runs with numpy's small pages (``NUMPY_MADVISE_HUGEPAGE=0``), the setting the
-``geostructure`` command chooses for itself, so that the floor is measured as it runs.
+Every process runs with the memory settings the ``geostructure`` command chooses for itself:
+numpy's small pages (``NUMPY_MADVISE_HUGEPAGE=0``) and glibc's malloc reusing freed memory
+(``common.the_commands_memory_settings``), so that the floor is measured as it runs.
 
     python bench/bench_pipeline.py                          # 0.3M and 8M points
     python bench/bench_pipeline.py --sizes 300000           # one size
@@ -36,7 +37,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from common import compile_package, write_ply
+from common import compile_package, the_commands_memory_settings, write_ply
 
 #: The floor's voxel edge, as a share of the cloud's extent (the paper's zeta).
 FLOOR_ZETA = 0.01
@@ -169,7 +170,7 @@ def main() -> None:
     parser.add_argument("--time", nargs=4, help=argparse.SUPPRESS)
     parser.add_argument("--run", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args()
-    os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")  # the command's own choice, for every process
+    the_commands_memory_settings()  # for every method's process
     if args.time:
         method, path, out, timeout = args.time
         print(json.dumps(timed(method_command(method, Path(path), Path(out)), float(timeout))))

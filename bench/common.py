@@ -1,11 +1,25 @@
-"""What the benchmark scripts share: writing the cloud they time, and the package's
-bytecode compiled before any timed process starts."""
+"""What the benchmark scripts share: writing the cloud they time, the package's bytecode
+compiled before any timed process starts, and the command's own memory settings given to
+every method."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
+
+
+def the_commands_memory_settings() -> None:
+    """Every timed process (this one's children) with the memory settings the ``geostructure``
+    command gives itself: numpy's small pages (``NUMPY_MADVISE_HUGEPAGE=0``) and, on glibc,
+    freed memory reused (``MALLOC_ARENA_MAX=1``, ``MALLOC_MMAP_MAX_=0``, a high trim
+    threshold: docs/architecture.md, "Reused memory"), so that the ratios compare the methods,
+    not the allocators. Set in this process's environment, which the children inherit."""
+    from geostructure.__main__ import reuse_freed_memory
+
+    os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
+    reuse_freed_memory()
 
 
 def write_ply(points: np.ndarray, path: Path) -> None:

@@ -5,13 +5,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geostructure.__main__ import prefer_small_pages
+from geostructure.__main__ import prefer_small_pages, reuse_freed_memory
 from geostructure.pipeline import measure
 from geostructure.synthetic import observatory_scene
 
 # The tests call the command in this process (cli.main) and in subprocesses: both with the
-# numpy page setting the command gives itself.
+# numpy page and malloc settings the command gives itself.
 prefer_small_pages()
+reuse_freed_memory()
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

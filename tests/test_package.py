@@ -134,3 +134,28 @@ def test_the_command_asks_numpy_for_small_pages_unless_the_user_chose(chosen, ex
         env["NUMPY_MADVISE_HUGEPAGE"] = chosen
     done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == expected, done.stderr
+
+
+@pytest.mark.parametrize("chosen", [None, "MALLOC_ARENA_MAX", "GLIBC_TUNABLES"])
+def test_the_command_has_malloc_reuse_freed_memory_unless_the_user_chose(chosen):
+    """On glibc the command's start keeps freed arrays for reuse (one arena, nothing mapped
+    per allocation), and tells its worker processes through the environment; a user's own
+    malloc settings are left as they are."""
+    import os
+    import subprocess
+    import sys
+
+    probe = (
+        "import os, geostructure.__main__ as m; print(m.reuse_freed_memory(), "
+        "os.environ.get('MALLOC_MMAP_MAX_'), os.environ.get('MALLOC_ARENA_MAX'))"
+    )
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k != "GLIBC_TUNABLES"}
+    if chosen is not None:
+        env[chosen] = "2" if chosen.startswith("MALLOC") else "glibc.malloc.arena_max=2"
+    done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=60)
+    glibc = sys.platform.startswith("linux") and os.confstr("CS_GNU_LIBC_VERSION")
+    if chosen is None and glibc:
+        assert done.stdout.split() == ["True", "0", "1"], done.stderr
+    else:
+        assert done.stdout.split()[0] == "False", done.stderr
+        assert done.stdout.split()[1:] == ["None", "2" if chosen == "MALLOC_ARENA_MAX" else "None"]
