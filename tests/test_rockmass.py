@@ -445,6 +445,10 @@ def test_airborne_lidar_in_feet_its_level_roofs_and_the_metric_rock_mass(tmp_pat
     with open(out / "planes.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     in_set = [r for r in rows if r["set"] == "0"]
+    # the terminal's plane table prints the standard errors planes.csv holds, the joints'
+    # correlated tilt included (it printed them as measured: 0.18 degrees for 0.63)
+    first = next(line for line in printed.splitlines() if re.match(r"│\s+0 │", line))  # the plane table's
+    assert f"│  {float(rows[0]['normal_uncertainty_deg']):.2f} │" in first
     # a plane's rectangle is in the cloud's feet; its trace along strike, in metres, spans
     # no more than the rectangle's diagonal in metres
     diagonal_m = [0.3048 * np.hypot(float(r["rect_width"]), float(r["rect_height"])) for r in in_set]

@@ -54,11 +54,12 @@ def print_sweep(rows, console: Console | None = None) -> None:
 MAX_TABLE_ROWS = 40
 
 
-def print_planes(result, console: Console | None = None, max_rows: int = MAX_TABLE_ROWS) -> None:
+def print_planes(result, console: Console | None = None, max_rows: int = MAX_TABLE_ROWS, planes=None) -> None:
     """The planes with the most points first, at most ``max_rows`` of them, and a line saying
-    where the rest are."""
+    where the rest are. ``planes``: the table as written, where it differs from
+    ``result.planes`` (with the sets, the standard errors carry the joints' correlated tilt)."""
     console = console or stdout_console()
-    planes = result.planes
+    planes = result.planes if planes is None else planes
     shown = planes.subset(np.argsort(-planes.n_points, kind="stable")[:max_rows])
     caption = f"the {len(shown)} of {len(planes)} planes with the most points; all in planes.csv"
     caption = caption if len(shown) < len(planes) else None

@@ -21,6 +21,7 @@ from ..io.truth import read_truth
 from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
+from ..rockmass import with_rock_mass
 from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
 from ..scoring import add_evaluation
 from ..setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
@@ -237,7 +238,7 @@ def measure_cloud(
         paths.update(kinematic_paths)
     say_what_was_left(len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None)
     if not args.quiet:
-        print_planes(result)
+        print_planes(result, planes=None if sets is None else with_rock_mass(result.planes, sets, rock))  # as written
         if sets is not None:
             print_sets(sets, rock=rock)
         if kinematics is not None:
