@@ -17,6 +17,7 @@ from ..copies import without_copies
 from ..errors import GeoStructureError, GeoStructureNote
 from .checks import check_coordinate_step, check_points, las_step, ply_step
 from .crs import check_cloud_crs
+from .failures import check_laz_chunks, translated_read_errors
 from .text import read_text
 
 TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
@@ -62,7 +63,7 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
         raise GeoStructureError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
     if path.stat().st_size == 0:
         raise GeoStructureError(f"{path}: the file is empty.")
-    try:
+    with translated_read_errors(path):  # a library's parse error: the user's file is at fault
         if suffix == ".ply":
             cloud = read_ply(path, mesh_samples=mesh_samples, seed=seed)
         elif suffix in (".las", ".laz"):
@@ -71,17 +72,6 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
             cloud = read_e57(path)
         else:
             cloud = read_text(path)
-    except GeoStructureError:
-        raise
-    except PermissionError:
-        raise GeoStructureError(f"{path}: permission denied.") from None
-    except MemoryError:
-        raise GeoStructureError(f"{path}: does not fit in memory ({path.stat().st_size:,} bytes on disk).") from None
-    except KeyboardInterrupt:
-        raise
-    except Exception as exc:  # a library's parse error: the user's file is at fault
-        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise GeoStructureError(f"{path}: cannot be read as {suffix[1:].upper()} ({detail}).") from None
     check_points(cloud.local, path, offset=cloud.offset)  # no absolute copy: 192 MB at 8M points
     return without_copies(cloud, path)
 
@@ -312,6 +302,7 @@ def read_las(path: Path) -> Cloud:
     with laspy.open(str(path)) as reader:
         header = reader.header
         crs = las_crs(header, path)  # refused before the points are read
+        check_laz_chunks(path, header)  # and a chunk lazrs would abort the process for
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
         tally = LasTally()

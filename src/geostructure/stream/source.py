@@ -22,6 +22,7 @@ from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
 from ..io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
+from ..io.failures import check_laz_chunks, translated_read_errors
 from ..io.readers import (
     DEFAULT_MESH_SAMPLES,
     LasTally,
@@ -172,7 +173,8 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
             all_normals = True
             for i, path in enumerate(paths):
                 start = spill.n_points
-                for points, normals, vegetation, meta in _file_chunks(path, rows, mesh_samples, steps_checked):
+                for points, normals, vegetation, meta in _read_errors_told(path, _file_chunks(path, rows, mesh_samples,
+                                                                                              steps_checked)):  # fmt: skip
                     check_coordinates(points, path, spill.n_points - start)
                     points.astype("<f8", copy=False).tofile(out)
                     if vegetation is not None and vegetation.any() and not spill.has_vegetation:
@@ -225,6 +227,19 @@ def _write_zeros(out, n: int, block: int = 1 << 24) -> None:
         np.zeros(min(block, n - a), dtype=np.uint8).tofile(out)
 
 
+def _read_errors_told(path: Path, chunks):
+    """The ``chunks`` of a file, a library's failure to read it (a damaged LAZ mid-file, a
+    PLY cut short) told as in memory (:func:`~.io.failures.translated_read_errors`). Only
+    the reading: what the caller does with a chunk (writing the spill: a full disk) is its own."""
+    while True:
+        with translated_read_errors(path):
+            try:
+                chunk = next(chunks)
+            except StopIteration:
+                return
+        yield chunk
+
+
 def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
     """(points, normals, vegetation, meta) chunks of one file (``vegetation``: a LAS/LAZ
     file's vegetation classes, :func:`~.io.readers.las_chunk_vegetation`); ``meta`` carries
@@ -267,6 +282,7 @@ def _las_chunks(path: Path, rows: int, steps_checked: set):
         header = reader.header
         grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
         meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header, path), source=str(path)), "grid": grid}
+        check_laz_chunks(path, header)  # a chunk lazrs would abort the process for
         tally = LasTally()
         for chunk in reader.chunk_iterator(rows):
             first = not tally.read
