@@ -107,3 +107,12 @@ def test_a_decompressor_panic_is_a_read_error():
     assert isinstance(error, GeoStructureError)
     assert str(error) == "scan.laz: cannot be read as LAZ (capacity overflow)."
     assert read_error("scan.laz", KeyboardInterrupt()) is None and read_error("scan.laz", SystemExit(1)) is None
+
+
+def test_laz_points_are_read_by_lazrs_alone():
+    """Where the LASzip bindings are installed (the tests install them to check the files
+    this package writes), laspy fell back to them when lazrs refused a damaged file, and they
+    crashed the process (a segmentation fault in the fuzz tests at a larger scale)."""
+    from geostructure.io.failures import laz_readers
+
+    assert set(laz_readers()) == {laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs}

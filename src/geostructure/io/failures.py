@@ -7,9 +7,10 @@ Two kinds of failure come from the libraries under the readers:
   decompressor, also *panics* on some damaged files (a Rust panic, raised through pyo3 as
   ``PanicException``, which derives from ``BaseException`` and slipped past ``except
   Exception``);
-- allocations a damaged header asks for, which no handler can catch: lazrs aborts the whole
-  process when an allocation fails ("memory allocation of 57044217400 bytes failed"), as a
-  flipped byte of a LAZ file's chunk size or chunk table makes it ask.
+- crashes no handler can catch. The LASzip bindings, where installed, segfaulted on damaged
+  files laspy handed them when lazrs refused: :func:`laz_readers` keeps to lazrs. And lazrs
+  aborts the whole process when an allocation fails ("memory allocation of 57044217400
+  bytes failed"), as a flipped byte of a LAZ file's chunk size or chunk table makes it ask:
   :func:`check_laz_chunks` reads those few numbers first and refuses what cannot be true.
 """
 
@@ -27,6 +28,18 @@ MAX_CHUNK_BYTES = 2**31
 
 #: The record the LASzip specification gives the compression's parameters.
 LASZIP_RECORD_ID = 22204
+
+
+def laz_readers() -> tuple:
+    """The LAZ decompressors laspy may read points with: lazrs's, parallel then serial.
+
+    Where the LASzip bindings (``laszip``) are installed too, laspy falls back to them when
+    lazrs refuses a file, and they crashed the process on damaged files (a segmentation
+    fault in ``LasUnZipper``); lazrs's refusal is the user's answer.
+    """
+    import laspy  # lazy: only LAS/LAZ readers need it
+
+    return (laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs)
 
 
 def is_library_panic(exc: BaseException) -> bool:

@@ -17,7 +17,7 @@ from ..copies import without_copies
 from ..errors import GeoStructureError, GeoStructureNote
 from .checks import check_coordinate_step, check_points, las_step, ply_step
 from .crs import check_cloud_crs
-from .failures import check_laz_chunks, translated_read_errors
+from .failures import check_laz_chunks, laz_readers, translated_read_errors
 from .text import read_text
 
 TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
@@ -299,7 +299,7 @@ def read_las(path: Path) -> Cloud:
     import laspy
 
     check_las_header(path)
-    with laspy.open(str(path)) as reader:
+    with laspy.open(str(path), laz_backend=laz_readers()) as reader:
         header = reader.header
         crs = las_crs(header, path)  # refused before the points are read
         check_laz_chunks(path, header)  # and a chunk lazrs would abort the process for

@@ -22,7 +22,7 @@ from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
 from ..io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
-from ..io.failures import check_laz_chunks, translated_read_errors
+from ..io.failures import check_laz_chunks, laz_readers, translated_read_errors
 from ..io.readers import (
     DEFAULT_MESH_SAMPLES,
     LasTally,
@@ -278,7 +278,7 @@ def _las_chunks(path: Path, rows: int, steps_checked: set):
     import laspy
 
     check_las_header(path)
-    with laspy.open(str(path)) as reader:
+    with laspy.open(str(path), laz_backend=laz_readers()) as reader:
         header = reader.header
         grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
         meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header, path), source=str(path)), "grid": grid}
