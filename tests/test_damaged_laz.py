@@ -50,10 +50,17 @@ def chunk_table_at(data: bytes, path) -> int:
     return struct.unpack_from("<q", data, start)[0]
 
 
-def measured_in_a_process(path, out, engine: str) -> subprocess.CompletedProcess:
-    """The command in a process of its own: an abort there is a status, not the test's end."""
+def measured_in_a_process(path, out, engine: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    """The command in a process of its own, its memory bounded to 3 GB: an abort there is a
+    status, and a runaway allocation an error, not the test machine's end."""
+
+    def bounded() -> None:
+        import resource
+
+        resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, 3 * 2**30))
+
     command = [sys.executable, "-m", "geostructure", "measure", str(path), "-o", str(out), "-q", "--engine", engine]
-    return subprocess.run(command, capture_output=True, text=True, timeout=120)
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout, preexec_fn=bounded)
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -71,6 +78,21 @@ def test_a_laz_whose_chunks_cannot_be_true_is_refused_not_crashed_on(valid, tmp_
     assert done.returncode == 2, (done.returncode, done.stderr[-2000:])
     assert_one_sentence(done.stderr, "patch.laz", "damaged")
     assert path.read_bytes() == bytes(data) and not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("engine", ["auto", "stream"])
+def test_a_damaged_count_of_header_records_is_refused_before_laspy_reads_them(valid, tmp_path, engine):
+    """A flipped byte of the header's count of variable-length records (939 million): the
+    CRS check of the command's start opened the file with laspy, which read records for 50 s
+    until its memory ran out (a 3 GB bound; without one the kernel killed the process at
+    18 GB), before the reader's own check refused the header."""
+    path = tmp_path / "patch.laz"
+    data = bytearray(valid)
+    data[103] = 56  # the count of records: a 32-bit integer at byte 100
+    path.write_bytes(bytes(data))
+    done = measured_in_a_process(path, tmp_path / "out", engine, timeout=20)
+    assert done.returncode == 2, (done.returncode, done.stderr[-2000:])
+    assert_one_sentence(done.stderr, "patch.laz", "variable-length records")
 
 
 @pytest.mark.parametrize("engine", ENGINES)

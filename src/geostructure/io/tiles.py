@@ -136,12 +136,13 @@ def check_headers(paths) -> tuple[str, Path] | None:
     they declare and the first tile declaring it, or None."""
     import laspy  # lazy: only tiles read LAS headers here
 
-    from .readers import las_crs
+    from .readers import check_las_header, las_crs
 
     first = None
     for path in paths:
         if path.suffix.lower() not in (".las", ".laz"):
             continue
+        check_las_header(path)  # a damaged count of records had laspy read billions of them
         try:
             with laspy.open(str(path)) as reader:
                 crs = las_crs(reader.header)

@@ -335,6 +335,7 @@ def estimate_points(paths, mesh_samples: int | None = DEFAULT_MESH_SAMPLES) -> i
             if suffix in (".las", ".laz"):
                 import laspy
 
+                check_las_header(path)  # a damaged count of records: laspy would read billions
                 with laspy.open(str(path)) as reader:
                     total += int(reader.header.point_count)
                 continue
