@@ -96,13 +96,16 @@ def lie_about_counts(name: str, data: bytes, count: int) -> bytes:
 def mutated(draw, valid_files):
     name = draw(st.sampled_from(FORMATS))
     data = bytearray(valid_files[name])
-    kind = draw(st.sampled_from(("truncate", "flip", "flip header", "lie", "random text")))
+    kind = draw(st.sampled_from(("truncate", "flip", "flip header", "flip tail", "lie", "random text")))
     if kind == "truncate":
         data = data[: draw(st.integers(0, len(data) - 1))]
-    elif kind in ("flip", "flip header"):
-        span = min(len(data), 400) if kind == "flip header" else len(data)
+    elif kind in ("flip", "flip header", "flip tail"):
+        # The tail: where a LAZ file keeps its chunk table, whose damage had lazrs abort the process.
+        low, high = {"flip header": (0, min(len(data), 400)), "flip tail": (max(0, len(data) - 64), len(data))}.get(
+            kind, (0, len(data))
+        )
         for position, value in draw(
-            st.lists(st.tuples(st.integers(0, span - 1), st.integers(0, 255)), min_size=1, max_size=12)
+            st.lists(st.tuples(st.integers(low, high - 1), st.integers(0, 255)), min_size=1, max_size=12)
         ):
             data[position] = value
     elif kind == "lie":
