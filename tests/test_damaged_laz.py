@@ -138,3 +138,22 @@ def test_laz_points_are_read_by_lazrs_alone():
     from geostructure.io.failures import laz_readers
 
     assert set(laz_readers()) == {laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs}
+
+
+def test_a_laz_written_to_a_stream_is_read(valid, tmp_path):
+    """LASzip writing to a stream puts -1 where the chunk table's offset goes and the offset
+    in the file's last 8 bytes: the check follows it there and reads the file."""
+    path = tmp_path / "patch.laz"
+    path.write_bytes(valid)
+    table = chunk_table_at(valid, path)
+    with laspy.open(str(path)) as reader:
+        start = reader.header.offset_to_point_data
+    data = bytearray(valid)
+    struct.pack_into("<q", data, start, -1)
+    path.write_bytes(bytes(data) + struct.pack("<q", table))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert len(read_cloud(path)) == 3000
+    path.write_bytes(bytes(data) + struct.pack("<q", 10**12))  # the offset at its end damaged
+    with pytest.raises(GeoStructureError, match="chunk table is damaged"):
+        read_cloud(path)

@@ -29,6 +29,10 @@ MAX_CHUNK_BYTES = 2**31
 #: The record the LASzip specification gives the compression's parameters.
 LASZIP_RECORD_ID = 22204
 
+#: LASzip's compressors that cut the points into chunks listed in a chunk table (pointwise
+#: chunked, layered chunked); compressor 1 compresses the points one after another.
+CHUNKED_COMPRESSORS = (2, 3)
+
 
 def laz_readers() -> tuple:
     """The LAZ decompressors laspy may read points with: lazrs's, parallel then serial.
@@ -119,6 +123,8 @@ def check_laz_chunks(path, header) -> None:
             f"{path}: its LAZ compression record is damaged: chunks of {compression.chunk_size():,} points "
             f"({compression.chunk_size() * point_bytes / 2**30:.0f} GiB each)."
         )
+    if struct.unpack_from("<H", bytes(record.record_data))[0] not in CHUNKED_COMPRESSORS:
+        return  # points compressed one after another: no chunk table
     size = path.stat().st_size
     start = int(header.offset_to_point_data)
     with open(path, "rb") as fh:
@@ -127,8 +133,9 @@ def check_laz_chunks(path, header) -> None:
         if len(raw) < 8:
             return  # no points to read: the reader says so
         (table,) = struct.unpack("<q", raw)
-        if table == -1:  # written without a chunk table (a stream): read in order
-            return
+        if table == -1:  # written to a stream: the table's offset is the file's last 8 bytes
+            fh.seek(max(size - 8, 0))
+            (table,) = struct.unpack("<q", fh.read(8).rjust(8, b"\0"))
         if not start + 8 <= table <= size - 8:
             raise GeoStructureError(f"{path}: its LAZ chunk table is damaged (at byte {table} of {size}).")
         fh.seek(table)
