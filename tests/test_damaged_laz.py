@@ -157,3 +157,24 @@ def test_a_laz_written_to_a_stream_is_read(valid, tmp_path):
     path.write_bytes(bytes(data) + struct.pack("<q", 10**12))  # the offset at its end damaged
     with pytest.raises(GeoStructureError, match="chunk table is damaged"):
         read_cloud(path)
+
+
+def test_a_damaged_scale_is_one_sentence_without_numpy_s_warning(tmp_path):
+    """A flipped top byte of the x scale (about 1e307) overflowed laspy's scaling to infinity
+    with numpy's raw "overflow encountered in multiply" before the coordinate check refused
+    the points (the fuzz tests at a larger scale)."""
+    rng = np.random.default_rng(0)
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.scales, header.offsets = [0.001] * 3, [500_000, 4_600_000, 0]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (rng.random((500, 3)) * [10, 10, 0.05] + [500_000, 4_600_000, 100]).T
+    path = tmp_path / "scan.las"
+    las.write(str(path))
+    data = bytearray(path.read_bytes())
+    data[131 + 7] = 0x7F  # the x scale, a double at byte 131: its sign and top exponent bits
+    path.write_bytes(bytes(data))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(GeoStructureError, match="scan.las: .* infinite coordinates"):
+            read_cloud(path)
+    assert [str(w.message) for w in caught] == []

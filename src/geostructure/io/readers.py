@@ -216,7 +216,10 @@ NOISE_CLASSES = (7, 18)
 def las_chunk_points(chunk) -> tuple[np.ndarray, np.ndarray]:
     """A laspy chunk's points (N, 3) float64, without those the file marks withheld or
     classifies as noise (:data:`NOISE_CLASSES`); and how many of each were left out (2,)."""
-    points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+    # A damaged scale or offset (1e307) overflows laspy's scaling to infinity: the coordinate
+    # checks refuse those points in a sentence, without numpy's raw warning first.
+    with np.errstate(over="ignore", invalid="ignore"):
+        points = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
     withheld = np.asarray(chunk.withheld, dtype=bool)
     noise = np.isin(np.asarray(chunk.classification), NOISE_CLASSES) & ~withheld
     left_out = np.array([np.count_nonzero(withheld), np.count_nonzero(noise)])
