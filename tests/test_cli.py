@@ -244,3 +244,15 @@ def test_python_dash_m_bad_input_exit_status(tmp_path):
         timeout=120,
     )
     assert run.returncode == 2 and "Traceback" not in run.stderr and "missing.laz" in run.stderr
+
+
+def test_a_control_character_quoted_from_a_file_stays_on_the_error_s_line(tmp_path, capsys):
+    """A vertical tab inside a number (the fuzz tests at a larger scale): the message quoted
+    it raw, and the terminal (and splitlines) broke the one-line error in two."""
+    from helpers import assert_one_sentence, run_cli
+
+    path = tmp_path / "scan.csv"
+    path.write_text("x,y,z\n5\x0b0006.3,4600002.6,100.0\n" + "500001.0,4600003.0,100.1\n" * 5)
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out", "-q")
+    assert code == 2
+    assert_one_sentence(err, "scan.csv", "'5\\x0b0006.3' is not a number")

@@ -35,11 +35,11 @@ def main(argv=None, parser=None) -> int:
         try:
             return args.run(args) or 0
         except GeoStructureError as exc:
-            print(f"geostructure: error: {as_options(str(exc))}", file=sys.stderr)
+            print(f"geostructure: error: {one_line(as_options(str(exc)))}", file=sys.stderr)
             return EXIT_USER_ERROR
         except OSError as exc:  # the machine's, not the data's: a disk, a permission, a device
             where = f"{exc.filename}: " if exc.filename else ""
-            print(f"geostructure: error: {where}{exc.strerror or exc}.", file=sys.stderr)
+            print(f"geostructure: error: {one_line(f'{where}{exc.strerror or exc}')}.", file=sys.stderr)
             return EXIT_USER_ERROR
         except KeyboardInterrupt:
             print(
@@ -47,6 +47,18 @@ def main(argv=None, parser=None) -> int:
                 file=sys.stderr,
             )
             return 130
+
+
+def one_line(message: str) -> str:
+    """A message as one printable line: a control character quoted from the user's file (a
+    vertical tab in a number, say) is written as its escape, not as a break in the line.
+
+    Examples
+    --------
+    >>> print(one_line("line 2: '5" + chr(11) + "0006' is not a number."))
+    line 2: '5\\x0b0006' is not a number.
+    """
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
 
 
 #: `name=value` in a library message: a parameter, written here as its option.
@@ -87,9 +99,9 @@ def _warning_printer(quiet: bool = False):
         shown.add(str(message))
         if issubclass(category, GeoStructureNote):
             if not quiet:
-                print(f"geostructure: note: {message}", file=sys.stderr)
+                print(f"geostructure: note: {one_line(str(message))}", file=sys.stderr)
         elif issubclass(category, GeoStructureWarning):
-            print(f"geostructure: warning: {message}", file=sys.stderr)
+            print(f"geostructure: warning: {one_line(str(message))}", file=sys.stderr)
         else:  # a library's own warning got past us: our defect, said as such, never passed off as advice
             print(
                 f"geostructure: internal warning (please report it): {category.__name__} at "
