@@ -29,10 +29,10 @@ def prefer_small_pages() -> None:
             setter(choice.strip() == "1")
 
 
-#: glibc's malloc options (``mallopt``): one arena, no memory mapped per allocation, and the
-#: heap's freed top kept up to 2 GiB; and the same as the environment its children read.
-_MALLOPT = {-8: 1, -4: 0, -1: 2**31 - 1}  # M_ARENA_MAX, M_MMAP_MAX, M_TRIM_THRESHOLD
-_MALLOC_ENVIRONMENT = {"MALLOC_ARENA_MAX": "1", "MALLOC_MMAP_MAX_": "0", "MALLOC_TRIM_THRESHOLD_": str(2**31 - 1)}
+#: glibc's malloc options: one arena, no memory mapped per allocation, and the heap's freed
+#: top kept up to 2 GiB. Each as ``mallopt``'s number (M_ARENA_MAX, M_MMAP_MAX,
+#: M_TRIM_THRESHOLD) and the environment variable the children read, with its value.
+_MALLOC_OPTIONS = ((-8, "MALLOC_ARENA_MAX", 1), (-4, "MALLOC_MMAP_MAX_", 0), (-1, "MALLOC_TRIM_THRESHOLD_", 2**31 - 1))
 
 
 def reuse_freed_memory() -> bool:
@@ -56,9 +56,9 @@ def reuse_freed_memory() -> bool:
         mallopt = ctypes.CDLL("libc.so.6").mallopt
     except (OSError, AttributeError):  # not glibc
         return False
-    if not all(mallopt(option, value) == 1 for option, value in _MALLOPT.items()):
+    if not all(mallopt(option, value) == 1 for option, _, value in _MALLOC_OPTIONS):
         return False
-    os.environ.update(_MALLOC_ENVIRONMENT)
+    os.environ.update({name: str(value) for _, name, value in _MALLOC_OPTIONS})
     return True
 
 

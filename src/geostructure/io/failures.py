@@ -46,15 +46,27 @@ def laz_readers() -> tuple:
     return (laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs)
 
 
-def is_library_panic(exc: BaseException) -> bool:
-    """Whether ``exc`` is a Rust library's panic raised through pyo3 (``PanicException``).
+def is_library_failure(exc: BaseException) -> bool:
+    """Whether ``exc`` is a library's failure: an ``Exception``, or a Rust library's panic
+    raised through pyo3 (``PanicException``, a ``BaseException`` as an interrupt is).
 
     Examples
     --------
-    >>> is_library_panic(ValueError("no")), is_library_panic(KeyboardInterrupt())
-    (False, False)
+    >>> is_library_failure(ValueError("no")), is_library_failure(KeyboardInterrupt())
+    (True, False)
     """
-    return type(exc).__name__ == "PanicException"
+    return isinstance(exc, Exception) or type(exc).__name__ == "PanicException"
+
+
+@contextmanager
+def _damaged(path, what: str):
+    """A library's failure inside the block as "``path``: its ``what`` is damaged (...)"."""
+    try:
+        yield
+    except BaseException as exc:
+        if not is_library_failure(exc) or isinstance(exc, GeoStructureError):
+            raise
+        raise GeoStructureError(f"{path}: its {what} is damaged ({exc}).") from None
 
 
 def read_error(path, exc: BaseException) -> GeoStructureError | None:
@@ -75,7 +87,7 @@ def read_error(path, exc: BaseException) -> GeoStructureError | None:
         return GeoStructureError(f"{path}: permission denied.")
     if isinstance(exc, MemoryError):
         return GeoStructureError(f"{path}: does not fit in memory ({path.stat().st_size:,} bytes on disk).")
-    if not isinstance(exc, Exception) and not is_library_panic(exc):
+    if not is_library_failure(exc):
         return None
     detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
     return GeoStructureError(f"{path}: cannot be read as {path.suffix[1:].upper()} ({detail}).")
@@ -111,12 +123,8 @@ def check_laz_chunks(path, header) -> None:
     if record is None:
         return
     path = Path(path)
-    try:
+    with _damaged(path, "LAZ compression record"):
         compression = lazrs.LazVlr(record.record_data)
-    except BaseException as exc:
-        if not isinstance(exc, Exception) and not is_library_panic(exc):
-            raise
-        raise GeoStructureError(f"{path}: its LAZ compression record is damaged ({exc}).") from None
     point_bytes = max(int(compression.item_size()), 1)
     if not compression.uses_variable_size_chunks() and compression.chunk_size() * point_bytes > MAX_CHUNK_BYTES:
         raise GeoStructureError(
@@ -145,12 +153,8 @@ def check_laz_chunks(path, header) -> None:
                 f"{path}: its LAZ chunk table is damaged (version {version}, {chunks:,} chunks in {size:,} bytes)."
             )
         fh.seek(start)
-        try:
+        with _damaged(path, "LAZ chunk table"):
             entries = lazrs.read_chunk_table(fh, compression)
-        except BaseException as exc:
-            if not isinstance(exc, Exception) and not is_library_panic(exc):
-                raise
-            raise GeoStructureError(f"{path}: its LAZ chunk table is damaged ({exc}).") from None
     held = sum(int(n_bytes) for _, n_bytes in entries)
     if held > size - start:
         raise GeoStructureError(

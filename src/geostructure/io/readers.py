@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -295,17 +296,29 @@ class LasTally:
         return left_out_record(self.left_out)
 
 
-def read_las(path: Path) -> Cloud:
-    """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared;
-    points marked withheld or noise left out (:func:`las_chunk_points`); those classified as
-    vegetation marked (``Cloud.vegetation``)."""
+@contextmanager
+def open_las(path, *, points: bool = True):
+    """laspy's reader of a LAS/LAZ file, opened once its header's counts are checked
+    (:func:`check_las_header`: a damaged count had laspy read records until memory ran out);
+    with ``points`` (to read them, not the header alone), its LAZ chunks are checked too
+    (:func:`~.failures.check_laz_chunks`: lazrs aborts the process on a damaged one). Points
+    are read by lazrs alone (:func:`~.failures.laz_readers`)."""
     import laspy
 
     check_las_header(path)
     with laspy.open(str(path), laz_backend=laz_readers()) as reader:
+        if points:
+            check_laz_chunks(path, reader.header)
+        yield reader
+
+
+def read_las(path: Path) -> Cloud:
+    """LAS or LAZ (laspy with lazrs); scaled coordinates as float64; CRS kept when declared;
+    points marked withheld or noise left out (:func:`las_chunk_points`); those classified as
+    vegetation marked (``Cloud.vegetation``)."""
+    with open_las(path) as reader:
         header = reader.header
         crs = las_crs(header, path)  # refused before the points are read
-        check_laz_chunks(path, header)  # and a chunk lazrs would abort the process for
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
         tally = LasTally()

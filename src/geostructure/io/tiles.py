@@ -19,7 +19,7 @@ from ..cloud import Cloud
 from ..copies import without_copies
 from ..errors import GeoStructureError
 from .crs import check_cloud_crs, parse_crs
-from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, TEXT_SUFFIXES, merged_left_out, read_cloud
+from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, TEXT_SUFFIXES, las_crs, merged_left_out, open_las, read_cloud
 from .text import holds_rows_of_numbers
 
 #: Files named in a message before it says how many more there are.
@@ -134,19 +134,16 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
 def check_headers(paths) -> tuple[str, Path] | None:
     """Refuse LAS/LAZ tiles that declare different CRSs from their headers alone; the CRS
     they declare and the first tile declaring it, or None."""
-    import laspy  # lazy: only tiles read LAS headers here
-
-    from .readers import check_las_header, las_crs
-
     first = None
     for path in paths:
         if path.suffix.lower() not in (".las", ".laz"):
             continue
-        check_las_header(path)  # a damaged count of records had laspy read billions of them
         try:
-            with laspy.open(str(path)) as reader:
+            with open_las(path, points=False) as reader:
                 crs = las_crs(reader.header)
-        except Exception:  # a damaged header: read_cloud says what is wrong with it
+        except GeoStructureError:  # counts that cannot be true: said now, before any tile is read
+            raise
+        except Exception:  # laspy's own refusal: read_cloud says what is wrong with it
             continue
         check_cloud_crs(crs, str(path))  # a tile in degrees: before any tile is read
         cloud = Cloud(np.zeros((1, 3)), crs=crs, source=str(path))

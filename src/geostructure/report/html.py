@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path, plain
+from ..io.tiles import describe
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
@@ -47,27 +48,18 @@ def build_report(outdir, path=None, *, max_points: int | None = None, title: str
     """Write ``report.html`` for a measured output folder; returns its path."""
     outdir = Path(outdir)
     scene = load_scene(outdir, max_points=max_points or MAX_DISPLAY_POINTS)
-    html = render(scene, title=title or f"GeoStructure: {source_title(scene.source) or outdir.name}")
+    html = render(scene, title=title or f"GeoStructure: {source_title(scene) or outdir.name}")
     path = Path(path or outdir / "report.html")
     with atomic_path(path) as tmp:
         tmp.write_text(html, encoding="utf-8")
     return path
 
 
-def source_title(source: str) -> str:
-    """The input's file names as a title: ``run.json`` names one file by its path, and
-    several as ``"a/t1.laz, a/t2.laz, ... (4 files)"`` (:func:`~..io.tiles.describe`);
-    each path is cut to its name, not the whole description at its last slash.
-
-    Examples
-    --------
-    >>> source_title("/data/face.ply")
-    'face.ply'
-    >>> source_title("/s/tile_0.laz, /s/tile_1.laz, /s/tile_2.laz, ... (4 files)")
-    'tile_0.laz, tile_1.laz, tile_2.laz, ... (4 files)'
-    """
-    parts = source.split(", ")
-    return ", ".join(part if part.startswith("... (") else Path(part).name for part in parts)
+def source_title(scene: ReportScene) -> str:
+    """The input's file name as a title, or several files' names as :func:`~..io.tiles.describe`
+    names them (``run.json``'s ``input`` is their paths joined, which no file name can be cut
+    from)."""
+    return describe([Path(p).name for p in scene.inputs]) if scene.inputs else Path(scene.source).name
 
 
 def _georeference_note(record: dict | None) -> dict | None:

@@ -43,6 +43,7 @@ class ReportScene:
     crs: str | None
     source: str
     truth: dict = field(default_factory=dict)  # region id -> evaluation row
+    inputs: list = field(default_factory=list)  # run.json's files, when the run read several
     sets: list = field(default_factory=list)  # sets.csv rows (numbers), when the sets were found
     spacings: dict = field(default_factory=dict)  # set -> normal spacings along the scanlines (m)
     rock_mass: dict = field(default_factory=dict)  # run.json's totals: Jv, block volume
@@ -91,6 +92,7 @@ def load_scene(
         crs=run.get("crs"),
         length_unit=run.get("unit"),
         source=str(run.get("input", "")),
+        inputs=list(run.get("inputs") or []),
         truth=_read_truth(outdir / "evaluation.csv"),
         sets=read_sets(outdir) if "set" in planes.extra else [],
         spacings=read_spacings(outdir) if "set" in planes.extra else {},

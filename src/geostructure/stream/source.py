@@ -22,15 +22,15 @@ from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..errors import GeoStructureError
 from ..io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
-from ..io.failures import check_laz_chunks, laz_readers, translated_read_errors
+from ..io.failures import translated_read_errors
 from ..io.readers import (
     DEFAULT_MESH_SAMPLES,
     LasTally,
-    check_las_header,
     las_chunk_points,
     las_chunk_vegetation,
     las_crs,
     merged_left_out,
+    open_las,
     ply_vertices,
     read_cloud,
 )
@@ -275,14 +275,10 @@ def _check_step(points: np.ndarray, step: tuple[float, str] | None, path: Path, 
 
 
 def _las_chunks(path: Path, rows: int, steps_checked: set):
-    import laspy
-
-    check_las_header(path)
-    with laspy.open(str(path), laz_backend=laz_readers()) as reader:
+    with open_las(path) as reader:
         header = reader.header
         grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
         meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header, path), source=str(path)), "grid": grid}
-        check_laz_chunks(path, header)  # a chunk lazrs would abort the process for
         tally = LasTally()
         for chunk in reader.chunk_iterator(rows):
             first = not tally.read
@@ -333,10 +329,7 @@ def estimate_points(paths, mesh_samples: int | None = DEFAULT_MESH_SAMPLES) -> i
         suffix = path.suffix.lower()
         try:
             if suffix in (".las", ".laz"):
-                import laspy
-
-                check_las_header(path)  # a damaged count of records: laspy would read billions
-                with laspy.open(str(path)) as reader:
+                with open_las(path, points=False) as reader:
                     total += int(reader.header.point_count)
                 continue
             if suffix == ".ply":
