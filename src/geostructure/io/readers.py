@@ -81,11 +81,11 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     """PLY, ASCII or binary, float or double; extra vertex properties are ignored."""
     data, vertex = ply_vertices(path)
     names = vertex.dtype.names
-    points = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"])
+    points = vertex_columns(vertex, "xyz")
     check_coordinate_step(points, ply_step(points, vertex.dtype), path)
     normals = None
     if all(n in names for n in ("nx", "ny", "nz")):
-        normals = np.column_stack([np.asarray(vertex[a], dtype=np.float64) for a in ("nx", "ny", "nz")])
+        normals = np.array(vertex_columns(vertex, ("nx", "ny", "nz")))
     faces = _ply_faces(data, len(points), path)
     if mesh_samples and faces is not None and len(faces):
         check_points(points, path)
@@ -95,6 +95,23 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
             except OverflowError:
                 raise GeoStructureError(f"{path}: the mesh's coordinates are too large to sample its faces.") from None
     return Cloud.from_points(points, source=str(path), normals=normals)
+
+
+def vertex_columns(vertex: np.ndarray, names) -> np.ndarray:
+    """Three properties of PLY vertex records as an (N, 3) float64 array: a view of the
+    memory-mapped file where they are native doubles side by side (a file of x, y and z
+    only: no copy, where stacking the columns took 0.1 s at 8M points), a copy otherwise.
+
+    Examples
+    --------
+    >>> v = np.zeros(2, dtype=[("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("id", "<i4")])
+    >>> v["y"] = [1.0, 2.0]
+    >>> vertex_columns(v, "xyz").tolist(), np.shares_memory(vertex_columns(v, "xyz"), v)
+    ([[0.0, 1.0, 0.0], [0.0, 2.0, 0.0]], True)
+    """
+    from numpy.lib.recfunctions import structured_to_unstructured  # lazy: numpy's own, PLY only
+
+    return structured_to_unstructured(vertex[list(names)], dtype=np.float64, copy=False)
 
 
 def ply_vertices(path: Path):
