@@ -281,6 +281,21 @@ def test_no_space_left_during_staging_is_an_output_error(tmp_path):
     assert sorted(p.name for p in (tmp_path / "kept").iterdir()) == [".geostructure-lock"]
 
 
+def test_a_file_hashed_early_then_written_again_is_listed_as_written(tmp_path):
+    # The point files are hashed as soon as written (OutputSet.hash_staged): a file written
+    # again after that, even to the same size at once, must not keep the first hash.
+    with output_set(tmp_path / "out") as outputs:
+        for name in ("regions.ply", "regions.laz"):
+            outputs.path(name).write_bytes(b"first")
+            outputs.hash_staged(outputs.staging / name)
+        tick = (outputs.staging / "regions.laz").stat().st_mtime_ns
+        outputs.path("regions.laz").write_bytes(b"again")  # the same size,
+        os.utime(outputs.staging / "regions.laz", ns=(tick, tick))  # within a coarse clock's same tick
+    listed = verified_record(tmp_path / "out")["outputs"]
+    assert listed["regions.laz"]["sha256"] == digest(tmp_path / "out" / "regions.laz")
+    assert listed["regions.ply"]["sha256"] == digest(tmp_path / "out" / "regions.ply")
+
+
 # 10. A truth CSV that is not UTF-8, for evaluate and measure --truth.
 def test_truth_that_is_not_utf8(measured, tmp_path, capsys, cloud_file):
     truth = tmp_path / "latin1.csv"

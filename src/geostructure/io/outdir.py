@@ -233,6 +233,7 @@ class OutputSet:
         """Where to write output ``name`` (in the staging folder until the commit)."""
         if name not in OWNED:
             raise ValueError(f"'{name}' is not a GeoStructure output name")
+        self.digests.pop(name, None)  # about to be written (again): an early hash no longer holds
         return self.staging / name
 
     def final(self, name: str) -> Path:
@@ -242,7 +243,8 @@ class OutputSet:
     def hash_staged(self, path) -> Path:
         """Hash a staged file now (a writer's thread, idle while another file is written),
         for the commit's manifest: at 8M points hashing the point files took 0.19 s there.
-        The commit hashes the file again if it changed since (its size or time)."""
+        The commit hashes the file again if it was asked for again (:meth:`path`) or changed
+        since (its size or time)."""
         path = Path(path)
         stat = path.stat()
         self.digests[path.name] = (stat.st_size, stat.st_mtime_ns, file_entry(path))
