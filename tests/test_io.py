@@ -42,6 +42,25 @@ def test_ply_ascii_and_binary_float_and_double(tmp_path, points, text, dtype):
         assert np.abs(cloud.local).max() < 30  # centred on an offset before any arithmetic
 
 
+@pytest.mark.parametrize(
+    "layout, byte_order",
+    [(("x", "y", "z"), "<"), (("z", "x", "y"), "<"), (("y", "intensity", "x", "z"), "<"), (("x", "y", "z"), ">")],
+)
+def test_ply_doubles_in_any_order_and_byte_order_round_trip_exactly(tmp_path, points, layout, byte_order):
+    # x, y and z side by side in native doubles are read as a view of the mapped file; any
+    # other layout is copied: both give the file's doubles, bit for bit.
+    from plyfile import PlyData, PlyElement
+
+    v = np.zeros(len(points), dtype=[(n, byte_order + ("u2" if n == "intensity" else "f8")) for n in layout])
+    for axis, name in enumerate("xyz"):
+        v[name] = points[:, axis]
+    path = tmp_path / "c.ply"
+    PlyData([PlyElement.describe(v, "vertex")], text=False, byte_order=byte_order).write(str(path))
+    cloud = read_cloud(path)
+    assert np.array_equal(cloud.points, points)
+    assert cloud.local.flags.writeable and cloud.local.flags.c_contiguous
+
+
 def test_a_ply_without_x_y_z_names_what_it_has(tmp_path):
     """PLY names its coordinates x, y and z; a file with other names is refused, saying
     which it has, so that the user sees the cause at once."""
