@@ -210,14 +210,13 @@ def write_result(
         if point_files is True:
             labelled = None if sets is None else point_sets(result.labels, planes)
             part = None if rock is None else rock.point_part
-            # Each hashed for the manifest in its own thread, as soon as it is written.
+
+            def written(write, name, *args) -> Path:  # hashed for the manifest in its thread, once written
+                return outputs.hash_staged(write(result, outputs.path(files[name]), *args))
+
             point_writes = [
-                pool.submit(lambda: outputs.hash_staged(write_regions_ply(result, outputs.path(files["regions"])))),
-                pool.submit(
-                    lambda: outputs.hash_staged(
-                        write_regions_laz(result, outputs.path(files["regions_laz"]), labelled, part)
-                    )
-                ),
+                pool.submit(written, write_regions_ply, "regions"),
+                pool.submit(written, write_regions_laz, "regions_laz", labelled, part),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
         if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin):
