@@ -402,6 +402,15 @@ def test_a_cloud_in_millimetres_without_a_crs_is_given_its_unit(tmp_path, capsys
     assert code == 2 and "--crs EPSG:32633: its CRS is in m, not ft" in err and not (tmp_path / "no").exists()
     assert main(["report", str(tmp_path / "mm"), "-q"]) == 0
     assert "Area (mm" in (tmp_path / "mm" / "report.html").read_text()  # the plane table keeps the cloud's unit
+    # planes.csv's area_m2 is square metres whatever the cloud's unit (it held mm^2 under
+    # that name), and a command that reads the folder back and writes it again keeps it so
+    planes_area = {name: np.array([float(r["area_m2"]) for r in csv.DictReader(open(tmp_path / name / "planes.csv"))])
+                   for name in ("m", "mm")}  # fmt: skip
+    assert planes_area["mm"].sum() == pytest.approx(planes_area["m"].sum(), rel=0.05)
+    assert json.loads((tmp_path / "mm" / "run.json").read_text())["plane_area"] == "m2"
+    assert main(["sets", str(tmp_path / "mm"), "-q"]) == 0
+    again = np.array([float(r["area_m2"]) for r in csv.DictReader(open(tmp_path / "mm" / "planes.csv"))])
+    np.testing.assert_allclose(again, planes_area["mm"], rtol=1e-12)
 
 
 def test_a_set_along_the_exposed_face_says_why_it_has_no_spacing():
@@ -441,7 +450,7 @@ def test_airborne_lidar_in_feet_its_level_roofs_and_the_metric_rock_mass(tmp_pat
     assert eye[1] < 0 < eye[2] and abs(eye[0]) < 0.1 * abs(eye[1])
     run = json.loads((out / "run.json").read_text())
     assert run["sets"]["rock_mass"]["metres_per_cloud_unit"] == 0.3048
-    assert run["unit"] == {"symbol": "ft", "metres": 0.3048}  # what planes.csv's sizes are in
+    assert run["unit"] == {"symbol": "ft", "metres": 0.3048}  # what planes.csv's sizes but area_m2 are in
     with open(out / "planes.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     in_set = [r for r in rows if r["set"] == "0"]

@@ -238,7 +238,7 @@ def crs_from(args) -> str | None:
 
 def crs_record(args, crs: str | None, north: dict | None, frame: Frame, truth):
     """What ``run.json`` says of a measured cloud's CRS beyond its name (``unit``: what
-    planes.csv's sizes are in; ``north``: the convergence its azimuths were turned by, said
+    planes.csv's sizes but its area are in; ``north``: the convergence its azimuths were turned by, said
     as a note too), and the ground truth read in the turned frame (its azimuths are true, as
     a compass's). In memory and streamed alike."""
     record = {}

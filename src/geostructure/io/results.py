@@ -5,12 +5,14 @@ folder checks its manifest first (:func:`~.outdir.verified_record`)."""
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import OutputError
 from ..planes import Planes
+from .crs import recorded_unit
 from .outdir import read_record
 
 #: The prefix of a PLY property that CloudCompare's command line loads as a scalar field.
@@ -48,9 +50,35 @@ def read_run(folder) -> dict:
     return record
 
 
+#: ``run.json``'s word that ``planes.csv``'s ``area_m2`` is in square metres whatever the
+#: cloud's unit (:func:`in_square_metres`). A folder written before 2026-12-05 lacks it: its
+#: ``area_m2`` is in the cloud's unit squared (a survey in feet wrote square feet there).
+PLANE_AREA = {"plane_area": "m2"}
+
+
+def in_square_metres(planes: Planes, metres_per_unit: float) -> Planes:
+    """The plane table with its ``area`` turned from the cloud's unit squared into square
+    metres, as ``planes.csv``, ``planes.geojson`` and ``planes.gpkg`` hold it under
+    ``area_m2``; the table's other sizes stay in the cloud's unit, as its coordinates do.
+
+    Examples
+    --------
+    >>> feet = Planes(normal=[[0.0, 0.0, 1.0]], area=[100.0])
+    >>> round(float(in_square_metres(feet, 0.3048).area[0]), 4)
+    9.2903
+    """
+    return planes if metres_per_unit == 1.0 else replace(planes, area=planes.area * metres_per_unit**2)
+
+
 def read_planes(folder, offset=None) -> Planes:
-    """The plane table in ``planes.csv`` of a measured folder, positions relative to ``offset``."""
-    return Planes.from_csv(Path(folder) / "planes.csv", offset)
+    """The plane table in ``planes.csv`` of a measured folder, positions relative to
+    ``offset``, its ``area`` back in the cloud's unit squared (as the measure's own table
+    holds it) when ``run.json`` says the file holds square metres (:data:`PLANE_AREA`)."""
+    planes = Planes.from_csv(Path(folder) / "planes.csv", offset)
+    record = read_record(Path(folder) / "run.json") or {}
+    if record.get("plane_area") != PLANE_AREA["plane_area"]:
+        return planes
+    return in_square_metres(planes, 1.0 / recorded_unit(record)["metres"])
 
 
 def open_regions(folder):

@@ -17,11 +17,12 @@ from .. import __version__
 from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
 from ..threads import preload
 from .atomic import atomic_path, write_json, write_table_csv
+from .crs import recorded_unit
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
 from .laz import point_sets, write_regions_laz, write_voxel_planes_laz
 from .outdir import EVALUATION_FILES, OutputSet, output_set
-from .results import SCALAR
+from .results import PLANE_AREA, SCALAR, in_square_metres
 
 
 def _ascii(text: str) -> str:
@@ -164,9 +165,15 @@ def sets_record(sets, rock=None) -> dict:
     return record
 
 
-def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> list[str]:
+def write_plane_tables(
+    planes, outputs: OutputSet, crs=None, enu_origin=None, metres_per_unit: float = 1.0
+) -> list[str]:
     """Stage ``planes.csv`` and ``planes_dips.csv`` of a plane table and, for a cloud with a
-    coordinate system, ``planes.geojson`` and ``planes.gpkg``; returns the names staged."""
+    coordinate system, ``planes.geojson`` and ``planes.gpkg``; returns the names staged.
+    Their ``area_m2`` is square metres (``metres_per_unit``: of the cloud's unit), and the
+    record says so (:data:`~.results.PLANE_AREA`)."""
+    planes = in_square_metres(planes, metres_per_unit)
+    outputs.record.update(PLANE_AREA)
     planes.to_csv(outputs.path("planes.csv"))
     write_dips_csv(planes, outputs.path("planes_dips.csv"))
     names = ["planes.csv", "planes_dips.csv"]
@@ -202,6 +209,7 @@ def write_result(
     # the kernel's copy into the page cache, the LAZ lazrs's compression, the tables Python's.
     # Leaving the pool waits for both, so an error or an interrupt finds them finished. The
     # libraries both sides import are imported first, here (threads.preload says why).
+    record = run_record(result, extra)
     preload("plyfile", "laspy", "lazrs")
     if callable(point_files):
         point_files(outputs, result, planes if sets is not None else None, rock)
@@ -219,13 +227,14 @@ def write_result(
                 pool.submit(written, write_regions_laz, "regions_laz", labelled, part),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
-        if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin):
+        metres = recorded_unit(record)["metres"]
+        if "planes.gpkg" in write_plane_tables(planes, outputs, crs, enu_origin, metres_per_unit=metres):
             files.update(geojson="planes.geojson", gpkg="planes.gpkg")
         write_voxel_planes_ply(result, outputs.path(files["voxels"]))
         write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
     for write in point_writes:
         write.result()
-    outputs.record = run_record(result, extra)
+    outputs.record = {**record, **PLANE_AREA}
     if sets is not None:
         write_sets_csv(sets, outputs.path("sets.csv"), rock)
         outputs.record["sets"] = sets_record(sets, rock)
