@@ -8,6 +8,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from .io.results import in_square_metres
 from .orientation import whole_azimuth
 from .setnotes import jv_scope, off_face_scope, set_notes
 from .sets import MIN_SET_PLANES
@@ -54,19 +55,23 @@ def print_sweep(rows, console: Console | None = None) -> None:
 MAX_TABLE_ROWS = 40
 
 
-def print_planes(result, console: Console | None = None, max_rows: int = MAX_TABLE_ROWS, planes=None) -> None:
+def print_planes(
+    result, console: Console | None = None, max_rows: int = MAX_TABLE_ROWS, planes=None, metres_per_unit: float = 1.0
+) -> None:
     """The planes with the most points first, at most ``max_rows`` of them, and a line saying
     where the rest are. ``planes``: the table as written, where it differs from
-    ``result.planes`` (with the sets, the standard errors carry the joints' correlated tilt)."""
+    ``result.planes`` (with the sets, the standard errors carry the joints' correlated tilt).
+    Their area in square metres, as ``planes.csv`` holds it (``metres_per_unit``: of the
+    cloud's unit)."""
     console = console or stdout_console()
-    planes = result.planes if planes is None else planes
+    planes = in_square_metres(result.planes if planes is None else planes, metres_per_unit)
     shown = planes.subset(np.argsort(-planes.n_points, kind="stable")[:max_rows])
     caption = f"the {len(shown)} of {len(planes)} planes with the most points; all in planes.csv"
     caption = caption if len(shown) < len(planes) else None
     table = Table(
         title=f"Planes in {Path(str(result.cloud.source)).name} (frame: {result.frame.name})", caption=caption
     )
-    for column in ("id", "points", "area", "strike", "dip", "dip dir", "± deg", "centroid"):
+    for column in ("id", "points", "area m²", "strike", "dip", "dip dir", "± deg", "centroid"):
         table.add_column(column, justify="right")
     for row in shown.rows():
         table.add_row(

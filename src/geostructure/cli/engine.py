@@ -10,6 +10,7 @@ import time
 
 from ..errors import GeoStructureError
 from ..evaluate import evaluate
+from ..io.crs import recorded_unit
 from ..io.outdir import output_set
 from ..io.writers import write_result
 from ..progress import StageProgress
@@ -162,7 +163,7 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
         executor.close()
     say_what_was_left(len(result), "voxel", result.cloud.crs is not None)
     if not args.quiet:
-        print_planes(result)
+        print_planes(result, metres_per_unit=recorded_unit({"crs": result.cloud.crs, **about_crs})["metres"])
         if evaluation is not None:
             print_evaluation(evaluation)
         print(

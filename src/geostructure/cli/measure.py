@@ -238,7 +238,8 @@ def measure_cloud(
         paths.update(kinematic_paths)
     say_what_was_left(len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None)
     if not args.quiet:
-        print_planes(result, planes=None if sets is None else with_rock_mass(result.planes, sets, rock))  # as written
+        print_planes(result, planes=None if sets is None else with_rock_mass(result.planes, sets, rock),  # as written
+                     metres_per_unit=cloud_unit(crs, unit)["metres"])  # fmt: skip
         if sets is not None:
             print_sets(sets, rock=rock)
         if kinematics is not None:
