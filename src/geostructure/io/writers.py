@@ -209,7 +209,7 @@ def write_result(
     # the kernel's copy into the page cache, the LAZ lazrs's compression, the tables Python's.
     # Leaving the pool waits for both, so an error or an interrupt finds them finished. The
     # libraries both sides import are imported first, here (threads.preload says why).
-    record = run_record(result, extra)
+    outputs.record = run_record(result, extra)  # write_plane_tables adds the area's unit
     preload("plyfile", "laspy", "lazrs")
     if callable(point_files):
         point_files(outputs, result, planes if sets is not None else None, rock)
@@ -227,14 +227,13 @@ def write_result(
                 pool.submit(written, write_regions_laz, "regions_laz", labelled, part),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
-        metres = recorded_unit(record)["metres"]
+        metres = recorded_unit(outputs.record)["metres"]
         if "planes.gpkg" in write_plane_tables(planes, outputs, crs, enu_origin, metres_per_unit=metres):
             files.update(geojson="planes.geojson", gpkg="planes.gpkg")
         write_voxel_planes_ply(result, outputs.path(files["voxels"]))
         write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
     for write in point_writes:
         write.result()
-    outputs.record = {**record, **PLANE_AREA}
     if sets is not None:
         write_sets_csv(sets, outputs.path("sets.csv"), rock)
         outputs.record["sets"] = sets_record(sets, rock)
