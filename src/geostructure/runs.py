@@ -306,8 +306,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         note_tilt_unread(rock.tilt_facets_short, outdir)
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
-        staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"),
-                                    metres_per_unit=recorded_unit(outputs.record)["metres"])  # fmt: skip
+        staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)
         write_spacing_csv(rock, outputs.path("spacing.csv"))
         outputs.record["sets"] = sets_record(sets, rock)

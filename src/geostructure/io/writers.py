@@ -165,14 +165,12 @@ def sets_record(sets, rock=None) -> dict:
     return record
 
 
-def write_plane_tables(
-    planes, outputs: OutputSet, crs=None, enu_origin=None, metres_per_unit: float = 1.0
-) -> list[str]:
+def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> list[str]:
     """Stage ``planes.csv`` and ``planes_dips.csv`` of a plane table and, for a cloud with a
     coordinate system, ``planes.geojson`` and ``planes.gpkg``; returns the names staged.
-    Their ``area_m2`` is square metres (``metres_per_unit``: of the cloud's unit), and the
-    record says so (:data:`~.results.PLANE_AREA`)."""
-    planes = in_square_metres(planes, metres_per_unit)
+    Their ``area_m2`` is square metres, from the cloud's unit the set's record names
+    (:func:`~.crs.recorded_unit`), and the record says so (:data:`~.results.PLANE_AREA`)."""
+    planes = in_square_metres(planes, recorded_unit(outputs.record)["metres"])
     outputs.record.update(PLANE_AREA)
     planes.to_csv(outputs.path("planes.csv"))
     write_dips_csv(planes, outputs.path("planes_dips.csv"))
@@ -209,7 +207,7 @@ def write_result(
     # the kernel's copy into the page cache, the LAZ lazrs's compression, the tables Python's.
     # Leaving the pool waits for both, so an error or an interrupt finds them finished. The
     # libraries both sides import are imported first, here (threads.preload says why).
-    outputs.record = run_record(result, extra)  # write_plane_tables adds the area's unit
+    outputs.record = run_record(result, extra)  # write_plane_tables reads the unit there, adds the area's
     preload("plyfile", "laspy", "lazrs")
     if callable(point_files):
         point_files(outputs, result, planes if sets is not None else None, rock)
@@ -227,8 +225,7 @@ def write_result(
                 pool.submit(written, write_regions_laz, "regions_laz", labelled, part),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
-        metres = recorded_unit(outputs.record)["metres"]
-        if "planes.gpkg" in write_plane_tables(planes, outputs, crs, enu_origin, metres_per_unit=metres):
+        if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin):
             files.update(geojson="planes.geojson", gpkg="planes.gpkg")
         write_voxel_planes_ply(result, outputs.path(files["voxels"]))
         write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
