@@ -398,6 +398,29 @@ def test_an_output_folder_that_is_a_file_is_refused_before_reading(tmp_path, cap
     assert_one_sentence(err, "taken", "is a file")
 
 
+def test_an_output_folder_the_file_system_refuses_is_refused_before_reading(tmp_path, capsys, monkeypatch):
+    # Root passes the permission bits where the file system refuses (/proc, a root-squashed
+    # share): the refusal came when the results were written, after the whole measurement.
+    import errno
+    import tempfile
+
+    def refuse(*args, **kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse)
+    code, _, err = run_cli(capsys, "measure", tmp_path / "missing.xyz", "-o", tmp_path / "new" / "out")
+    assert code == 2
+    assert_one_sentence(err, "new/out", "cannot be created in", "Read-only file system")
+    assert not (tmp_path / "new").exists()
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
+def test_an_output_folder_under_proc_is_refused_before_reading(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "measure", tmp_path / "missing.xyz", "-o", "/proc/geostructure-out")
+    assert code == 2
+    assert_one_sentence(err, "/proc/geostructure-out", "cannot be created in /proc")
+
+
 # 17. Clear messages.
 @pytest.mark.parametrize(
     "argv, words",

@@ -25,6 +25,7 @@ import hashlib
 import json
 import os
 import shutil
+import tempfile
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -68,7 +69,8 @@ OWNED = frozenset(MEASURE_FILES + EVALUATION_FILES + SETS_FILES + REPORT_FILES +
 
 
 def check_outdir(outdir) -> Path:
-    """Refuse an output folder that cannot be used, before any work, creating nothing.
+    """Refuse an output folder that cannot be used, before any work, leaving nothing behind
+    (a probe folder is made in it, or in its nearest existing parent, and removed at once).
 
     Examples
     --------
@@ -91,6 +93,18 @@ def check_outdir(outdir) -> Path:
             if existing == outdir
             else f"{outdir}: cannot be created in {existing} (not writable)."
         )
+    # The permission bits do not tell everything: root passes them where the file system
+    # itself refuses (/proc, a root-squashed NFS share), and the refusal came only when the
+    # results were written, after the whole measurement. A folder made and removed at once
+    # asks the file system.
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".geostructure-probe-", dir=existing))
+    except OSError as exc:
+        raise OutputError(
+            f"{outdir}: the output folder is not writable (the file system refused: {exc.strerror})."
+            if existing == outdir
+            else f"{outdir}: cannot be created in {existing} (the file system refused: {exc.strerror})."
+        ) from None
     return outdir
 
 
