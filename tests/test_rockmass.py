@@ -18,6 +18,7 @@ from geostructure.face import clutter_points, face_members
 from geostructure.io.crs import metres_per_unit
 from geostructure.io.results import TEXT_SET_COLUMNS
 from geostructure.rockmass import RockMass
+from geostructure.rqd import rqd_from_jv, rqd_range
 from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 from geostructure.setnotes import censored_traces_note, jv_scope, persistence_note, set_notes, unmeasured_spacing
 from geostructure.slope_stability import fit_slope
@@ -53,6 +54,10 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
     # facets' traces, a lower bound, read 0.37 to 0.75 on these faces)
     np.testing.assert_allclose(rock.p32_from_p21, scene.set_p32[truth], rtol=0.35)
     assert rock.jv == pytest.approx(np.sum(1.0 / rock.spacing))
+    # RQD as the truth's spacings give it (94.0 and 97.9 from Jv; 90.2 to 99.7 along a line)
+    assert rqd_from_jv(rock.jv) == pytest.approx(rqd_from_jv(np.sum(1.0 / scene.set_spacing)), abs=2.0)
+    truth_range = rqd_range(scene.set_normals, scene.set_spacing)
+    np.testing.assert_allclose(rqd_range(sets.mean_normal, rock.spacing), truth_range, atol=2.0)
     # several joints per set are met, each more than once
     assert all(line.joints >= 4 and line.crossings > 2 * line.joints for line in rock.scanlines)
     # planes across the whole face: their traces show over most of it, and no set is read
@@ -326,8 +331,11 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
     assert {int(p["censored"]) for p in planes} == {0, 1}
     record = json.load(open(out / "run.json"))["sets"]["rock_mass"]
     assert record["jv_per_m3"] == pytest.approx(sum(1 / float(r["spacing_m"]) for r in sets))
+    assert record["rqd_from_jv"] == pytest.approx(rqd_from_jv(record["jv_per_m3"]))
+    assert record["rqd_min_by_direction"] <= record["rqd_max_by_direction"] <= 100.0
     html = (out / "report.html").read_text()
     assert "Normal spacing per set" in html and "Spacing (m)" in html and "Jv" in html
+    assert f"RQD {record['rqd_from_jv']:.0f} ({record['rqd_min_by_direction']:.0f} to" in html
     # From the folder's files, the same figures: to the last bits the points read back from
     # regions.ply (in the input's UTM coordinates) differ from the measure's local ones.
     assert main(["sets", str(out), "-q"]) == 0

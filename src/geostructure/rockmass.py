@@ -12,7 +12,9 @@
   planes, and from P21 with C23 = 1 / mean sin(angle between plane and face normals);
 - the volumetric joint count Jv = sum of 1 / spacing over the sets with a spacing (ISRM
   1978; Palmstrom 2005) and the block volume Vb = beta Jv^-3 with beta = 36 (Palmstrom 2005's value for
-  equidimensional blocks), and for three sets S1 S2 S3 / (sin g12 sin g23 sin g31).
+  equidimensional blocks), and for three sets S1 S2 S3 / (sin g12 sin g23 sin g31);
+- RQD from Jv (Palmström 2005), and its least and greatest along a line (Priest & Hudson
+  1976; :mod:`.rqd`).
 
 Per set, the mean trace length is the exponential distribution's estimate with censoring,
 the sum of all traces over the number not censored, and not the mean of the traces, which
@@ -30,6 +32,7 @@ import numpy as np
 from .exposure import Persistence, exposure
 from .face import face_parts
 from .joints import PlaneMoments, joint_planes
+from .rqd import rqd_from_jv, rqd_range
 from .sections import FaceSections, face_sections_of, section_exposures, sectioned_persistence
 from .spacing import nearest_plane_gaps, pooled_scanlines, scanline_spacing, spacing_statistics
 from .traces import TraceLengths, joint_traces, trace_lengths
@@ -251,6 +254,8 @@ class RockMass:
             "jv_per_m3": self.jv,
             "block_volume_m3": self.block_volume,
             "block_volume_three_sets_m3": self.block_volume_three_sets(set_normals),
+            "rqd_from_jv": rqd_from_jv(self.jv),
+            **dict(zip(("rqd_min_by_direction", "rqd_max_by_direction"), rqd_range(set_normals, self.spacing))),
             "spacing_method": "scanlines on the mean face, joints extended as persistent planes, or counted "
             f"where their traces show for a set whose spacing that makes {TRACE_DISAGREEMENT:g} times as long",
             "correlated_tilt_deg": self.correlated_tilt,

@@ -113,6 +113,25 @@ def jv_scope(rows: list[dict]) -> str:
     return f" (without set{'s' if len(missing) > 1 else ''} {', '.join(map(str, missing))})"
 
 
+def rqd_phrase(from_jv, least=None, greatest=None) -> str:
+    """The tables' words for RQD: from Jv (Palmström 2005), and its range along a line
+    (Priest & Hudson 1976) where measured; ``""`` without Jv.
+
+    Examples
+    --------
+    >>> rqd_phrase(85.0, 80.4, 97.2)
+    ', RQD 85 (80 to 97 along a line)'
+    >>> rqd_phrase(float("nan"))
+    ''
+    """
+    if from_jv is None or not np.isfinite(from_jv):
+        return ""
+    along = ""
+    if least is not None and greatest is not None and np.isfinite(least) and np.isfinite(greatest):
+        along = f" ({least:.0f} to {greatest:.0f} along a line)"
+    return f", RQD {from_jv:.0f}{along}"
+
+
 def censored_traces_note(set_id: int, row: dict) -> str | None:
     """A sentence when every joint trace of set ``set_id`` runs out of sight (to the face's
     edge or a hole): their mean length with censoring cannot be estimated, and what was seen

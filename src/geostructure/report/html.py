@@ -19,7 +19,7 @@ from ..io.tiles import describe
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..setnotes import bent_face, jv_scope, off_face_scope, set_notes
+from ..setnotes import bent_face, jv_scope, off_face_scope, rqd_phrase, set_notes
 from .kinematic_tables import kinematic_table, set_swatch
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -331,6 +331,10 @@ def set_table(scene: ReportScene) -> str:
             f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³{jv_scope(scene.sets)}, "
             f"block volume {rock['block_volume_m3']:.3g} m³ (Palmström, 36/Jv³)"
         )
+        if rock.get("rqd_from_jv") is not None:  # folders before 2026-12-05 have none
+            caption += rqd_phrase(
+                rock["rqd_from_jv"], rock.get("rqd_min_by_direction"), rock.get("rqd_max_by_direction")
+            )
     notes = [note for row in scene.sets for note in set_notes(int(row["set"]), row)] if measured else []
     notes = "".join(
         f'<p class="note">{_escape(n)}</p>'
