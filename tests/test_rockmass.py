@@ -18,11 +18,11 @@ from geostructure.face import clutter_points, face_members
 from geostructure.io.crs import metres_per_unit
 from geostructure.io.results import TEXT_SET_COLUMNS
 from geostructure.rockmass import RockMass
-from geostructure.rqd import rqd_from_jv, rqd_range
+from geostructure.rqd import block_size_class, rqd_from_jv, rqd_range
 from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 from geostructure.setnotes import censored_traces_note, jv_scope, persistence_note, set_notes, unmeasured_spacing
 from geostructure.slope_stability import fit_slope
-from geostructure.spacing import Scanlines, spacing_statistics
+from geostructure.spacing import Scanlines, spacing_class, spacing_statistics
 from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
 from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
 from geostructure.synthetic.scanlines import exposed_trace_chords
@@ -332,6 +332,8 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
     record = json.load(open(out / "run.json"))["sets"]["rock_mass"]
     assert record["jv_per_m3"] == pytest.approx(sum(1 / float(r["spacing_m"]) for r in sets))
     assert record["rqd_from_jv"] == pytest.approx(rqd_from_jv(record["jv_per_m3"]))
+    assert record["block_size_class"] == block_size_class(record["jv_per_m3"])
+    assert all(row["spacing_class"] == spacing_class(float(row["spacing_m"])) != "" for row in sets)
     assert record["rqd_min_by_direction"] <= record["rqd_max_by_direction"] <= 100.0
     html = (out / "report.html").read_text()
     assert "Normal spacing per set" in html and "Spacing (m)" in html and "Jv" in html

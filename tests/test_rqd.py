@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from geostructure.rqd import rqd_from_frequency, rqd_from_jv, rqd_range
+from geostructure.rqd import block_size_class, rqd_from_frequency, rqd_from_jv, rqd_range
 from geostructure.setnotes import rqd_phrase
+from geostructure.spacing import spacing_class
 
 
 def core_rqd(frequency: float, length: float = 20_000.0, seed: int = 0) -> float:
@@ -48,3 +49,15 @@ def test_the_tables_words():
     assert rqd_phrase(85.0, 80.4, 97.2) == ", RQD 85 (80 to 97 along a line)"
     assert rqd_phrase(85.0, float("nan"), float("nan")) == ", RQD 85"
     assert rqd_phrase(None) == ""
+
+
+def test_isrm_words_for_spacing_and_block_size():
+    spacings = [0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0]
+    assert [spacing_class(s) for s in spacings] == [
+        "extremely close", "very close", "close", "moderate", "wide", "very wide", "extremely wide"
+    ]  # fmt: skip
+    jv = [0.5, 2.0, 5.0, 20.0, 40.0, 80.0]
+    assert [block_size_class(j) for j in jv] == [
+        "very large blocks", "large blocks", "medium-sized blocks", "small blocks", "very small blocks", "crushed rock"
+    ]  # fmt: skip
+    assert spacing_class(float("nan")) == block_size_class(float("nan")) == ""

@@ -32,9 +32,9 @@ import numpy as np
 from .exposure import Persistence, exposure
 from .face import face_parts
 from .joints import PlaneMoments, joint_planes
-from .rqd import rqd_from_jv, rqd_range
+from .rqd import block_size_class, rqd_from_jv, rqd_range
 from .sections import FaceSections, face_sections_of, section_exposures, sectioned_persistence
-from .spacing import nearest_plane_gaps, pooled_scanlines, scanline_spacing, spacing_statistics
+from .spacing import nearest_plane_gaps, pooled_scanlines, scanline_spacing, spacing_class, spacing_statistics
 from .traces import TraceLengths, joint_traces, trace_lengths
 from .uncertainty import correlated_tilt
 
@@ -80,6 +80,7 @@ ROCK_SET_COLUMNS = (
     "joint_trace_mean_m",
     "joint_trace_std_error_m",
     "persistence",
+    "spacing_class",
 )
 
 
@@ -244,6 +245,7 @@ class RockMass:
             row["joint_trace_mean_m"] = lengths.mean
             row["joint_trace_std_error_m"] = lengths.std_error
             row["persistence"] = lengths.persistence
+            row["spacing_class"] = spacing_class(line.spacing)
             rows.append(row)
         return rows
 
@@ -254,6 +256,7 @@ class RockMass:
             "jv_per_m3": self.jv,
             "block_volume_m3": self.block_volume,
             "block_volume_three_sets_m3": self.block_volume_three_sets(set_normals),
+            "block_size_class": block_size_class(self.jv),
             "rqd_from_jv": rqd_from_jv(self.jv),
             **dict(zip(("rqd_min_by_direction", "rqd_max_by_direction"), rqd_range(set_normals, self.spacing))),
             "spacing_method": "scanlines on the mean face, joints extended as persistent planes, or counted "

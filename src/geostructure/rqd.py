@@ -1,4 +1,5 @@
-"""Rock Quality Designation (RQD) from the sets' spacing, as a face survey can give it.
+"""Rock Quality Designation (RQD) from the sets' spacing, as a face survey can give it, and
+ISRM (1978)'s words for the block size the volumetric joint count Jv implies.
 
 RQD (Deere 1964) is the share of a borehole core in pieces of 0.1 m or longer. It feeds RMR
 (Bieniawski 1989) and Q (Barton et al. 1974). A face has no core, so it is estimated from
@@ -96,3 +97,22 @@ def rqd_range(normals, spacings) -> tuple[float, float]:
     crossings = np.array([c / np.linalg.norm(c) for c in crossings if np.linalg.norm(c) > 1e-12]).reshape(-1, 3)
     fewest = float(frequency_along(crossings, scaled, np.ones(len(scaled))).min()) if len(crossings) else 0.0
     return rqd_from_frequency(most), rqd_from_frequency(fewest)
+
+
+#: ISRM (1978)'s block sizes by the volumetric joint count: the greatest Jv (joints per m^3)
+#: of each; above 60, crushed rock.
+BLOCK_SIZE_CLASSES = ((1.0, "very large blocks"), (3.0, "large blocks"), (10.0, "medium-sized blocks"),
+                      (30.0, "small blocks"), (60.0, "very small blocks"), (np.inf, "crushed rock"))  # fmt: skip
+
+
+def block_size_class(jv: float) -> str:
+    """ISRM (1978)'s description of the blocks for ``jv`` joints per m^3; "" for none.
+
+    Examples
+    --------
+    >>> block_size_class(0.5), block_size_class(5.0), block_size_class(75.0), block_size_class(float("nan"))
+    ('very large blocks', 'medium-sized blocks', 'crushed rock', '')
+    """
+    if not np.isfinite(jv):
+        return ""
+    return next(name for bound, name in BLOCK_SIZE_CLASSES if jv < bound)

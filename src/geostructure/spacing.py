@@ -191,6 +191,24 @@ def nearest_plane_gaps(normals, centroids, members, mean, persistence: Persisten
     return nearest[np.isfinite(nearest)]
 
 
+#: ISRM (1978)'s spacing classes: the greatest spacing (m) of each.
+SPACING_CLASSES = ((0.02, "extremely close"), (0.06, "very close"), (0.2, "close"), (0.6, "moderate"),
+                   (2.0, "wide"), (6.0, "very wide"), (np.inf, "extremely wide"))  # fmt: skip
+
+
+def spacing_class(spacing: float) -> str:
+    """ISRM (1978)'s description of a set's normal spacing (m); an empty string for none.
+
+    Examples
+    --------
+    >>> spacing_class(0.04), spacing_class(0.45), spacing_class(0.73), spacing_class(float("nan"))
+    ('very close', 'moderate', 'wide', '')
+    """
+    if not np.isfinite(spacing):
+        return ""
+    return next(name for bound, name in SPACING_CLASSES if spacing < bound)
+
+
 def spacing_statistics(gaps) -> dict:
     """Mean, median, mode and the exponential and lognormal fits (maximum likelihood) of
     spacings, with each fit's AIC and Kolmogorov-Smirnov statistic.

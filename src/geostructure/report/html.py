@@ -293,6 +293,7 @@ SET_COLUMNS = [
 #: ... and, when the spacing was measured, these.
 ROCK_COLUMNS = [
     ("spacing_m", "Spacing (m)", 2),
+    ("spacing_class", "Spacing class", None),
     ("p10_per_m", "P10 (1/m)", 2),
     ("p32_per_m", "P32 (1/m)", 2),
     ("joint_trace_mean_m", "Trace (m)", 1),
@@ -331,6 +332,8 @@ def set_table(scene: ReportScene) -> str:
             f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³{jv_scope(scene.sets)}, "
             f"block volume {rock['block_volume_m3']:.3g} m³ (Palmström, 36/Jv³)"
         )
+        if rock.get("block_size_class"):  # folders before 2026-12-05 have none
+            caption += f", {rock['block_size_class']} (ISRM)"
         if rock.get("rqd_from_jv") is not None:  # folders before 2026-12-05 have none
             caption += rqd_phrase(
                 rock["rqd_from_jv"], rock.get("rqd_min_by_direction"), rock.get("rqd_max_by_direction")
