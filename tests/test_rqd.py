@@ -46,7 +46,7 @@ def test_a_set_without_a_spacing_is_left_out_of_the_range():
 
 
 def test_the_tables_words():
-    assert rqd_phrase(85.0, 80.4, 97.2) == ", RQD 85 (80 to 97 along a line)"
+    assert rqd_phrase(85.0, 80.4, 97.2) == ", RQD 85 (80 to 97 by direction)"
     assert rqd_phrase(85.0, float("nan"), float("nan")) == ", RQD 85"
     assert rqd_phrase(None) == ""
 

@@ -120,7 +120,7 @@ def rqd_phrase(from_jv, least=None, greatest=None) -> str:
     Examples
     --------
     >>> rqd_phrase(85.0, 80.4, 97.2)
-    ', RQD 85 (80 to 97 along a line)'
+    ', RQD 85 (80 to 97 by direction)'
     >>> rqd_phrase(float("nan"))
     ''
     """
@@ -128,7 +128,7 @@ def rqd_phrase(from_jv, least=None, greatest=None) -> str:
         return ""
     along = ""
     if least is not None and greatest is not None and np.isfinite(least) and np.isfinite(greatest):
-        along = f" ({least:.0f} to {greatest:.0f} along a line)"
+        along = f" ({least:.0f} to {greatest:.0f} by direction)"
     return f", RQD {from_jv:.0f}{along}"
 
 

@@ -101,7 +101,7 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         title = title[:-1] + off_face_scope(*counts) + ")"
     rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
     if rock is not None and np.isfinite(rock.jv):
-        title += f"; Jv {rock.jv:.1f}/m³{jv_scope(rock_rows)}, block {rock.block_volume:.2g} m³ ({block_size_class(rock.jv)})"
+        title += f"; Jv {rock.jv:.1f}/m³{jv_scope(rock_rows)}, block {rock.block_volume:.2g} m³ ({block_size_class(rock.jv).removesuffix(' blocks')})"
         title += rqd_phrase(rqd_from_jv(rock.jv), *rqd_range(sets.mean_normal, rock.spacing))
     table = Table(title=title)
     columns = ["set", "planes", "area m²", "dip", "dip dir", "K", "α95°", "sph. var."]
