@@ -22,6 +22,8 @@ from itertools import product
 
 import numpy as np
 
+from .spacing import class_of
+
 #: A core piece counts towards RQD from this length (m; Deere 1964).
 RQD_PIECE = 0.1
 
@@ -113,6 +115,4 @@ def block_size_class(jv: float) -> str:
     >>> block_size_class(0.5), block_size_class(5.0), block_size_class(75.0), block_size_class(float("nan"))
     ('very large blocks', 'medium-sized blocks', 'crushed rock', '')
     """
-    if not np.isfinite(jv):
-        return ""
-    return next(name for bound, name in BLOCK_SIZE_CLASSES if jv < bound)
+    return class_of(jv, BLOCK_SIZE_CLASSES)

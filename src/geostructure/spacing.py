@@ -204,9 +204,21 @@ def spacing_class(spacing: float) -> str:
     >>> spacing_class(0.04), spacing_class(0.45), spacing_class(0.73), spacing_class(float("nan"))
     ('very close', 'moderate', 'wide', '')
     """
-    if not np.isfinite(spacing):
+    return class_of(spacing, SPACING_CLASSES)
+
+
+def class_of(value: float, classes) -> str:
+    """The name of the first of ``classes`` ((upper bound, name), ascending, the last
+    unbounded) that ``value`` falls below; an empty string for NaN.
+
+    Examples
+    --------
+    >>> class_of(2.5, ((1.0, "small"), (np.inf, "large"))), class_of(float("nan"), ())
+    ('large', '')
+    """
+    if not np.isfinite(value):
         return ""
-    return next(name for bound, name in SPACING_CLASSES if spacing < bound)
+    return next(name for bound, name in classes if value < bound)
 
 
 def spacing_statistics(gaps) -> dict:
