@@ -13,6 +13,7 @@ from geostructure import measure
 from geostructure.auto import choose_params
 from geostructure.cli import main
 from geostructure.cloud import Cloud
+from geostructure.evaluate import match_facets
 from geostructure.exposure import exposure, plane_persistence
 from geostructure.face import clutter_points, face_members
 from geostructure.io.crs import metres_per_unit
@@ -234,6 +235,29 @@ def test_spacing_of_parallel_joints_on_a_clean_face():
             assert np.isfinite(row["joint_trace_mean_m"]) and note is None
 
 
+def test_joints_are_the_generated_planes_each_once(outcrop):
+    # Each measured plane's facet in the truth (its centroid on the facet, its normal within
+    # 5 degrees), and so the generated plane it lies on; each joint against those planes.
+    scene, result, sets, rock, _ = outcrop
+    joints = rock.joints
+    facet = match_facets(result.planes, scene).plane_facet
+    ok = (facet >= 0) & (joints.plane_joint >= 0)
+    plane = scene.facet_set[facet[ok]] * 1000 + scene.facet_plane[facet[ok]]
+    joint, points = joints.plane_joint[ok], result.planes.n_points[ok]
+    # purity: the share of a joint's facets' points on its commonest generated plane (0.988
+    # and 0.997 on these faces)
+    on_commonest = sum(np.bincount(np.unique(plane[joint == j], return_inverse=True)[1], points[joint == j]).max()
+                       for j in np.unique(joint))  # fmt: skip
+    assert on_commonest / points.sum() > 0.97
+    # every generated plane seen is one joint, or nearly every one (94 and 100%)
+    split = np.array([len(np.unique(joint[plane == p])) for p in np.unique(plane)])
+    assert np.mean(split == 1) >= 0.9
+    assert len(joints) == pytest.approx(len(np.unique(plane)), rel=0.1)
+    # planes in no set are in no joint; every set plane is in one
+    assert np.array_equal(joints.plane_joint >= 0, sets.labels >= 0)
+    assert np.array_equal(joints.set[joints.plane_joint[sets.labels >= 0]], sets.labels[sets.labels >= 0])
+
+
 def test_persistence_traces_and_censoring_at_the_cloud_edge(outcrop):
     scene, result, _, rock, _ = outcrop
     facet = scene.facet_index[result.filter_result.keep]  # each filtered point's facet
@@ -333,6 +357,17 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
     assert record["jv_per_m3"] == pytest.approx(sum(1 / float(r["spacing_m"]) for r in sets))
     assert record["rqd_from_jv"] == pytest.approx(rqd_from_jv(record["jv_per_m3"]))
     assert record["block_size_class"] == block_size_class(record["jv_per_m3"])
+    # every discontinuity once: joints.csv, a row per joint; planes.csv's joint column
+    joints = read("joints.csv")
+    in_sets = [p for p in planes if int(p["set"]) >= 0]
+    assert sum(int(j["n_planes"]) for j in joints) == len(in_sets) > len(joints) > 0
+    assert sorted({int(p["joint"]) for p in in_sets}) == [int(j["joint"]) for j in joints]
+    assert [sum(int(j["set"]) == int(r["set"]) for j in joints) for r in sets] == [int(r["n_joints"]) for r in sets]
+    for j in joints[:5]:
+        members = [p for p in in_sets if p["joint"] == j["joint"]]
+        assert float(j["area_m2"]) == pytest.approx(sum(float(p["area_m2"]) for p in members))
+        assert abs(float(j["dip"]) - float(members[0]["dip"])) < 10  # the joint's plane and its facets'
+        assert float(j["centroid_x"]) > 499_000  # in the input's UTM coordinates
     assert all(row["spacing_class"] == spacing_class(float(row["spacing_m"])) != "" for row in sets)
     assert record["rqd_min_by_direction"] <= record["rqd_max_by_direction"] <= 100.0
     html = (out / "report.html").read_text()

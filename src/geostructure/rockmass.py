@@ -32,6 +32,7 @@ import numpy as np
 from .exposure import Persistence, exposure
 from .face import face_parts
 from .joints import PlaneMoments, joint_planes
+from .jointtable import Joints
 from .rqd import block_size_class, rqd_from_jv, rqd_range
 from .sections import FaceSections, face_sections_of, section_exposures, sectioned_persistence
 from .spacing import nearest_plane_gaps, pooled_scanlines, scanline_spacing, spacing_class, spacing_statistics
@@ -81,6 +82,7 @@ ROCK_SET_COLUMNS = (
     "joint_trace_std_error_m",
     "persistence",
     "spacing_class",
+    "n_joints",
 )
 
 
@@ -118,6 +120,7 @@ class RockMass:
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
     clutter: np.ndarray | None = None  # per plane, as ground
     point_part: np.ndarray | None = None  # per point: face.FACE, GROUND or CLUTTER; None: all face
+    joints: Joints | None = None  # the sets' facets grouped into joints, every discontinuity once
 
     @property
     def traces_only(self) -> np.ndarray:
@@ -180,8 +183,8 @@ class RockMass:
 
     def plane_columns(self) -> dict:
         """Per-plane columns for ``planes.csv``: traces (m), the censoring flag (1 when cut
-        by the exposure's edge), the ground flag (1: level ground before or above the face)
-        and the clutter flag (1: a plane in vegetation)."""
+        by the exposure's edge), the ground flag (1: level ground before or above the face),
+        the clutter flag (1: a plane in vegetation) and its joint (``joints.csv``; -1 for none)."""
         p = self.persistence
         none = np.zeros(len(p.censored), dtype=bool)
         ground = none if self.ground is None else self.ground
@@ -193,6 +196,7 @@ class RockMass:
             "censored": p.censored.astype(np.int64),
             "ground": ground.astype(np.int64),
             "clutter": clutter.astype(np.int64),
+            **({} if self.joints is None else {"joint": self.joints.plane_joint}),
         }
 
     def set_rows(self) -> list[dict]:
@@ -246,6 +250,7 @@ class RockMass:
             row["joint_trace_std_error_m"] = lengths.std_error
             row["persistence"] = lengths.persistence
             row["spacing_class"] = spacing_class(line.spacing)
+            row["n_joints"] = int(self.joints.counts(len(self.lines))[s]) if self.joints is not None else 0
             rows.append(row)
         return rows
 
@@ -348,7 +353,7 @@ def rock_mass(
     # The scanlines run over the face alone (not over the ground before it).
     on_face = [points if f.members is None else points[f.members] for f in exposures]
     uv = [f.project(p) for f, p in zip(exposures, on_face)]
-    joints = []
+    joints, groups = [], []
     for s, mean in enumerate(set_normals):
         lines, trace_lines, lengths, crossing, facing = [], [], [], [], []
         for k, f in enumerate(exposures):
@@ -363,6 +368,8 @@ def rock_mass(
             if lines[-1].direction is not None:
                 lengths.append(trace_lengths(traces, joint_centre, f))
                 crossing.append(np.abs(normals[members] @ lines[-1].direction))
+            along = lines[-1].direction is None
+            groups.append((members, joint, s, k, joint_normal, traces.joint, None if along else lengths[-1]))
             trace_lines.append(scanline_spacing(on_face[k], joint_normal, joint_centre, mean, f, uv[k], traces))
             facing.append(np.sqrt(np.clip(1.0 - (normals[members] @ f.normal) ** 2, 0.0, 1.0)))
         result.scanlines.append(pooled_scanlines(lines))
@@ -379,6 +386,7 @@ def rock_mass(
             if crossing and len(np.concatenate(crossing)):
                 result.c13[s] = 1.0 / np.concatenate(crossing).mean()
             result.c23[s] = 1.0 / max(np.concatenate(facing).mean(), 1e-6)
+    result.joints = Joints.of(len(normals), groups)
     if standard_errors is not None:
         result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, joints, moments)
         result.tilt_facets_short = 0 if result.correlated_tilt_n else sum(len(j) for j in joints if len(j) >= 3)

@@ -26,6 +26,7 @@ from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_sets
 from .io.writers import (
     sets_record,
+    write_joints_csv,
     write_plane_tables,
     write_result,
     write_sets_csv,
@@ -309,8 +310,11 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         write_sets_csv(sets, outputs.path("sets.csv"), rock)
         write_spacing_csv(rock, outputs.path("spacing.csv"))
+        metres = recorded_unit(outputs.record)["metres"]
+        write_joints_csv(planes, rock, frame, outputs.path("joints.csv"), metres)
         outputs.record["sets"] = sets_record(sets, rock)
         paths = {"sets": outputs.final("sets.csv"), "spacing": outputs.final("spacing.csv")}
+        paths["joints"] = outputs.final("joints.csv")
         paths["planes"] = outputs.final("planes.csv")
         paths["dips"] = outputs.final("planes_dips.csv")
         if "planes.gpkg" in staged:

@@ -53,6 +53,7 @@ EVALUATION_FILES = ("evaluation.csv", "evaluation.json")
 SETS_FILES = (
     "sets.csv",
     "spacing.csv",
+    "joints.csv",
     "planes.csv",
     "planes_dips.csv",
     "planes.geojson",

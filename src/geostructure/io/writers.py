@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..jointtable import JOINT_COLUMNS, joint_rows
 from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
 from ..threads import preload
 from .atomic import atomic_path, write_json, write_table_csv
@@ -142,6 +143,12 @@ def write_sets_csv(sets, path, rock=None) -> Path:
     return write_table_csv(rows, path, columns=SET_COLUMNS + ROCK_SET_COLUMNS)
 
 
+def write_joints_csv(planes, rock, frame, path, metres_per_unit: float = 1.0) -> Path:
+    """``joints.csv``: every discontinuity once, a row per joint of the sets' facets
+    (:func:`~geostructure.jointtable.joint_rows`), from the plane table in the cloud's unit."""
+    return write_table_csv(joint_rows(planes, rock.joints, frame, metres_per_unit), path, columns=JOINT_COLUMNS)
+
+
 def write_spacing_csv(rock, path) -> Path:
     """``spacing.csv``: every spacing measured, one row each: set, method (``scanline``, along
     the virtual scanlines, or ``nearest``, to the nearest overlapping plane of the set), metres.
@@ -238,6 +245,9 @@ def write_result(
         if rock is not None:
             write_spacing_csv(rock, outputs.path("spacing.csv"))
             files["spacing"] = "spacing.csv"
+            metres = recorded_unit(outputs.record)["metres"]
+            write_joints_csv(planes, rock, result.frame, outputs.path("joints.csv"), metres)
+            files["joints"] = "joints.csv"
     outputs.write_record()
     return {key: outputs.final(name) for key, name in {**files, "run": "run.json"}.items()}
 

@@ -292,6 +292,7 @@ SET_COLUMNS = [
 ]
 #: ... and, when the spacing was measured, these.
 ROCK_COLUMNS = [
+    ("n_joints", "Joints", 0),
     ("spacing_m", "Spacing (m)", 2),
     ("spacing_class", "Spacing class", None),
     ("p10_per_m", "P10 (1/m)", 2),
