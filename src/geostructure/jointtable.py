@@ -93,7 +93,7 @@ JOINT_COLUMNS = (
 )  # fmt: skip
 
 
-def joint_rows(planes, joints: Joints, frame: Frame = Frame(), metres_per_unit: float = 1.0) -> list[dict]:
+def joint_rows(planes, joints: Joints | None, frame: Frame = Frame(), metres_per_unit: float = 1.0) -> list[dict]:
     """One row per joint (:data:`JOINT_COLUMNS`) from the plane table (:class:`~.planes.Planes`,
     in the cloud's unit) and its :class:`Joints`: its facets' count, points and area (m²),
     their centroid (weighted by points, in the input's coordinates), the joint's normal
@@ -114,7 +114,7 @@ def joint_rows(planes, joints: Joints, frame: Frame = Frame(), metres_per_unit: 
     >>> row["n_planes"], row["area_m2"], row["centroid_x"], row["dip"], round(row["facet_scatter_deg"], 2)
     (2, 4.0, 3.0, 0.0, 0.41)
     """
-    if not len(joints):
+    if joints is None or not len(joints):
         return []
     member = joints.plane_joint
     grouped = np.flatnonzero(member >= 0)

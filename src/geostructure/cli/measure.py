@@ -250,8 +250,9 @@ def measure_cloud(
         took = seconds.get("read", 0.0) + time.perf_counter() - t
         thinned = (extra or {}).get("thinned") or {}
         of_survey = f" of the survey's {thinned['survey_points']:,}" if thinned.get("cell") else ""
+        joints = f" ({len(rock.joints)} joints)" if rock is not None and rock.joints is not None else ""
         print(
-            f"{len(result)} planes from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
+            f"{len(result)} planes{joints} from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
             f"wrote {', '.join(str(p) for p in paths.values())}"
         )
     return 0
