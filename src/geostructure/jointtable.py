@@ -84,6 +84,18 @@ class Joints:
         """Joints per set."""
         return np.bincount(self.set, minlength=n_sets)
 
+    def members(self) -> list[np.ndarray]:
+        """Each joint's planes (indices, ascending), in joint order.
+
+        Examples
+        --------
+        >>> Joints(np.array([1, -1, 0, 1]), *[np.zeros(2)] * 5).members()
+        [array([2]), array([0, 3])]
+        """
+        order = np.argsort(self.plane_joint, kind="stable")
+        order = order[self.plane_joint[order] >= 0]
+        return np.split(order, np.cumsum(np.bincount(self.plane_joint[order], minlength=len(self)))[:-1])
+
 
 #: ``joints.csv``'s columns, in order.
 JOINT_COLUMNS = (

@@ -204,6 +204,7 @@ class RockMass:
         rows = []
         p = self.persistence
         only = self.traces_only
+        n_joints = self.joints.counts(len(self.lines)) if self.joints is not None else np.zeros(len(self.lines), int)
         for s, line in enumerate(self.lines):
             members = np.flatnonzero(self.set_labels == s)
             gap = spacing_statistics(line.gaps)
@@ -250,7 +251,7 @@ class RockMass:
             row["joint_trace_std_error_m"] = lengths.std_error
             row["persistence"] = lengths.persistence
             row["spacing_class"] = spacing_class(line.spacing)
-            row["n_joints"] = int(self.joints.counts(len(self.lines))[s]) if self.joints is not None else 0
+            row["n_joints"] = int(n_joints[s])
             rows.append(row)
         return rows
 
@@ -353,14 +354,13 @@ def rock_mass(
     # The scanlines run over the face alone (not over the ground before it).
     on_face = [points if f.members is None else points[f.members] for f in exposures]
     uv = [f.project(p) for f, p in zip(exposures, on_face)]
-    joints, groups = [], []
+    groups = []
     for s, mean in enumerate(set_normals):
         lines, trace_lines, lengths, crossing, facing = [], [], [], [], []
         for k, f in enumerate(exposures):
             members = np.flatnonzero((set_labels == s) & (plane_section == k))
             own = moments.subset(members)
             joint, joint_normal, joint_centre = joint_planes(own, normals[members])
-            joints += [members[joint == j] for j in range(len(joint_normal))]
             traces = joint_traces(own, joint, joint_normal, f.normal)
             lines.append(scanline_spacing(on_face[k], joint_normal, joint_centre, mean, f, uv[k]))
             # A set along the face (no line crosses it: bedding on a level exposure) shows its
@@ -387,6 +387,7 @@ def rock_mass(
                 result.c13[s] = 1.0 / np.concatenate(crossing).mean()
             result.c23[s] = 1.0 / max(np.concatenate(facing).mean(), 1e-6)
     result.joints = Joints.of(len(normals), groups)
+    joints = result.joints.members()
     if standard_errors is not None:
         result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, joints, moments)
         result.tilt_facets_short = 0 if result.correlated_tilt_n else sum(len(j) for j in joints if len(j) >= 3)
