@@ -362,6 +362,8 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
     in_sets = [p for p in planes if int(p["set"]) >= 0]
     assert sum(int(j["n_planes"]) for j in joints) == len(in_sets) > len(joints) > 0
     assert sorted({int(p["joint"]) for p in in_sets}) == [int(j["joint"]) for j in joints]
+    dips = read("planes_dips.csv")  # Dips' extra column: blank for a plane in no joint
+    assert [d["Joint"] for d in dips] == ["" if int(p["joint"]) < 0 else p["joint"] for p in planes]
     assert [sum(int(j["set"]) == int(r["set"]) for j in joints) for r in sets] == [int(r["n_joints"]) for r in sets]
     for j in joints[:5]:
         members = [p for p in in_sets if p["joint"] == j["joint"]]

@@ -16,7 +16,8 @@ def write_dips_csv(planes, path) -> Path:
 
     Dip Direction and Dip first (the orientation pair, as field notebooks write it), then
     ``Set`` when the planes have sets, then Dips' location columns (the centroid, in the
-    cloud's coordinates) and, as extra columns, the region id and its point count. Dips
+    cloud's coordinates) and, as extra columns, the region id, its point count and, with
+    the rock mass, its joint (``joints.csv``'s number, blank for a plane in no set). Dips
     numbers its sets from 1 and leaves a pole in no set blank: ``Set`` is the run's set
     number plus one (set 0 of ``sets.csv`` is Set 1 here), empty for a plane in no set.
 
@@ -42,5 +43,7 @@ def write_dips_csv(planes, path) -> Path:
         values[name] = centroid[:, axis].tolist()
     values["Region"] = planes.region_id.tolist()
     values["Points"] = planes.n_points.tolist()
+    if "joint" in planes.extra:  # the discontinuity it is a facet of (joints.csv), blank for none
+        values["Joint"] = ["" if j < 0 else str(j) for j in planes.extra["joint"].astype(int).tolist()]
     rows = [dict(zip(values, row)) for row in zip(*values.values())]
     return write_table_csv(rows, path, columns=list(values))
