@@ -362,6 +362,12 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
     in_sets = [p for p in planes if int(p["set"]) >= 0]
     assert sum(int(j["n_planes"]) for j in joints) == len(in_sets) > len(joints) > 0
     assert sorted({int(p["joint"]) for p in in_sets}) == [int(j["joint"]) for j in joints]
+    import laspy  # each point's joint in regions.laz, through its region, for CloudCompare
+
+    regions = laspy.read(str(out / "regions.laz"))
+    joint_of = {int(p["region_id"]): int(p["joint"]) for p in planes}
+    region, joint = np.asarray(regions.region_id), np.asarray(regions.joint)
+    assert np.array_equal(joint, [joint_of.get(r, -1) for r in region.tolist()]) and (joint >= 0).mean() > 0.5
     dips = read("planes_dips.csv")  # Dips' extra column: blank for a plane in no joint
     assert [d["Joint"] for d in dips] == ["" if int(p["joint"]) < 0 else p["joint"] for p in planes]
     assert [sum(int(j["set"]) == int(r["set"]) for j in joints) for r in sets] == [int(r["n_joints"]) for r in sets]
@@ -379,6 +385,12 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path):
     # regions.ply (in the input's UTM coordinates) differ from the measure's local ones.
     assert main(["sets", str(out), "-q"]) == 0
     again = read("sets.csv")
+    assert np.array_equal(np.asarray(laspy.read(str(out / "regions.laz")).joint), joint)  # written again
+    joints_again, whole = read("joints.csv"), ("joint", "set", "section", "n_planes", "n_points", "trace_censored")
+    assert [[j[k] for k in whole] for j in joints_again] == [[j[k] for k in whole] for j in joints]
+    numbers = [k for k in joints[0] if k not in whole]
+    np.testing.assert_allclose([[float(j[k]) for k in numbers] for j in joints_again],
+                               [[float(j[k]) for k in numbers] for j in joints], rtol=1e-4, atol=1e-6)  # fmt: skip
     for a, b in zip(sets, again):
         text = TEXT_SET_COLUMNS
         assert [a[k] for k in text] == [b[k] for k in text]

@@ -181,6 +181,7 @@ def test_sets_and_kinematics_on_a_thinned_folder_read_the_measured_points(survey
     after = laspy.read(str(out / "regions.laz"))
     assert np.array_equal(after.X, before.X) and np.array_equal(after.region_id, before.region_id)
     assert np.array_equal(after["set"], before["set"]) and np.array_equal(after.face_part, before.face_part)
+    assert np.array_equal(after.joint, before.joint) and (np.asarray(after.joint) >= 0).any()
     assert after.header.parse_crs().to_epsg() == 32633
     code, _, err = run_cli(capsys, "kinematics", out, "--friction", "30", "-q")
     assert code == 0, err

@@ -14,7 +14,7 @@ import numpy as np
 from ..cloud import Cloud
 from ..errors import GeoStructureError, GeoStructureNote
 from ..io.crs import cloud_unit
-from ..io.laz import point_sets
+from ..io.laz import POINT_SET_DIMENSIONS, point_joints, point_sets
 from ..progress import StageProgress
 from ..stream import DaskExecutor, SerialExecutor, spill_inputs
 from ..stream.output import RegionsLaz, RegionsPly
@@ -95,11 +95,13 @@ class ThinnedSurvey:
         keep = result.filter_result.keep
         region_of = np.full(len(thinned), DROPPED, dtype=np.int32)
         region_of[keep] = result.labels
-        extra, set_of, part_of = {}, None, None
+        extra, set_of, part_of, joint_of = {}, None, None, None
         if planes is not None:
-            extra = {"set": np.int16, "face_part": np.uint8}
+            extra = dict(POINT_SET_DIMENSIONS)
             set_of = np.full(len(thinned), -1, dtype=np.int16)
             set_of[keep] = point_sets(result.labels, planes)
+            joint_of = np.full(len(thinned), -1, dtype=np.int32)
+            joint_of[keep] = point_joints(result.labels, planes)
             part_of = np.zeros(len(thinned), dtype=np.uint8)
             if rock is not None and rock.point_part is not None:
                 part_of[keep] = rock.point_part
@@ -114,7 +116,9 @@ class ThinnedSurvey:
             vegetation = None
             if marks is not None:
                 vegetation = np.fromfile(marks, np.uint8, len(chunk), offset=chunk.start)[kept].astype(bool)
-            fields = None if set_of is None else {"set": set_of[found][kept], "face_part": part_of[found][kept]}
+            fields = None
+            if set_of is not None:
+                fields = {"set": set_of[found][kept], "face_part": part_of[found][kept], "joint": joint_of[found][kept]}
             for writer in writers:
                 writer.write(points[kept], region[kept], vegetation, fields)
         for writer in writers:

@@ -66,7 +66,7 @@ def las_grid(points: np.ndarray, offset, grid=None) -> tuple[np.ndarray, np.ndar
     return scales, offsets
 
 
-def point_sets(region: np.ndarray, planes) -> np.ndarray:
+def point_sets(region, planes) -> np.ndarray:
     """Each point's joint set from its ``region_id`` (-1 for none), through the plane table's
     ``set`` column.
 
@@ -77,10 +77,26 @@ def point_sets(region: np.ndarray, planes) -> np.ndarray:
     >>> point_sets(np.array([7, 4, -1, 4]), planes).tolist()
     [-1, 1, -1, 1]
     """
+    return per_point(region, planes, "set", np.int16)
+
+
+def point_joints(region, planes) -> np.ndarray:
+    """Each point's joint (``joints.csv``'s number) from its ``region_id`` (-1 for none, and
+    for every point of a plane table without a ``joint`` column)."""
+    return per_point(region, planes, "joint", np.int32)
+
+
+def per_point(region, planes, column: str, dtype) -> np.ndarray:
+    """A plane-table column (``planes.extra[column]``) for each point through its region."""
     rows = plane_rows(region, planes.region_id)
-    if not len(planes):  # no plane, no set: every point -1 (there is no row 0 to index)
-        return np.full(len(rows), -1, dtype=np.int16)
-    return np.where(rows >= 0, planes.extra["set"][np.maximum(rows, 0)], -1).astype(np.int16)
+    if not len(planes) or column not in planes.extra:  # no plane: no row 0 to index
+        return np.full(len(rows), -1, dtype=dtype)
+    return np.where(rows >= 0, planes.extra[column][np.maximum(rows, 0)], -1).astype(dtype)
+
+
+#: The dimensions a run with sets adds to ``regions.laz``: each point's set, its part of the
+#: face (:data:`~geostructure.face.FACE`, ``GROUND`` or ``CLUTTER``) and its joint.
+POINT_SET_DIMENSIONS = (("set", np.int16), ("face_part", np.uint8), ("joint", np.int32))
 
 
 def write_laz(
@@ -147,16 +163,19 @@ def _write(las, path) -> Path:
     return Path(path)
 
 
-def write_regions_laz(result, path, point_set=None, face_part=None) -> Path:
+def write_regions_laz(result, path, point_set=None, face_part=None, point_joint=None) -> Path:
     """``regions.laz``: the filtered points with ``region_id`` and, given each point's set
-    (``point_set``), ``set`` and ``face_part``, each point's part of the face
+    (``point_set``), ``set``, ``face_part``, each point's part of the face
     (:data:`~geostructure.face.FACE`, ``GROUND`` or ``CLUTTER``; all ``FACE`` when
-    ``face_part`` is None)."""
+    ``face_part`` is None) and ``joint`` (``point_joint``; -1 for all when None)."""
     fields = {"region_id": np.asarray(result.labels, dtype=np.int32)}
     if point_set is not None:
-        fields["set"] = np.asarray(point_set, dtype=np.int16)
-        n = len(fields["set"])
-        fields["face_part"] = np.zeros(n, dtype=np.uint8) if face_part is None else np.asarray(face_part, np.uint8)
+        n = len(point_set)
+        given = {"set": point_set, "face_part": face_part, "joint": point_joint}
+        fallback = {"set": -1, "face_part": 0, "joint": -1}
+        for name, kind in POINT_SET_DIMENSIONS:
+            value = given[name]
+            fields[name] = np.full(n, fallback[name], dtype=kind) if value is None else np.asarray(value, kind)
     cloud = result.cloud
     return write_laz(
         path,
@@ -186,15 +205,16 @@ def write_voxel_planes_laz(result, path) -> Path:
 
 
 def add_point_sets(source, path, planes, face_part=None) -> Path:
-    """Write ``source`` (a ``regions.laz``) again to ``path`` with a ``set`` dimension (each
-    point's set through its region's row of ``planes``) and a ``face_part`` one (as
-    :func:`write_regions_laz`), its points on the same integers."""
+    """Write ``source`` (a ``regions.laz``) again to ``path`` with ``set`` and ``joint``
+    dimensions (each point's, through its region's row of ``planes``) and a ``face_part`` one
+    (as :func:`write_regions_laz`), its points on the same integers."""
     import laspy
 
     las = laspy.read(str(source))
-    for name, kind in (("set", np.int16), ("face_part", np.uint8)):
+    for name, kind in POINT_SET_DIMENSIONS:
         if name not in las.point_format.extra_dimension_names:
             las.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
-    las.set = point_sets(np.asarray(las.region_id), planes)
+    region = np.asarray(las.region_id)
+    las.set, las.joint = point_sets(region, planes), point_joints(region, planes)
     las.face_part = np.zeros(len(las.points), dtype=np.uint8) if face_part is None else face_part
     return _write(las, path)

@@ -21,7 +21,7 @@ from .atomic import atomic_path, write_json, write_table_csv
 from .crs import recorded_unit
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
-from .laz import point_sets, write_regions_laz, write_voxel_planes_laz
+from .laz import point_joints, point_sets, write_regions_laz, write_voxel_planes_laz
 from .outdir import EVALUATION_FILES, OutputSet, output_set
 from .results import PLANE_AREA, SCALAR, in_square_metres
 
@@ -222,6 +222,7 @@ def write_result(
         point_writes = []
         if point_files is True:
             labelled = None if sets is None else point_sets(result.labels, planes)
+            joint = None if sets is None else point_joints(result.labels, planes)
             part = None if rock is None else rock.point_part
 
             def written(write, name, *args) -> Path:  # hashed for the manifest in its thread, once written
@@ -229,7 +230,7 @@ def write_result(
 
             point_writes = [
                 pool.submit(written, write_regions_ply, "regions"),
-                pool.submit(written, write_regions_laz, "regions_laz", labelled, part),
+                pool.submit(written, write_regions_laz, "regions_laz", labelled, part, joint),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
         if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin):

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GeoStructureError
-from ..io.laz import point_sets
+from ..io.laz import point_joints, point_sets
 from ..io.results import open_regions, ply_field, read_regions
 from ..voxel import MAX_CELLS_PER_AXIS, voxel_keys
 from .executor import SerialExecutor
@@ -267,8 +267,9 @@ def read_measured(folder, record: dict, offset=None):
 
 
 def cell_point_sets(folder, finder: VoxelTable, planes, face_part=None):
-    """Per :data:`FOLDER_ROWS` rows of a thinned run's ``regions.ply``: each point's set (by
-    its region) and face part (its cell's measured point's), for ``regions.laz``."""
+    """Per :data:`FOLDER_ROWS` rows of a thinned run's ``regions.ply``: each point's set and
+    joint (by its region) and face part (its cell's measured point's), for ``regions.laz``
+    (:data:`~geostructure.io.laz.POINT_SET_DIMENSIONS`, by name)."""
     vertex = open_regions(folder)
     for a in range(0, len(vertex), FOLDER_ROWS):
         part = vertex[a : a + FOLDER_ROWS]
@@ -278,4 +279,4 @@ def cell_point_sets(folder, finder: VoxelTable, planes, face_part=None):
         else:
             xyz = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
             parts = np.asarray(face_part, dtype=np.uint8)[finder.find(xyz)]
-        yield point_sets(region, planes), parts
+        yield {"set": point_sets(region, planes), "face_part": parts, "joint": point_joints(region, planes)}
