@@ -88,6 +88,7 @@ def render(scene: ReportScene, title: str) -> str:
         "planes": table_rows(scene),
         "columns": [{"key": k, "label": label.format(unit=unit), "digits": d} for k, label, d in COLUMNS]
         + ([{"key": "set", "label": "Set", "digits": 0}] if "set" in scene.planes.extra else [])
+        + ([{"key": "joint", "label": "Joint", "digits": 0}] if "joint" in scene.planes.extra else [])
         + ([{"key": "truth_error", "label": "Truth error (°)", "digits": 2}] if scene.truth else []),
         "meta": {
             "source": scene.source,
@@ -356,7 +357,7 @@ def table_rows(scene: ReportScene) -> list[dict]:
     rows = []
     for row, corners in zip(scene.planes.rows(), scene.planes.local_corners):
         truth = scene.truth.get(row["region_id"])
-        out = {key: row.get(key) for key, _, _ in COLUMNS + [("set", "", 0)] if key in row}
+        out = {key: row.get(key) for key, _, _ in COLUMNS + [("set", "", 0), ("joint", "", 0)] if key in row}
         out["corners"] = np.round(corners, 4).tolist()
         out["great_circle"] = [np.round(a, 4).tolist() for a in great_circle_xy(row["dip_direction"], row["dip"])]
         out["pole"] = [float(a) for a in pole_xy(row["dip_direction"], row["dip"])]

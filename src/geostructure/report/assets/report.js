@@ -47,6 +47,8 @@
     let html = `<b>Plane ${p.region_id}</b>: strike <b>${fmt(p.strike, 1)}°</b>, dip <b>${fmt(p.dip, 1)}°</b>, ` +
       `dip direction <b>${fmt(p.dip_direction, 1)}°</b> (± ${fmt(p.normal_uncertainty_deg, 2)}°) · ` +
       `area ${fmt(p.area_m2, 2)} ${P.meta.unit}² · ${fmt(p.n_points, 0)} points · roughness (RMS fit residual) ${fmt(p.fit_residual, 4)} ${P.meta.unit} · planarity ${fmt(p.planarity, 3)}`;
+    if (p.set !== undefined) html += ` · ${p.set < 0 ? "in no set" : `set ${p.set}`}`;
+    if (p.joint !== undefined && p.joint >= 0) html += `, a facet of joint ${p.joint} (joints.csv)`;
     if (p.truth) {
       const t = p.truth;
       html += `<br>Ground truth '${t.surface}': strike ${fmt(t.strike, 1)}°, dip ${fmt(t.dip, 1)}°, ` +
