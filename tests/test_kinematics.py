@@ -309,6 +309,29 @@ def test_the_kinematics_command(outcrop_folder, capsys):
     assert "friction angle" in capsys.readouterr().err
 
 
+def test_the_failure_modes_count_joints_once(tmp_path, capsys):
+    # A joint exposed as many facets weighs many times in the planes' counts; the joints'
+    # count takes it once: on the 65 degree face at friction 30, J1 (45/180, out of the face)
+    # slides, and so do its joints, all of them or nearly, and no other set's.
+    scene = outcrop_scene(width=12.0, height=6.0, seed=4, face_dip=65.0)
+    cloud, out = tmp_path / "face.xyz", tmp_path / "out"
+    np.savetxt(cloud, scene.cloud.points, fmt="%.4f")
+    assert main(["measure", str(cloud), "-o", str(out), "--sets", "--kinematics", "--friction", "30"]) == 0
+    assert re.search(r"planar sliding │ +\d+ │ .+│ +\d+ \(\d+%\) │", capsys.readouterr().out)
+    summary = json.load(open(out / "kinematics.json"))
+    sets = list(csv.DictReader(open(out / "sets.csv")))
+    j1 = min(sets, key=lambda r: abs(float(r["dip"]) - 45.0) + abs(float(r["dip_direction"]) - 180.0))
+    planar, n_joints = summary["planar_sliding"], sum(int(r["n_joints"]) for r in sets)
+    assert int(j1["n_joints"]) - 1 <= planar["joints"] <= int(j1["n_joints"])
+    assert planar["percent_of_joints"] == pytest.approx(100.0 * planar["joints"] / n_joints)
+    assert planar["joints"] < planar["planes"]  # facets counted once per joint
+    rows = list(csv.DictReader(open(out / "kinematics.csv")))
+    sliding = [r for r in rows if r["planar_sliding"] == "true"]
+    assert len(sliding) == planar["planes"] and all(int(r["joint"]) >= 0 for r in sliding if int(r["set"]) >= 0)
+    j1_joints = {r["joint"] for r in sliding if r["set"] == j1["set"]}
+    assert len(j1_joints) >= planar["joints"]  # the joints taken are J1's, each with facets sliding
+
+
 def test_measure_with_kinematics_and_its_bad_options(tmp_path, capsys):
     scene = outcrop_scene(width=5.0, height=3.0, seed=2, face_dip=65.0)
     cloud = tmp_path / "face.xyz"

@@ -102,10 +102,12 @@ def kinematics_of(
             fig=fig, panel=(k, len(slopes)),
         )  # fmt: skip
     set_labels = planes.extra.get("set", np.full(n, -1))
+    joints = planes.extra.get("joint", np.full(n, -1))  # -1: no joint, or a folder from before them
     rows = [
         {
             "region_id": int(planes.region_id[i]),
             "set": int(set_labels[i]),
+            "joint": int(joints[i]),
             "section": int(label[i]),
             "dip": float(planes.dip[i]),
             "dip_direction": float(planes.dip_direction[i]),
@@ -186,17 +188,40 @@ def _wedge_columns(w: Wedges, ids: np.ndarray, section: int) -> dict:
     }
 
 
-def _mode(critical, area) -> dict:
+def _mode(critical, area, joint=None) -> dict:
     return {
         "planes": int(np.sum(critical)),
         "percent_by_count": percent_critical(critical),
         "percent_by_area": percent_critical(critical, np.nan_to_num(area)),
+        **({} if joint is None else critical_joints(critical, area, joint)),
     }
 
 
-def _planar(planar, fs, area) -> dict:
+def critical_joints(critical, area, joint) -> dict:
+    """The joints (``joints.csv``) a failure mode takes: those whose critical facets hold half
+    their facets' area or more, as the joint's own plane, their area-weighted mean, would
+    test; and their share of the joints tested. A joint exposed as ten facets counts once.
+
+    Examples
+    --------
+    >>> critical_joints(np.array([True, True, False, True]), np.array([1.0, 1.0, 3.0, 2.0]), np.array([0, 0, 0, 1]))
+    {'joints': 1, 'percent_of_joints': 50.0}
+    """
+    joint = np.asarray(joint, dtype=np.int64)
+    grouped = joint >= 0
+    if not grouped.any():
+        return {"joints": 0, "percent_of_joints": float("nan")}
+    j, weight = joint[grouped], np.nan_to_num(np.asarray(area, dtype=np.float64)[grouped])
+    n = int(j.max()) + 1
+    total, taken = np.bincount(j, weight, n), np.bincount(j, weight * np.asarray(critical)[grouped], n)
+    tested = np.bincount(j, minlength=n) > 0
+    hit = tested & (taken >= 0.5 * total) & (taken > 0)
+    return {"joints": int(hit.sum()), "percent_of_joints": float(100.0 * hit.sum() / tested.sum())}
+
+
+def _planar(planar, fs, area, joint=None) -> dict:
     return {
-        **_mode(planar, area),
+        **_mode(planar, area, joint),
         "min_fs": float(np.min(fs[planar])) if planar.any() else float("nan"),
         "median_fs": float(np.median(fs[planar])) if planar.any() else float("nan"),
     }
@@ -206,11 +231,12 @@ def _summary(planes, sets, t: _Tests, slope, friction, lateral_limit) -> dict:
     """One slope's modes, sets and set means' wedges."""
     area, pairs, direct = planes.area, t.wedges.pairs_tested, t.direct
     set_labels = planes.extra.get("set", np.full(len(planes), -1))
+    joint = planes.extra.get("joint")
     return {
-        "planar_sliding": _planar(t.planar, t.fs, area),
-        "flexural_toppling": _mode(t.toppling, area),
+        "planar_sliding": _planar(t.planar, t.fs, area, joint),
+        "flexural_toppling": _mode(t.toppling, area, joint),
         "wedge_sliding": {
-            **_mode(t.in_wedge, area),
+            **_mode(t.in_wedge, area, joint),
             "pairs_tested": int(pairs),
             "critical_pairs": int(len(t.wedges)),
             "planes_in_pairs": int(t.planes_in_pairs),
@@ -320,11 +346,12 @@ def _merged(parts: list[dict], planes, set_labels, planar, toppling, fs, in_wedg
             "mean_critical_in_sections": [p["section"] for p, r in zip(parts, rows) if _mean_critical(r)],
             **_shares(set_labels == int(row["set"]), planar, toppling, in_wedge, area),
         })  # fmt: skip
+    joint = planes.extra.get("joint")
     return {
-        "planar_sliding": _planar(planar, fs, area),
-        "flexural_toppling": _mode(toppling, area),
+        "planar_sliding": _planar(planar, fs, area, joint),
+        "flexural_toppling": _mode(toppling, area, joint),
         "wedge_sliding": {
-            **_mode(in_wedge, area),
+            **_mode(in_wedge, area, joint),
             "pairs_tested": int(pairs),
             "critical_pairs": int(total("wedge_sliding", "critical_pairs")),
             "planes_in_pairs": int(total("wedge_sliding", "planes_in_pairs")),

@@ -248,6 +248,7 @@ def add_kinematics(
 KINEMATICS_COLUMNS = (
     "region_id",
     "set",
+    "joint",
     "section",
     "dip",
     "dip_direction",

@@ -166,7 +166,7 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         f"lateral limits {summary['lateral_limit_deg']:g}°"
     )
     table = Table(title=title)
-    for column in ("failure mode", "planes", "% by count", "% by area"):
+    for column in ("failure mode", "planes", "% by count", "% by area", "joints"):
         table.add_column(column, justify="right")
     for key, name in FAILURE_MODES:
         table.add_row(name, *failure_mode_cells(summary, key))
@@ -271,9 +271,18 @@ def section_cells(section: dict) -> list[str]:
 
 
 def failure_mode_cells(summary: dict, key: str) -> list[str]:
-    """One failure mode's planes critical, and their share by count and by area."""
+    """One failure mode's planes critical, their share by count and by area, and the joints
+    it takes with their share (a dash without joints: no sets, or a run before them).
+
+    Examples
+    --------
+    >>> mode = {"planes": 120, "percent_by_count": 28.17, "percent_by_area": 30.9, "joints": 9, "percent_of_joints": 18.4}
+    >>> failure_mode_cells({"planar_sliding": mode}, "planar_sliding")
+    ['120', '28.2', '30.9', '9 (18%)']
+    """
     mode = summary[key]
-    return [f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1)]
+    joints = f"{mode['joints']:,} ({shown(mode['percent_of_joints'], 0)}%)" if "joints" in mode else "—"
+    return [f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1), joints]
 
 
 def set_kinematic_cells(row: dict) -> list[str]:

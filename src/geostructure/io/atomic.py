@@ -157,7 +157,9 @@ def _cells(values) -> list[str]:
 
 def write_table_csv(rows: list[dict], path, columns=None) -> Path:
     """A list of same-keyed dicts as CSV, atomically; the header is ``columns`` or the first
-    row's keys, so a table with no rows still has its header when ``columns`` is given."""
+    row's keys, so a table with no rows still has its header when ``columns`` is given.
+    Each row's values are taken by the header's names, not in its own order: a row with a
+    key the header lacks, or in another order, cannot shift a column under another's name."""
     import csv
 
     header = list(columns) if columns is not None else (list(rows[0]) if rows else [])
@@ -169,5 +171,6 @@ def write_table_csv(rows: list[dict], path, columns=None) -> Path:
             for row in rows:
                 # The csv module writes Python's str, int and float as format_number would
                 # (a float's str is its repr): only the others (numpy's, bools) go through it.
-                writer.writerow([v if type(v) in _AS_WRITTEN else format_number(v) for v in row.values()])
+                values = (row[name] for name in header)
+                writer.writerow([v if type(v) in _AS_WRITTEN else format_number(v) for v in values])
     return Path(path)

@@ -39,7 +39,7 @@ def kinematic_table(scene) -> str:
     )
     html = (
         f'<table id="kinematics"><caption>{caption}</caption><thead><tr><th>Failure mode</th><th>Planes critical</th>'
-        f"<th>% by count</th><th>% by area</th></tr></thead><tbody>{rows}</tbody></table>"
+        f"<th>% by count</th><th>% by area</th><th>Joints critical</th></tr></thead><tbody>{rows}</tbody></table>"
     ) + "".join(f'<p class="note">{escape(n)}</p>' for n in [bent_slope(slope), sectioned_slope(kinematics)] if n)
     html += section_table(kinematics.get("sections") or [])
     # kinematics.json of an older run lacks the set means' orientation: no per-set table then
