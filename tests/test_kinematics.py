@@ -330,6 +330,13 @@ def test_the_failure_modes_count_joints_once(tmp_path, capsys):
     assert len(sliding) == planar["planes"] and all(int(r["joint"]) >= 0 for r in sliding if int(r["set"]) >= 0)
     j1_joints = {r["joint"] for r in sliding if r["set"] == j1["set"]}
     assert len(j1_joints) >= planar["joints"]  # the joints taken are J1's, each with facets sliding
+    # Wedges between the joints' planes (their facets' area-weighted mean), far fewer pairs
+    # than the facets': as many as joints.csv's own planes give, within a few
+    wedge, joints = summary["wedge_sliding"], list(csv.DictReader(open(out / "joints.csv")))
+    assert wedge["joint_pairs_tested"] <= len(joints) * (len(joints) - 1) // 2 < wedge["pairs_tested"]
+    slope = Slope(summary["slope"]["dip"], summary["slope"]["dip_direction"])
+    own = wedges([float(j["dip"]) for j in joints], [float(j["dip_direction"]) for j in joints], slope, 30.0)
+    assert 0 < wedge["critical_joint_pairs"] == pytest.approx(len(own), rel=0.1, abs=2)
 
 
 def test_measure_with_kinematics_and_its_bad_options(tmp_path, capsys):

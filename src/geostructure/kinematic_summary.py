@@ -26,7 +26,7 @@ from .kinematics import (
     planar_sliding,
     wedges,
 )
-from .orientation import normal_from_orientation
+from .orientation import Frame, normal_from_orientation, orientation_from_normals
 
 #: Pairs are tested among this many of the largest planes at most (of each section).
 MAX_WEDGE_PLANES = 2000
@@ -48,6 +48,7 @@ class _Tests:
     direct: DirectToppling
     mean_wedges: Wedges
     planes_in_pairs: int
+    joint_wedges: Wedges | None = None  # among the joints' planes (joint_orientations), with the rock mass
 
 
 def slope_dict(slope: Slope) -> dict:
@@ -167,11 +168,49 @@ def _tests(planes, sets, slope: Slope, friction, lateral_limit, strength) -> _Te
     mean_wedges = wedges(
         np.array([r["dip"] for r in sets]), np.array([r["dip_direction"] for r in sets]), slope, friction, **block
     )
+    joints = joint_orientations(planes)
+    joint_wedges = None if joints is None else wedges(*joints, slope, friction, max_planes=MAX_WEDGE_PLANES, **block)
     return _Tests(
         planar_sliding(dip, dd, slope, friction, lateral_limit),
         flexural_toppling(dip, dd, slope, friction, lateral_limit),
-        fs, base, oblique_base, in_wedge, w, direct, mean_wedges, len(tested),
+        fs, base, oblique_base, in_wedge, w, direct, mean_wedges, len(tested), joint_wedges,
     )  # fmt: skip
+
+
+def joint_orientations(planes) -> tuple[np.ndarray, np.ndarray] | None:
+    """Dip and dip direction of each joint of a plane table's ``joint`` column: its facets'
+    normals averaged by area (each turned to its largest facet's side), the plane its
+    facets stand for; the joints the table holds, largest first. None without joints.
+
+    Examples
+    --------
+    >>> from geostructure.planes import Planes
+    >>> planes = Planes(normal=[[0, 0, 1.0], [0.02, 0, 1.0], [1.0, 0, 0.2]], area=[3.0, 1.0, 2.0])
+    >>> dip, dd = joint_orientations(planes.with_columns(joint=np.array([0, 0, 1])))
+    >>> np.round(dip, 2).tolist(), np.round(dd, 1).tolist()
+    ([0.29, 78.69], [90.0, 90.0])
+    """
+    joint = planes.extra.get("joint")
+    if joint is None:
+        return None
+    grouped = np.flatnonzero(np.asarray(joint) >= 0)
+    if not len(grouped):
+        return np.zeros(0), np.zeros(0)
+    ids, j = np.unique(np.asarray(joint)[grouped], return_inverse=True)
+    normal = normal_from_orientation(planes.dip_direction[grouped], planes.dip[grouped]).reshape(-1, 3)
+    area = np.nan_to_num(np.asarray(planes.area, dtype=np.float64)[grouped])
+    largest = np.full(len(ids), -1)
+    order = np.lexsort((-area, j))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = j[order][1:] != j[order][:-1]
+    largest[j[order][first]] = order[first]
+    side = np.where(np.einsum("ij,ij->i", normal, normal[largest][j]) < 0, -1.0, 1.0)
+    weighted = normal * (side * np.maximum(area, 1e-12))[:, None]
+    mean = np.stack([np.bincount(j, weighted[:, a], len(ids)) for a in range(3)], axis=1)
+    o = orientation_from_normals(mean, Frame(), outward=normal[largest])
+    size = np.bincount(j, area, len(ids))
+    by_size = np.argsort(-size, kind="stable")
+    return o.dip[by_size], o.dip_direction[by_size]
 
 
 def _wedge_columns(w: Wedges, ids: np.ndarray, section: int) -> dict:
@@ -240,6 +279,14 @@ def _summary(planes, sets, t: _Tests, slope, friction, lateral_limit) -> dict:
             "pairs_tested": int(pairs),
             "critical_pairs": int(len(t.wedges)),
             "planes_in_pairs": int(t.planes_in_pairs),
+            **(
+                {}
+                if t.joint_wedges is None
+                else {
+                    "joint_pairs_tested": int(t.joint_wedges.pairs_tested),
+                    "critical_joint_pairs": int(len(t.joint_wedges)),
+                }
+            ),
         },
         "direct_toppling": {
             "critical": direct.critical,
@@ -355,6 +402,14 @@ def _merged(parts: list[dict], planes, set_labels, planar, toppling, fs, in_wedg
             "pairs_tested": int(pairs),
             "critical_pairs": int(total("wedge_sliding", "critical_pairs")),
             "planes_in_pairs": int(total("wedge_sliding", "planes_in_pairs")),
+            **(
+                {}
+                if "joint_pairs_tested" not in parts[0]["wedge_sliding"]
+                else {
+                    "joint_pairs_tested": int(total("wedge_sliding", "joint_pairs_tested")),
+                    "critical_joint_pairs": int(total("wedge_sliding", "critical_joint_pairs")),
+                }
+            ),
         },
         "direct_toppling": {
             "critical": any(p["direct_toppling"]["critical"] for p in parts),

@@ -181,7 +181,14 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         )
         console.print(f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median.")
     wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
-    console.print(f"Wedges: {counted(wedge['critical_pairs'], 'critical pair')} of {wedge['pairs_tested']:,} tested.")
+    of_joints = (
+        f"; of the joints' planes, {wedge['critical_joint_pairs']:,} of {wedge['joint_pairs_tested']:,}"
+        if "joint_pairs_tested" in wedge
+        else ""
+    )
+    console.print(
+        f"Wedges: {counted(wedge['critical_pairs'], 'critical pair')} of {wedge['pairs_tested']:,} tested{of_joints}."
+    )
     console.print(
         f"Direct toppling: {counted(direct['intersections_in_zone'], 'intersection')} in the zone, "
         f"{counted(direct['base_planes'], 'base plane')} ({direct['sliding_base_planes']:,} steeper than friction): "
