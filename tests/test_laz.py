@@ -165,3 +165,34 @@ def test_stored_integers_are_laspys_own_and_refuse_what_32_bits_cannot_hold():
     assert np.array_equal(ours.astype(np.int32), np.asarray(las.X))
     with pytest.raises(OverflowError):
         stored_integers(np.array([1e6]), 0.0, 0.0, 1e-4, np.empty(1))
+
+
+def test_point_sets_are_added_chunk_by_chunk_on_the_same_integers(tmp_path):
+    """`sets OUTDIR` writes regions.laz again with set, joint and face_part, a chunk at a time:
+    any chunk size gives the same file's points, and a short list of values is an error, not
+    a file cut short."""
+    from geostructure.io.laz import add_point_sets, rewrite_point_sets, write_laz
+    from geostructure.planes import Planes
+
+    rng = np.random.default_rng(3)
+    points = rng.uniform(0.0, 10.0, (1_003, 3))
+    region = rng.integers(-1, 3, len(points)).astype(np.int32)
+    source = write_laz(tmp_path / "regions.laz", points, {"region_id": region}, offset=np.array([500_000.0, 0, 0]),
+                       origin=np.array([500_000.0, 0, 0]))  # fmt: skip
+    planes = Planes(normal=np.eye(3), region_id=[0, 1, 2]).with_columns(set=[1, -1, 0], joint=[5, -1, 6])
+    part = rng.integers(0, 3, len(points)).astype(np.uint8)
+    whole = laspy.read(str(add_point_sets(source, tmp_path / "whole.laz", planes, part)))
+    pieces = laspy.read(str(add_point_sets(source, tmp_path / "pieces.laz", planes, part, rows=97)))
+    original = laspy.read(str(source))
+    for las in (whole, pieces):
+        assert np.array_equal(las.X, original.X) and np.array_equal(las.region_id, region)
+        assert np.array_equal(las.set, np.select([region == 0, region == 2], [1, 0], -1))
+        assert np.array_equal(las.joint, np.select([region == 0, region == 2], [5, 6], -1))
+        assert np.array_equal(las.face_part, part)
+    short = iter([{"set": np.zeros(97), "face_part": np.zeros(97), "joint": np.zeros(97)}] * 3)
+    with pytest.raises(ValueError, match="more points than"):
+        from geostructure.stream.output import rewrite_regions_laz
+
+        rewrite_regions_laz(source, tmp_path / "short.laz", short, 97)
+    with pytest.raises(ValueError, match="its set gives 5"):
+        rewrite_point_sets(source, tmp_path / "wrong.laz", lambda chunk, start: {"set": np.zeros(5)}, 97)

@@ -27,6 +27,7 @@ from ..bounds import column_max, column_min
 from ..planes import plane_rows
 from .atomic import atomic_path
 from .crs import parse_crs
+from .failures import laz_readers
 
 #: The step of the coordinate grid for a cloud that was not read from LAS/LAZ.
 LAS_QUANTUM = 1e-4
@@ -204,17 +205,45 @@ def write_voxel_planes_laz(result, path) -> Path:
     )
 
 
-def add_point_sets(source, path, planes, face_part=None) -> Path:
+def add_point_sets(source, path, planes, face_part=None, rows: int = 1_000_000) -> Path:
     """Write ``source`` (a ``regions.laz``) again to ``path`` with ``set`` and ``joint``
     dimensions (each point's, through its region's row of ``planes``) and a ``face_part`` one
-    (as :func:`write_regions_laz`), its points on the same integers."""
+    (as :func:`write_regions_laz`), its points on the same integers, ``rows`` at a time."""
+    face_part = None if face_part is None else np.asarray(face_part, dtype=np.uint8)
+
+    def fields_of(chunk, start: int) -> dict:
+        region = np.asarray(chunk.region_id)
+        parts = np.zeros(len(region), np.uint8) if face_part is None else face_part[start : start + len(region)]
+        return {"set": point_sets(region, planes), "face_part": parts, "joint": point_joints(region, planes)}
+
+    return rewrite_point_sets(source, path, fields_of, rows)
+
+
+def rewrite_point_sets(source, path, fields_of, rows: int) -> Path:
+    """Write ``source`` (a ``regions.laz``) again to ``path`` chunk by chunk (``rows`` points
+    each), every point on the same integers with its ``region_id``, and the dimensions of
+    :data:`POINT_SET_DIMENSIONS` from ``fields_of(chunk, start)`` (name -> array, for the
+    chunk's points from the ``start``-th on). Never the whole file in memory."""
+    import copy
+
     import laspy
 
-    las = laspy.read(str(source))
-    for name, kind in POINT_SET_DIMENSIONS:
-        if name not in las.point_format.extra_dimension_names:
-            las.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
-    region = np.asarray(las.region_id)
-    las.set, las.joint = point_sets(region, planes), point_joints(region, planes)
-    las.face_part = np.zeros(len(las.points), dtype=np.uint8) if face_part is None else face_part
-    return _write(las, path)
+    with laspy.open(str(source), laz_backend=laz_readers()) as reader:
+        header = copy.deepcopy(reader.header)
+        for name, kind in POINT_SET_DIMENSIONS:
+            if name not in header.point_format.extra_dimension_names:
+                header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
+        with laspy.open(str(path), mode="w", header=header, do_compress=Path(path).suffix == ".laz") as writer:
+            start = 0
+            for chunk in reader.chunk_iterator(rows):
+                fields = fields_of(chunk, start)
+                record = laspy.ScaleAwarePointRecord.zeros(len(chunk), header=header)
+                record.X, record.Y, record.Z = chunk.X, chunk.Y, chunk.Z
+                record.region_id = chunk.region_id
+                for name, kind in POINT_SET_DIMENSIONS:
+                    if len(fields[name]) != len(chunk):
+                        raise ValueError(f"{source}: {len(chunk)} points where its {name} gives {len(fields[name])}")
+                    record[name] = np.asarray(fields[name], dtype=kind)
+                writer.write_points(record)
+                start += len(chunk)
+    return Path(path)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.crs import parse_crs
-from ..io.laz import POINT_SET_DIMENSIONS, las_grid
+from ..io.laz import las_grid, rewrite_point_sets
 from ..io.results import SCALAR
 
 
@@ -94,23 +94,12 @@ def rewrite_regions_laz(source, path, values, rows: int) -> Path:
     the same integers with its ``region_id``, and the dimensions of
     :data:`~geostructure.io.laz.POINT_SET_DIMENSIONS` from ``values`` (an iterable of dicts,
     name -> array, per ``rows`` points, in the file's order)."""
-    import copy
+    values = iter(values)
 
-    import laspy
+    def fields_of(chunk, start: int) -> dict:
+        fields = next(values, None)
+        if fields is None:  # zip would have cut the file short here
+            raise ValueError(f"{source}: more points than regions.ply gives ({start:,} there)")
+        return fields
 
-    with laspy.open(str(source)) as reader:
-        header = copy.deepcopy(reader.header)
-        for name, kind in POINT_SET_DIMENSIONS:
-            if name not in header.point_format.extra_dimension_names:
-                header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
-        with laspy.open(str(path), mode="w", header=header, do_compress=Path(path).suffix == ".laz") as writer:
-            for chunk, fields in zip(reader.chunk_iterator(rows), values):
-                if len(fields["set"]) != len(chunk):
-                    raise ValueError(f"{source}: {len(chunk)} points where regions.ply gives {len(fields['set'])}")
-                record = laspy.ScaleAwarePointRecord.zeros(len(chunk), header=header)
-                record.X, record.Y, record.Z = chunk.X, chunk.Y, chunk.Z
-                record.region_id = chunk.region_id
-                for name, _ in POINT_SET_DIMENSIONS:
-                    record[name] = fields[name]
-                writer.write_points(record)
-    return Path(path)
+    return rewrite_point_sets(source, path, fields_of, rows)
