@@ -304,7 +304,7 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         note_vegetation(vegetation, rock, outdir)
         note_voxel_planes((outputs.record.get("params") or {}).get("detector"), outdir)
         note_bent_face(rock.face_bend, outdir, rock.face_sections)
-        note_tilt_unread(rock.tilt_facets_short, outdir)
+        note_tilt_unread(rock.tilt_facets_short, outdir, rock.tilt_facets_along)
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))

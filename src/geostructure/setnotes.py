@@ -252,18 +252,23 @@ def bent_slope(slope: dict) -> str | None:
     )
 
 
-def note_tilt_unread(facets: int, source) -> None:
+def note_tilt_unread(facets: int, source, along: int = 0) -> None:
     """A note that the tilt correlated errors give every plane was not read: ``facets`` (in
-    joints of three or more) are fewer than :data:`~.uncertainty.MIN_TILT_FACETS`; nothing
-    for 0 (it was read, or there was nothing to read it from)."""
-    if facets:
-        warnings.warn(
-            f"{source}: only {facets} facets lie in joints of three or more, and "
-            f"{MIN_TILT_FACETS} are needed to read the tilt that correlated errors give every plane: each plane's "
-            f"uncertainty is its own fit's alone, a lower bound on an SfM cloud.",
-            GeoStructureNote,
-            stacklevel=2,
-        )
+    joints of three or more, of sets across the face) are fewer than
+    :data:`~.uncertainty.MIN_TILT_FACETS`; ``along``, those of sets along the face, which
+    are not read for it. Nothing when both are 0 (it was read, or there was nothing)."""
+    own = "each plane's uncertainty is its own fit's alone, a lower bound on an SfM cloud."
+    if not facets and along:
+        message = (f"{source}: the tilt that correlated errors give every plane was not read: the only joints of three "
+                   f"or more facets ({along} facets) lie in sets along the face, which follow the face's shape, not "
+                   f"the cloud's errors; {own}")  # fmt: skip
+    elif facets:
+        why = f" ({along} more in sets along the face, which follow its shape, not the cloud's errors)" if along else ""
+        message = (f"{source}: only {facets} facets lie in joints of three or more across the face{why}, and "
+                   f"{MIN_TILT_FACETS} are needed to read the tilt that correlated errors give every plane: {own}")  # fmt: skip
+    else:
+        return
+    warnings.warn(message, GeoStructureNote, stacklevel=2)
 
 
 def sectioned_slope(summary: dict) -> str | None:

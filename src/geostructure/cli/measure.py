@@ -207,7 +207,7 @@ def measure_cloud(
             note_vegetation(result.filtered.vegetation, rock, cloud.source)
             note_voxel_planes(params.detector, cloud.source)
             note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
-            note_tilt_unread(rock.tilt_facets_short, cloud.source)
+            note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
         progress("write", 0, None)
         if callable(point_files):  # a thinned survey's: a pass over all its points, with its own bar
             point_files = functools.partial(point_files, progress=progress)
