@@ -21,7 +21,14 @@ from geostructure.io.results import TEXT_SET_COLUMNS
 from geostructure.rockmass import RockMass
 from geostructure.rqd import block_size_class, rqd_from_jv, rqd_range
 from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
-from geostructure.setnotes import censored_traces_note, jv_scope, persistence_note, set_notes, unmeasured_spacing
+from geostructure.setnotes import (
+    FEW_WHOLE_TRACES,
+    censored_traces_note,
+    jv_scope,
+    persistence_note,
+    set_notes,
+    unmeasured_spacing,
+)
 from geostructure.slope_stability import fit_slope
 from geostructure.spacing import Scanlines, spacing_class, spacing_statistics
 from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
@@ -232,7 +239,12 @@ def test_spacing_of_parallel_joints_on_a_clean_face():
             assert note.startswith(f"All {row['joint_traces']} of set {s}'s joint traces run out of sight")
             assert f"{row['joint_trace_median_m']:.2f} m median seen is a lower bound" in note
         else:
-            assert np.isfinite(row["joint_trace_mean_m"]) and note is None
+            assert np.isfinite(row["joint_trace_mean_m"])
+            whole = row["joint_traces"] - row["joint_traces_censored"]
+            if whole > FEW_WHOLE_TRACES:
+                assert note is None
+            else:  # the mean rests on a few whole traces: the note gives its standard error
+                assert f"rests on the {whole if whole > 1 else 'one'} seen end to end" in note
 
 
 def test_joints_are_the_generated_planes_each_once(outcrop):

@@ -132,10 +132,18 @@ def rqd_phrase(from_jv, least=None, greatest=None) -> str:
     return f", RQD {from_jv:.0f}{along}"
 
 
+#: Joint traces seen end to end below which a set's mean trace length (the censored
+#: exponential's, its standard error the mean over their root) is too loose to give without
+#: saying so: at 3 the standard error is 58% of the mean.
+FEW_WHOLE_TRACES = 3
+
+
 def censored_traces_note(set_id: int, row: dict) -> str | None:
-    """A sentence when every joint trace of set ``set_id`` runs out of sight (to the face's
-    edge or a hole): their mean length with censoring cannot be estimated, and what was seen
-    is a lower bound (the ``persistence`` column's "or more"). None otherwise.
+    """A sentence when set ``set_id``'s joint traces run out of sight (to the face's edge or a
+    hole): when every one does, their mean length with censoring cannot be estimated, and
+    what was seen is a lower bound (the ``persistence`` column's "or more"); when no more
+    than :data:`FEW_WHOLE_TRACES` are seen end to end, the mean rests on those, and the
+    sentence gives its standard error. None otherwise.
 
     Examples
     --------
@@ -143,12 +151,27 @@ def censored_traces_note(set_id: int, row: dict) -> str | None:
     ...        "persistence": "low or more"}
     >>> censored_traces_note(0, row)
     "All 8 of set 0's joint traces run out of sight (to the face's edge or a hole), so their mean length is not measured: the 1.33 m median seen is a lower bound, and its persistence is low or more."
-    >>> censored_traces_note(0, {"joint_traces": 8, "joint_trace_mean_m": 2.0}) is None
+    >>> censored_traces_note(0, {"joint_traces": 12, "joint_traces_censored": 10, "joint_trace_mean_m": 26.38,
+    ...                          "joint_trace_std_error_m": 18.66, "persistence": "very high"})
+    "10 of set 0's 12 joint traces run out of sight: their mean length, 26.4 m (standard error 18.7 m), rests on the 2 seen end to end, so its persistence, very high, is a rough guide."
+    >>> censored_traces_note(0, {"joint_traces": 8, "joint_traces_censored": 2, "joint_trace_mean_m": 2.0}) is None
     True
     """
     traces = int(float(row.get("joint_traces") or 0))
-    if not traces or np.isfinite(float(row.get("joint_trace_mean_m", np.nan))):
+    if not traces:
         return None
+    mean = float(row.get("joint_trace_mean_m", np.nan))
+    if np.isfinite(mean):
+        hidden = int(float(row.get("joint_traces_censored") or 0))
+        whole = traces - hidden
+        if not hidden or whole > FEW_WHOLE_TRACES:
+            return None
+        seen = "one" if whole == 1 else str(whole)
+        return (
+            f"{hidden} of set {set_id}'s {traces} joint traces run out of sight: their mean length, {mean:.1f} m "
+            f"(standard error {float(row['joint_trace_std_error_m']):.1f} m), rests on the {seen} seen end to end, "
+            f"so its persistence, {row['persistence']}, is a rough guide."
+        )
     every = f"All {traces} of set {set_id}'s joint traces run" if traces > 1 else f"Set {set_id}'s one joint trace runs"
     seen = "median seen" if traces > 1 else "length seen"
     return (
