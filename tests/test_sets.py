@@ -5,6 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
+from helpers import run_cli
 
 from geostructure import measure
 from geostructure.cli import main
@@ -104,7 +105,7 @@ def test_measure_sets_and_the_sets_command(tmp_path, capsys):
 
 
 @pytest.mark.real_data
-def test_a_small_real_outcrop_goes_through_sets_and_the_report(tmp_path):
+def test_a_small_real_outcrop_goes_through_sets_and_the_report(tmp_path, capsys):
     from conftest import shared_file
 
     cloud = shared_file("jfm_outcrop_test/test.txt")
@@ -113,6 +114,11 @@ def test_a_small_real_outcrop_goes_through_sets_and_the_report(tmp_path):
     assert (out / "sets.csv").read_text().startswith("set,n_planes,")
     assert "set" in open(out / "planes.csv").readline().strip().split(",")
     assert (out / "report.html").stat().st_size > 100_000
+    # Its 3 planes form no set and so no joint: the kinematics say nothing of joints (they
+    # printed "of the joints' planes, 0 of 0" and "0 (—%)")
+    code, printed, _ = run_cli(capsys, "kinematics", out, "--friction", "30")
+    assert code == 0 and "Wedges: " in printed and "joints' planes" not in printed and "(—%)" not in printed
+    assert "(—%)" not in (out / "report.html").read_text()
 
 
 def test_sets_among_voxel_planes_say_they_see_only_the_larger_joints(tmp_path):

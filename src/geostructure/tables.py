@@ -183,7 +183,7 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
     wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
     of_joints = (
         f"; of the joints' planes, {wedge['critical_joint_pairs']:,} of {wedge['joint_pairs_tested']:,}"
-        if "joint_pairs_tested" in wedge
+        if wedge.get("joint_pairs_tested")  # none without joints: nothing to say of them
         else ""
     )
     console.print(
@@ -279,16 +279,20 @@ def section_cells(section: dict) -> list[str]:
 
 def failure_mode_cells(summary: dict, key: str) -> list[str]:
     """One failure mode's planes critical, their share by count and by area, and the joints
-    it takes with their share (a dash without joints: no sets, or a run before them).
+    it takes with their share (a dash without joints: no sets, none grouped, or a run
+    before them).
 
     Examples
     --------
     >>> mode = {"planes": 120, "percent_by_count": 28.17, "percent_by_area": 30.9, "joints": 9, "percent_of_joints": 18.4}
     >>> failure_mode_cells({"planar_sliding": mode}, "planar_sliding")
     ['120', '28.2', '30.9', '9 (18%)']
+    >>> failure_mode_cells({"planar_sliding": {**mode, "joints": 0, "percent_of_joints": None}}, "planar_sliding")[3]
+    '—'
     """
     mode = summary[key]
-    joints = f"{mode['joints']:,} ({shown(mode['percent_of_joints'], 0)}%)" if "joints" in mode else "—"
+    share = shown(mode.get("percent_of_joints"), 0)
+    joints = f"{mode['joints']:,} ({share}%)" if share != "—" else "—"
     return [f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1), joints]
 
 
