@@ -714,3 +714,9 @@ def test_sets_and_a_report_of_a_cloud_without_planes(tmp_path, capsys):
     assert code == 0 and "nan" not in printed.lower() and "—" in printed
     code, _, err = run_cli(capsys, "measure", cloud, "-o", tmp_path / "s", "-q", "--engine", "stream")
     assert code == 0 and "no plane found; if the cloud is sparse, try a larger --zeta" in err, err  # was silent
+    # A ball of scatter: its "face" turns, so it is measured in sections, and each section
+    # indexed the empty plane table: the same IndexError, one step later.
+    ball = write_xyz(tmp_path / "ball.xyz", np.random.default_rng(2).standard_normal((20_000, 3)))
+    code, printed, err = run_cli(capsys, "measure", ball, "-o", tmp_path / "b", "--sets")
+    assert code == 0 and "measured in 2 sections" in " ".join(err.split()), err
+    assert "No joint set: 0 planes, and a set needs 3." in printed

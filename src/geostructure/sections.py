@@ -182,10 +182,12 @@ def sectioned_persistence(points, labels, normals, exposures, plane_section, up=
     labels = np.asarray(labels)
     if len(exposures) == 1:
         return plane_persistence(points, labels, normals, exposures[0], up)
-    out = None
+    out, labelled = None, labels >= 0
     for k, face in enumerate(exposures):
         mine = plane_section == k
-        part = plane_persistence(points, np.where((labels >= 0) & mine[labels], labels, -1), normals, face, up)
+        own = np.full(len(labels), -1, dtype=labels.dtype)  # no plane to index when there is none
+        own[labelled] = np.where(mine[labels[labelled]], labels[labelled], -1)
+        part = plane_persistence(points, own, normals, face, up)
         if out is None:
             out = part
         else:

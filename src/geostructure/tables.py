@@ -93,7 +93,12 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     (:class:`~geostructure.rockmass.RockMass`), their spacing and intensity too."""
     console = console or stdout_console()
     if not len(sets):
-        console.print(f"No joint set: no {MIN_SET_PLANES} of the {len(sets.labels)} planes share an orientation.")
+        n = len(sets.labels)
+        console.print(
+            f"No joint set: no {MIN_SET_PLANES} of the {n} planes share an orientation."
+            if n >= MIN_SET_PLANES
+            else f"No joint set: {n} plane{'' if n == 1 else 's'}, and a set needs {MIN_SET_PLANES}."
+        )
         return
     title = f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)"
     if rock is not None:
