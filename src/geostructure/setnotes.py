@@ -121,6 +121,8 @@ def rqd_phrase(from_jv, least=None, greatest=None) -> str:
     --------
     >>> rqd_phrase(85.0, 80.4, 97.2)
     ', RQD 85 (80 to 97 by direction)'
+    >>> rqd_phrase(100.0, 99.6, 100.0)
+    ', RQD 100 (100 in every direction)'
     >>> rqd_phrase(float("nan"))
     ''
     """
@@ -128,7 +130,8 @@ def rqd_phrase(from_jv, least=None, greatest=None) -> str:
         return ""
     along = ""
     if least is not None and greatest is not None and np.isfinite(least) and np.isfinite(greatest):
-        along = f" ({least:.0f} to {greatest:.0f} by direction)"
+        low, high = f"{least:.0f}", f"{greatest:.0f}"
+        along = f" ({low} in every direction)" if low == high else f" ({low} to {high} by direction)"
     return f", RQD {from_jv:.0f}{along}"
 
 
@@ -151,6 +154,8 @@ def censored_traces_note(set_id: int, row: dict) -> str | None:
     ...        "persistence": "low or more"}
     >>> censored_traces_note(0, row)
     "All 8 of set 0's joint traces run out of sight (to the face's edge or a hole), so their mean length is not measured: the 1.33 m median seen is a lower bound, and its persistence is low or more."
+    >>> censored_traces_note(5, {**row, "joint_traces": 1, "joint_trace_median_m": 5.77})
+    "Set 5's one joint trace runs out of sight (to the face's edge or a hole), so its length is not measured: the 5.77 m length seen is a lower bound, and its persistence is low or more."
     >>> censored_traces_note(0, {"joint_traces": 12, "joint_traces_censored": 10, "joint_trace_mean_m": 26.38,
     ...                          "joint_trace_std_error_m": 18.66, "persistence": "very high"})
     "10 of set 0's 12 joint traces run out of sight: their mean length, 26.4 m (standard error 18.7 m), rests on the 2 seen end to end, so its persistence, very high, is a rough guide."
@@ -173,9 +178,9 @@ def censored_traces_note(set_id: int, row: dict) -> str | None:
             f"so its persistence, {row['persistence']}, is a rough guide."
         )
     every = f"All {traces} of set {set_id}'s joint traces run" if traces > 1 else f"Set {set_id}'s one joint trace runs"
-    seen = "median seen" if traces > 1 else "length seen"
+    seen, whose = ("median seen", "their mean length") if traces > 1 else ("length seen", "its length")
     return (
-        f"{every} out of sight (to the face's edge or a hole), so their mean length is not measured: the "
+        f"{every} out of sight (to the face's edge or a hole), so {whose} is not measured: the "
         f"{float(row['joint_trace_median_m']):.2f} m {seen} is a lower bound, and its persistence is {row['persistence']}."
     )
 
