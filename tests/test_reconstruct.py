@@ -124,7 +124,15 @@ def test_a_folder_with_no_images(tmp_path, capsys):
     (tmp_path / "photos").mkdir()
     (tmp_path / "photos" / "readme.txt").write_text("nothing here")
     assert main(["run", str(tmp_path / "photos"), "-o", str(tmp_path / "o"), "-q"]) == 2
-    assert "holds no images" in capsys.readouterr().err
+    assert "holds no images (.jpg, .png or .tif); give a folder of photos or a video." in capsys.readouterr().err
+    # A dataset's photos one level down (sceaux_castle/images): the sentence says where
+    (tmp_path / "photos" / "images").mkdir()
+    for name in ("a.jpg", "b.png"):
+        (tmp_path / "photos" / "images" / name).touch()
+    assert main(["run", str(tmp_path / "photos"), "-o", str(tmp_path / "o"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert f"holds no images (.jpg, .png or .tif), but its subfolder {tmp_path / 'photos' / 'images'} holds 2" in err
+    assert not (tmp_path / "o").exists()
 
 
 def test_images_that_do_not_overlap(tmp_path, capsys):

@@ -66,11 +66,43 @@ def list_images(folder) -> list[Path]:
     folder = Path(folder)
     if not folder.is_dir():
         raise GeoStructureError(f"{folder}: not a folder of images.")
-    images = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+    images = _images_in(folder)
     if not images:
-        raise GeoStructureError(f"{folder}: holds no images (.jpg, .png or .tif); give a folder of photos or a video.")
+        raise GeoStructureError(f"{folder}: holds no images (.jpg, .png or .tif){_where_images_are(folder)}")
     check_images(images)
     return images
+
+
+def _images_in(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+
+
+def _where_images_are(folder: Path) -> str:
+    """The end of the no-images sentence: a dataset often keeps its photos one level down
+    (``images/``), so name the subfolders that hold some.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> (root / "images").mkdir(); (root / "images" / "a.jpg").touch(); (root / "images" / "b.JPG").touch()
+    >>> _where_images_are(root) == f", but its subfolder {root / 'images'} holds 2: give that folder."
+    True
+    """
+    found = []
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+        try:
+            n = len(_images_in(sub))
+        except OSError:  # unreadable: it holds none we can use
+            n = 0
+        if n:
+            found.append((sub, n))
+    if not found:
+        return "; give a folder of photos or a video."
+    if len(found) == 1:
+        return f", but its subfolder {found[0][0]} holds {found[0][1]}: give that folder."
+    named = ", ".join(f"{sub} ({n})" for sub, n in found[:3]) + (", ..." if len(found) > 3 else "")
+    return f", but its subfolders {named} hold some: give one of them."
 
 
 def check_images(images) -> None:
