@@ -268,6 +268,31 @@ def test_a_full_disk_leaves_the_previous_set(measured, cloud_file):
     assert folder_digests(measured) == before
 
 
+def test_a_full_disk_while_sets_rewrite_regions_laz_leaves_the_folder(tmp_path, capsys):
+    """`sets OUTDIR` writes regions.laz again chunk by chunk through lazrs, which turned the
+    write's own error (here a file size limit, as a full disk would) into its "IoError:
+    Failed to call write", a traceback with exit 1. The write's error is now given back."""
+    from geostructure.synthetic import outcrop_scene
+
+    out = tmp_path / "out"
+    cloud = write_xyz(tmp_path / "face.xyz", outcrop_scene(width=6.0, height=4.0, seed=1).cloud.points)
+    assert run_cli(capsys, "measure", cloud, "-o", out, "-q")[0] == 0
+    before, limit = folder_digests(out), (out / "regions.laz").stat().st_size // 2
+    assert limit > max((out / name).stat().st_size for name in ("planes.csv", "planes_dips.csv"))
+
+    def small_files():
+        import resource
+
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    done = subprocess.run([sys.executable, "-m", "geostructure", "sets", str(out), "-q"], capture_output=True,
+                          text=True, preexec_fn=small_files, timeout=300)  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert_one_sentence(done.stderr, str(out), "holds what it held before")
+    assert folder_digests(out) == before
+
+
 def test_no_space_left_during_staging_is_an_output_error(tmp_path):
     with pytest.raises(OutputError, match="No space left on device"):
         with output_set(tmp_path / "out") as outputs:

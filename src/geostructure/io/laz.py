@@ -219,6 +219,34 @@ def add_point_sets(source, path, planes, face_part=None, rows: int = 1_000_000) 
     return rewrite_point_sets(source, path, fields_of, rows)
 
 
+class KeptWriteErrors:
+    """A file for lazrs to write a LAZ through, chunk by chunk, that keeps what its writes
+    raised. lazrs turns an error in a write (a full disk, a file size limit, an interrupt)
+    into its own "IoError: Failed to call write", which would reach the user as a traceback;
+    :meth:`reraise` gives the caller the OSError or KeyboardInterrupt back, which the output
+    folder answers in a sentence (as :func:`_write` does for a file written at once)."""
+
+    def __init__(self, path):
+        self.file = open(path, "wb")  # closed by the caller, once laspy is done with it
+        self.error: BaseException | None = None
+
+    def write(self, data) -> int:
+        try:
+            return self.file.write(data)
+        except BaseException as exc:
+            self.error = exc
+            raise
+
+    def reraise(self, exc: BaseException) -> None:
+        """Raise the write's own error where lazrs's stands for it; ``exc`` otherwise."""
+        if self.error is not None and exc is not self.error:
+            raise self.error from None
+        raise exc
+
+    def __getattr__(self, name):  # seek, tell, flush, close...: the file's own
+        return getattr(self.file, name)
+
+
 def rewrite_point_sets(source, path, fields_of, rows: int) -> Path:
     """Write ``source`` (a ``regions.laz``) again to ``path`` chunk by chunk (``rows`` points
     each), every point on the same integers with its ``region_id``, and the dimensions of
@@ -233,17 +261,25 @@ def rewrite_point_sets(source, path, fields_of, rows: int) -> Path:
         for name, kind in POINT_SET_DIMENSIONS:
             if name not in header.point_format.extra_dimension_names:
                 header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
-        with laspy.open(str(path), mode="w", header=header, do_compress=Path(path).suffix == ".laz") as writer:
-            start = 0
-            for chunk in reader.chunk_iterator(rows):
-                fields = fields_of(chunk, start)
-                record = laspy.ScaleAwarePointRecord.zeros(len(chunk), header=header)
-                record.X, record.Y, record.Z = chunk.X, chunk.Y, chunk.Z
-                record.region_id = chunk.region_id
-                for name, kind in POINT_SET_DIMENSIONS:
-                    if len(fields[name]) != len(chunk):
-                        raise ValueError(f"{source}: {len(chunk)} points where its {name} gives {len(fields[name])}")
-                    record[name] = np.asarray(fields[name], dtype=kind)
-                writer.write_points(record)
-                start += len(chunk)
+        dest = KeptWriteErrors(path)
+        try:
+            with laspy.open(dest, mode="w", header=header, do_compress=Path(path).suffix == ".laz") as writer:
+                start = 0
+                for chunk in reader.chunk_iterator(rows):
+                    fields = fields_of(chunk, start)
+                    record = laspy.ScaleAwarePointRecord.zeros(len(chunk), header=header)
+                    record.X, record.Y, record.Z = chunk.X, chunk.Y, chunk.Z
+                    record.region_id = chunk.region_id
+                    for name, kind in POINT_SET_DIMENSIONS:
+                        if len(fields[name]) != len(chunk):
+                            raise ValueError(
+                                f"{source}: {len(chunk)} points where its {name} gives {len(fields[name])}"
+                            )
+                        record[name] = np.asarray(fields[name], dtype=kind)
+                    writer.write_points(record)
+                    start += len(chunk)
+        except BaseException as exc:
+            dest.reraise(exc)
+        finally:
+            dest.file.close()
     return Path(path)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.crs import parse_crs
-from ..io.laz import las_grid, rewrite_point_sets
+from ..io.laz import KeptWriteErrors, las_grid, rewrite_point_sets
 from ..io.results import SCALAR
 
 
@@ -61,6 +61,7 @@ class RegionsLaz:
         self.extra = dict(extra or {})
         self._writer = None
         self._header = None
+        self._dest = None
 
     def begin(self, n_points: int, lower, upper, cloud) -> None:
         import laspy
@@ -73,7 +74,8 @@ class RegionsLaz:
         if cloud.crs:
             header.add_crs(parse_crs(cloud.crs))
         self._header = header
-        self._writer = laspy.open(str(self.path), mode="w", header=header, do_compress=self.path.suffix == ".laz")
+        self._dest = KeptWriteErrors(self.path)
+        self._writer = laspy.open(self._dest, mode="w", header=header, do_compress=self.path.suffix == ".laz")
 
     def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None, fields: dict | None = None) -> None:
         import laspy
@@ -83,10 +85,19 @@ class RegionsLaz:
         record.region_id = np.asarray(labels, dtype=np.int32)
         for name, kind in self.extra.items():
             record[name] = np.asarray(fields[name], dtype=kind)
-        self._writer.write_points(record)
+        try:
+            self._writer.write_points(record)
+        except BaseException as exc:
+            self._dest.file.close()
+            self._dest.reraise(exc)
 
     def end(self) -> None:
-        self._writer.close()
+        try:
+            self._writer.close()
+        except BaseException as exc:
+            self._dest.reraise(exc)
+        finally:
+            self._dest.file.close()
 
 
 def rewrite_regions_laz(source, path, values, rows: int) -> Path:
