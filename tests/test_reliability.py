@@ -540,6 +540,16 @@ def test_a_cloud_along_a_line_gives_no_plane_and_no_traceback(tmp_path, capsys, 
     assert code == 0 and "Traceback" not in err and "no plane found" in err
 
 
+@pytest.mark.parametrize("engine", ["memory", "stream"])
+def test_no_plane_because_of_min_points_says_so(cloud_file, tmp_path, capsys, engine):
+    """Planes there, but none as large as --min-points asks: the advice named flatness,
+    vegetation and noise (none of them the cause) and not the option the user set."""
+    code, _, err = run_cli(capsys, "measure", cloud_file, "-o", tmp_path / "o", "-q", "--min-points", "1000000",
+                           "--engine", engine)  # fmt: skip
+    assert code == 0 and "no plane found of 1,000,000 points or more (--min-points)" in err, err
+    assert "vegetation" not in err
+
+
 def _outcrop_file(tmp_path, name, *, float32="", las_scale=None):
     """A 6 x 4 m synthetic outcrop (2.5 cm spacing) at UTM coordinates, as a PLY whose axes
     ``float32`` (some of "xyz") are 32-bit floats, or a LAS with the given scale."""

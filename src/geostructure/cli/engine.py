@@ -161,7 +161,7 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
                 written.update(stage_report(outputs, outputs.staging, None))
     finally:
         executor.close()
-    say_what_was_left(len(result), "voxel", result.cloud.crs is not None)
+    say_what_was_left(len(result), "voxel", result.cloud.crs is not None, args.min_points)
     if not args.quiet:
         print_planes(result, metres_per_unit=recorded_unit({"crs": result.cloud.crs, **about_crs})["metres"])
         if evaluation is not None:

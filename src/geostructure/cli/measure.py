@@ -236,7 +236,9 @@ def measure_cloud(
                 args.outdir, **kinematics, progress=progress, points=(held, result.labels, result.filtered.vegetation)
             )
         paths.update(kinematic_paths)
-    say_what_was_left(len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None)
+    say_what_was_left(
+        len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None, args.min_points
+    )
     if not args.quiet:
         print_planes(result, planes=None if sets is None else with_rock_mass(result.planes, sets, rock),  # as written
                      metres_per_unit=cloud_unit(crs, unit)["metres"])  # fmt: skip

@@ -273,18 +273,27 @@ def check_unit_given(args, paths) -> None:
         check_unit(unit, *declared)
 
 
-def say_what_was_left(n_planes: int, detector: str, has_place: bool) -> None:
+def say_what_was_left(n_planes: int, detector: str, has_place: bool, min_points: int | None = None) -> None:
     """After a run: the advice when no plane was found (a warning), and the note that no GIS
     file was written when the cloud has no CRS (a note, which ``-q`` silences). In memory
-    and streamed alike."""
+    and streamed alike. ``min_points``: the user's ``--min-points``, when given."""
     if not n_planes:
-        warnings.warn(no_plane_advice(detector), GeoStructureWarning, stacklevel=2)
+        warnings.warn(no_plane_advice(detector, min_points), GeoStructureWarning, stacklevel=2)
     if not has_place:
         warnings.warn(NO_CRS_NOTE, GeoStructureNote, stacklevel=2)
 
 
-def no_plane_advice(detector: str) -> str:
-    """What to try when a run finds no plane, for the detector it ran."""
+def no_plane_advice(detector: str, min_points: int | None = None) -> str:
+    """What to try when a run finds no plane, for the detector it ran; with the user's
+    ``--min-points``, that first (a plane smaller than it is not reported, however flat).
+
+    Examples
+    --------
+    >>> no_plane_advice("facets", 100_000)
+    'no plane found of 100,000 points or more (--min-points): a smaller --min-points reports smaller planes.'
+    """
+    if min_points is not None:
+        return f"no plane found of {min_points:,} points or more (--min-points): a smaller --min-points reports smaller planes."
     if detector == "voxel":
         return "no plane found; if the cloud is sparse, try a larger --zeta (voxels need at least 5 points each to fit a plane)."
     return (
