@@ -6,6 +6,7 @@ import re
 
 import numpy as np
 import pytest
+from helpers import run_cli
 
 from geostructure import measure
 from geostructure.cli import main
@@ -303,6 +304,13 @@ def test_the_kinematics_command(outcrop_folder, capsys):
     assert per_set.count("<tr>") == 1 + len(summary["sets"]) and "critical" in per_set
     assert main(["kinematics", str(out), "--friction", "40", "--slope", "65/180", "-q"]) == 0
     assert "friction 40" in (out / "report.html").read_text()  # a report there is drawn again
+    # A slope fitted no steeper than the friction angle (a terrain's, a floor's) says that
+    # nothing slides on it and how to give the slope; the outcrop's own (75/180) does not.
+    code, _, err = run_cli(capsys, "kinematics", out, "--friction", "30", "-q")
+    assert code == 0 and "dips no steeper than the friction angle" not in err
+    code, _, err = run_cli(capsys, "kinematics", out, "--friction", "80", "-q")
+    assert code == 0 and "dips no steeper than the friction angle (80°), so no plane or wedge can slide" in err
+    assert json.load(open(out / "kinematics.json"))["planar_sliding"]["planes"] == 0
     assert main(["kinematics", str(out), "--friction", "35", "--slope", "steep", "-q"]) == 2
     assert "--slope takes DIP/DIPDIR" in capsys.readouterr().err
     assert main(["kinematics", str(out), "--friction", "95", "-q"]) == 2

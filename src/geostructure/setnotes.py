@@ -321,6 +321,32 @@ def sectioned_slope(summary: dict) -> str | None:
     )
 
 
+def gentle_slope(summary: dict) -> str | None:
+    """The sentence for a fitted slope no steeper than the friction angle (in every section
+    of a face that turns): no plane or wedge can slide out of it, nor a column topple
+    flexurally (direct toppling needs no sliding, and is still tested), and the slope fitted
+    is most likely a terrain's or a floor's, not the face to test. None for a slope given,
+    or a steeper one.
+
+    Examples
+    --------
+    >>> gentle_slope({"slope": {"dip": 3.4, "dip_direction": 145.2, "source": "fitted"}, "friction_deg": 30.0})[:74]
+    'The slope fitted, 3/145, dips no steeper than the friction angle (30°), so'
+    >>> gentle_slope({"slope": {"dip": 75.0, "dip_direction": 180.0, "source": "fitted"}, "friction_deg": 30.0}) is None
+    True
+    """
+    slope = summary["slope"]
+    steepest = max([slope["dip"]] + [part["slope"]["dip"] for part in summary.get("sections") or []])
+    if slope.get("source") != "fitted" or steepest > summary["friction_deg"]:
+        return None
+    return (
+        f"The slope fitted, {slope['dip']:.0f}/{slope['dip_direction']:03.0f}, dips no steeper than the friction angle "
+        f"({summary['friction_deg']:g}°), so no plane or wedge can slide out of it, nor a column topple flexurally. If "
+        f"the cloud's mean surface is not the slope to test (a terrain, a quarry floor, a bench), give that slope with "
+        f"--slope DIP/DIPDIR."
+    )
+
+
 def note_of(sentence: str | None, source) -> None:
     """A sentence of this module as a note (:class:`~.errors.GeoStructureNote`) naming
     ``source``; nothing for None."""

@@ -24,7 +24,7 @@ from .kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope
 from .orientation import Frame, orientation_from_normals
 from .planes import plane_rows
 from .sections import FaceSections, face_sections
-from .setnotes import bent_slope, note_of, sectioned_slope, warn_of
+from .setnotes import bent_slope, gentle_slope, note_of, sectioned_slope, warn_of
 from .stream.thin import read_measured
 from .uncertainty import normal_standard_errors
 
@@ -221,6 +221,7 @@ def add_kinematics(
             planes, read_sets(outputs.outdir), face.slope, friction, lateral_limit, strength, sections
         )
         warn_of(bent_slope(summary["slope"]), outdir)
+        warn_of(gentle_slope(summary), outdir)
         note_of(sectioned_slope(summary), outdir)
         report("write", 0, None)
         write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
