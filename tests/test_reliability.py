@@ -348,6 +348,24 @@ def test_a_damaged_planes_csv(measured, capsys, content):
         Planes.from_csv(measured / "planes.csv")
 
 
+@pytest.mark.parametrize("name", ["planes.csv", "regions.laz"])
+def test_sets_refuses_a_planes_csv_or_regions_laz_not_the_runs(measured, capsys, name):
+    """`sets` writes planes.csv and regions.laz again, so it skipped their check, yet it reads
+    both: a plane deleted by hand (or another run's file) went into the sets without a word,
+    and came out as this run's."""
+    path = measured / name
+    if name == "planes.csv":
+        path.write_text("".join(path.read_text().splitlines(keepends=True)[:-1]))  # one plane fewer
+    else:
+        data = path.read_bytes()
+        path.write_bytes(data[:-1] + bytes([data[-1] ^ 0xFF]))  # its last byte flipped
+    before = folder_digests(measured)
+    code, _, err = run_cli(capsys, "sets", measured, "-q")
+    assert code == 2
+    assert_one_sentence(err, f"{name} is not the file run.json lists")
+    assert folder_digests(measured) == before
+
+
 # 12 and 16. run: bad control points found before any reconstruction.
 @pytest.mark.parametrize("row", ["A,nan,2,3,1,1,1", "A,1,2,inf,1,1,1", "A,1,2"])
 def test_run_checks_control_points_first(tmp_path, capsys, row):

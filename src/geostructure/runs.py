@@ -282,7 +282,8 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
     (3, 'sets.csv')
     """
     report = progress or (lambda stage, done, total: None)
-    with output_set(outdir, replace=False, rewrites=SETS_FILES + REPORT_FILES) as outputs:
+    reads = ("planes.csv", "regions.laz")  # both written again, with the sets: they must be this run's
+    with output_set(outdir, replace=False, rewrites=SETS_FILES + REPORT_FILES, reads=reads) as outputs:
         frame = Frame.from_dict(outputs.record.get("frame") or {})
         had_report = (outputs.outdir / "report.html").is_file()
         report("read", 0, None)

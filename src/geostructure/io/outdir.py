@@ -286,13 +286,16 @@ def output_set(
     inputs=(),
     command: str = "geostructure measure",
     rewrites=(),
+    reads=(),
 ):
     """Open OUTDIR for one all-or-nothing set of outputs.
 
     ``replace=True`` (a measure, a sweep): the new set replaces the previous one, whose
     files the new one does not rewrite are removed. ``replace=False`` (report, evaluate):
     the files are added to the folder's verified set, and the record is the folder's own;
-    the files it will rewrite (``rewrites``) need not verify, as they are replaced.
+    the files it will rewrite (``rewrites``) need not verify, as they are replaced, but for
+    those it reads first (``reads``: ``sets`` reads ``planes.csv`` and ``regions.laz`` and
+    writes them again), which must be the run's as any input is.
 
     Examples
     --------
@@ -315,7 +318,7 @@ def output_set(
             manifest = previous.get("outputs") if isinstance(previous.get("outputs"), dict) else {}
             outputs.stale = [n for n, e in sorted(manifest.items()) if n in OWNED and _matches(outdir / n, e)]
         else:
-            outputs.record = verified_record(outdir, record_name, command, ignore=rewrites)
+            outputs.record = verified_record(outdir, record_name, command, ignore=set(rewrites) - set(reads))
             outputs.kept = {n: e for n, e in outputs.record.pop("outputs").items() if n not in rewrites}
         outputs.staging.mkdir()
         try:
