@@ -389,7 +389,8 @@ def rock_mass(
             result.c23[s] = 1.0 / max(np.concatenate(facing).mean(), 1e-6)
     result.joints = Joints.of(len(normals), groups)
     if standard_errors is not None:
-        read_correlated_tilt(result, normals, standard_errors, moments, {(g[2], g[3]) for g in groups if g[6] is None})
+        along = {(set_id, section) for _, _, set_id, section, _, _, lengths in groups if lengths is None}
+        read_correlated_tilt(result, normals, standard_errors, moments, along)
     return result
 
 
