@@ -115,7 +115,31 @@ def format_number(value) -> str:
     return repr(float(value))
 
 
-_AS_WRITTEN = (str, int, float)
+_AS_WRITTEN = (int, float)
+
+#: What makes a spreadsheet read a cell as a formula (OWASP's CSV injection list).
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def text_cell(text: str) -> str:
+    """A text cell that no spreadsheet runs as a formula: one that starts with ``=``, ``+``,
+    ``-``, ``@``, a tab or a carriage return gets a leading single quote (OWASP's advice),
+    unless it is a plain number (``-2.5`` stays a number). Every text cell the project writes
+    to a CSV goes through here, so a surface named ``=HYPERLINK(...)`` in a user's truth
+    file cannot run in the colleague's spreadsheet that opens ``evaluation.csv``.
+
+    Examples
+    --------
+    >>> text_cell("=1+1"), text_cell("-2.5"), text_cell("@SUM(A1)"), text_cell("wall")
+    ("'=1+1", '-2.5', "'@SUM(A1)", 'wall')
+    """
+    if not text.startswith(_FORMULA_START):
+        return text
+    try:
+        float(text)
+    except ValueError:
+        return "'" + text
+    return text
 
 
 def write_columns_csv(columns: dict, path) -> Path:
@@ -152,7 +176,18 @@ def _cells(values) -> list[str]:
         return list(map(str, array.tolist()))
     if array.dtype.kind == "f":
         return list(map(repr, array.astype(np.float64).tolist()))
-    return list(map(str, values))
+    return [text_cell(str(v)) for v in values]
+
+
+def _table_cell(value):
+    """A row's cell: Python's int and float as the csv module writes them (a float's str is
+    its repr, as format_number), text through text_cell, numpy's and bools through
+    format_number."""
+    if type(value) in _AS_WRITTEN:
+        return value
+    if isinstance(value, str):
+        return text_cell(value)
+    return format_number(value)
 
 
 def write_table_csv(rows: list[dict], path, columns=None) -> Path:
@@ -169,8 +204,5 @@ def write_table_csv(rows: list[dict], path, columns=None) -> Path:
             if header:
                 writer.writerow(header)
             for row in rows:
-                # The csv module writes Python's str, int and float as format_number would
-                # (a float's str is its repr): only the others (numpy's, bools) go through it.
-                values = (row[name] for name in header)
-                writer.writerow([v if type(v) in _AS_WRITTEN else format_number(v) for v in values])
+                writer.writerow([_table_cell(row[name]) for name in header])
     return Path(path)

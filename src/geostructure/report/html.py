@@ -8,7 +8,9 @@ base64 typed arrays (plotly's own JSON encoding), which keeps a 150k-point view 
 
 from __future__ import annotations
 
+import html
 import json
+import re
 from importlib import resources
 from pathlib import Path
 
@@ -48,10 +50,10 @@ def build_report(outdir, path=None, *, max_points: int | None = None, title: str
     """Write ``report.html`` for a measured output folder; returns its path."""
     outdir = Path(outdir)
     scene = load_scene(outdir, max_points=max_points or MAX_DISPLAY_POINTS)
-    html = render(scene, title=title or f"GeoStructure: {source_title(scene) or outdir.name}")
+    page = render(scene, title=title or f"GeoStructure: {source_title(scene) or outdir.name}")
     path = Path(path or outdir / "report.html")
     with atomic_path(path) as tmp:
-        tmp.write_text(html, encoding="utf-8")
+        tmp.write_text(page, encoding="utf-8")
     return path
 
 
@@ -103,17 +105,49 @@ def render(scene: ReportScene, title: str) -> str:
             "georeference": _georeference_note(scene.georeference),
         },
     }
-    data = json.dumps(plain(payload), separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    data = script_json(plain(payload))
     assets = resources.files("geostructure.report") / "assets"
     page = (assets / "report.html").read_text(encoding="utf-8")
-    return (
-        page.replace("{{TITLE}}", _escape(title))
-        .replace("{{CSS}}", (assets / "report.css").read_text(encoding="utf-8"))
-        .replace("{{PLOTLY}}", get_plotlyjs())
-        .replace("{{SETS}}", set_table(scene) + kinematic_table(scene))
-        .replace("{{PAYLOAD}}", data)
-        .replace("{{APP}}", (assets / "report.js").read_text(encoding="utf-8"))
+    return fill_template(
+        page,
+        {
+            "TITLE": _escape(title),
+            "CSS": (assets / "report.css").read_text(encoding="utf-8"),
+            "PLOTLY": get_plotlyjs(),
+            "SETS": set_table(scene) + kinematic_table(scene),
+            "PAYLOAD": data,
+            "APP": (assets / "report.js").read_text(encoding="utf-8"),
+        },
     )
+
+
+_PLACEHOLDER = re.compile(r"\{\{([A-Z]+)\}\}")
+
+
+def fill_template(page: str, values: dict[str, str]) -> str:
+    """The page with each ``{{NAME}}`` replaced by ``values[NAME]``, in one pass over the
+    template only: text that comes in through a value (a file name holding ``{{PAYLOAD}}``)
+    is never scanned for placeholders again, so it cannot break out of its place.
+
+    Examples
+    --------
+    >>> fill_template("<b>{{A}}</b>{{B}}", {"A": "{{B}}", "B": "x"})
+    '<b>{{B}}</b>x'
+    """
+    return _PLACEHOLDER.sub(lambda m: values[m.group(1)], page)
+
+
+def script_json(value) -> str:
+    """``value`` as JSON safe inside a ``<script>`` element: ``<``, ``>`` and ``&`` written as
+    JSON escapes, so no text from a user's file can close the element or open a comment.
+
+    Examples
+    --------
+    >>> print(script_json({"name": "</script><img src=x>"}))
+    {"name":"\\u003c/script\\u003e\\u003cimg src=x\\u003e"}
+    """
+    text = json.dumps(value, separators=(",", ":"), allow_nan=False)
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 
 def _net_title(scene: ReportScene) -> list[str]:
@@ -347,7 +381,7 @@ def set_table(scene: ReportScene) -> str:
         if n
     )
     return (
-        f'<table id="sets"><caption>{caption}</caption><thead><tr>{head}</tr></thead>'
+        f'<table id="sets"><caption>{_escape(caption)}</caption><thead><tr>{head}</tr></thead>'
         f"<tbody>{''.join(rows)}</tbody></table>{notes}"
     )
 
@@ -373,5 +407,6 @@ def table_rows(scene: ReportScene) -> list[dict]:
     return rows
 
 
-def _escape(text: str) -> str:
-    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+def _escape(text) -> str:
+    """Text from a user's file as HTML: every markup character escaped, quotes included."""
+    return html.escape(str(text), quote=True)

@@ -4,6 +4,7 @@ as one plotly figure whose traces the page's script switches on and off."""
 from __future__ import annotations
 
 import json
+from html import escape
 
 import numpy as np
 
@@ -283,10 +284,11 @@ def hover_text(row: dict, truth: dict | None, unit: str = "m") -> str:
     text = (
         f"<b>Plane {row['region_id']}</b><br>strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, "
         f"dip direction {row['dip_direction']:.1f}° (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
-        f"<br>area {row['area_m2']:.2f} {unit}², {row['n_points']:,} points, roughness {row['fit_residual']:.4f} {unit}"
+        f"<br>area {row['area_m2']:.2f} {escape(unit)}², {row['n_points']:,} points, "
+        f"roughness {row['fit_residual']:.4f} {escape(unit)}"
     )
     if truth:
-        text += f"<br>truth '{truth['surface']}': error {float(truth['normal_error_deg']):.2f}°"
+        text += f"<br>truth '{escape(str(truth['surface']))}': error {float(truth['normal_error_deg']):.2f}°"
     return text
 
 

@@ -8,6 +8,10 @@
   const config = { responsive: true, displaylogo: false };
   const fmt = (v, d) => (v === null || v === undefined || Number.isNaN(v)) ? "" :
     Number(v).toLocaleString("en-US", { minimumFractionDigits: d, maximumFractionDigits: d });
+  // Text that came from a user's file (a truth surface's name, a unit, a label) reaches
+  // innerHTML only through esc(): as text, never as markup.
+  const esc = v => String(v ?? "").replace(/[&<>"']/g, c =>
+    ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" })[c]);
   let selected = null;
 
   const m = P.meta;
@@ -46,12 +50,12 @@
   function infoHtml(p) {
     let html = `<b>Plane ${p.region_id}</b>: strike <b>${fmt(p.strike, 1)}°</b>, dip <b>${fmt(p.dip, 1)}°</b>, ` +
       `dip direction <b>${fmt(p.dip_direction, 1)}°</b> (± ${fmt(p.normal_uncertainty_deg, 2)}°) · ` +
-      `area ${fmt(p.area_m2, 2)} ${P.meta.unit}² · ${fmt(p.n_points, 0)} points · roughness (RMS fit residual) ${fmt(p.fit_residual, 4)} ${P.meta.unit} · planarity ${fmt(p.planarity, 3)}`;
+      `area ${fmt(p.area_m2, 2)} ${esc(P.meta.unit)}² · ${fmt(p.n_points, 0)} points · roughness (RMS fit residual) ${fmt(p.fit_residual, 4)} ${esc(P.meta.unit)} · planarity ${fmt(p.planarity, 3)}`;
     if (p.set !== undefined) html += ` · ${p.set < 0 ? "in no set" : `set ${p.set}`}`;
     if (p.joint !== undefined && p.joint >= 0) html += `, a facet of joint ${p.joint} (joints.csv)`;
     if (p.truth) {
       const t = p.truth;
-      html += `<br>Ground truth '${t.surface}': strike ${fmt(t.strike, 1)}°, dip ${fmt(t.dip, 1)}°, ` +
+      html += `<br>Ground truth '${esc(t.surface)}': strike ${fmt(t.strike, 1)}°, dip ${fmt(t.dip, 1)}°, ` +
         `dip direction ${fmt(t.dip_direction, 1)}° · measured vs truth: <b>${fmt(p.truth_error, 2)}°</b>`;
     }
     return html;
@@ -94,13 +98,13 @@
   const thead = document.querySelector("#planes thead");
   const tbody = document.querySelector("#planes tbody");
   let sortKey = "region_id", ascending = true;
-  thead.innerHTML = "<tr>" + columns.map(c => `<th data-key="${c.key}">${c.label}</th>`).join("") + "</tr>";
+  thead.innerHTML = "<tr>" + columns.map(c => `<th data-key="${esc(c.key)}">${esc(c.label)}</th>`).join("") + "</tr>";
   function drawRows() {
     const rows = P.planes.slice().sort((a, b) => {
       const x = a[sortKey] ?? -Infinity, y = b[sortKey] ?? -Infinity;
       return (x < y ? -1 : x > y ? 1 : 0) * (ascending ? 1 : -1);
     });
-    tbody.innerHTML = rows.map(p => `<tr data-id="${p.region_id}"${p.region_id === selected ? ' class="selected"' : ""}>` +
+    tbody.innerHTML = rows.map(p => `<tr data-id="${esc(p.region_id)}"${p.region_id === selected ? ' class="selected"' : ""}>` +
       columns.map((c, n) => `<td>${n === 0 ? `<span class="swatch" style="background:${palette[p.region_id] || "#999"}"></span>` : ""}` +
         `${fmt(p[c.key], c.digits)}</td>`).join("") + "</tr>").join("");
     thead.querySelectorAll("th").forEach(th => {
