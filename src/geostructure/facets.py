@@ -40,6 +40,7 @@ from .cells import CellGrid, CellPlanes, grid_planes, neighbour_pairs, with_spar
 from .density import point_spacing
 from .gridkeys import binned_sums
 from .gridscatter import far_scatter, sampled_far_scatter
+from .roughfacets import RoughFacets, detect_rough_facets
 from .sampling import sampled_blocks
 from .threads import run_blocks, run_tasks
 
@@ -170,6 +171,7 @@ class FacetDetection:
     thresholds: FacetThresholds
     cell_edge: float  # the grid's edge the local planes were computed on
     far_scatter: float
+    rough: RoughFacets | None = None  # where no grid was trusted: the rough rock's facets
 
     def record(self) -> dict:
         """What ``run.json`` says of the detection."""
@@ -180,6 +182,7 @@ class FacetDetection:
             "far_scatter_deg": self.far_scatter,
             "planar_facets": int(self.labels.max(initial=-1)) + 1,
             "curved_points": int(self.curved.sum()),
+            **({} if self.rough is None else self.rough.record()),
         }
 
 
@@ -387,8 +390,12 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
     edge, scatter = cells.edge, far_scatter(cells)
     pairs = neighbour_pairs(cells)  # for the thresholds and the growing both
     thresholds = facet_thresholds(cells, spacing, pairs)
-    if scatter > MAX_CELL_SCATTER:  # noisy at every scale tried (a rough SfM cloud): no facet is trusted
-        return FacetDetection(np.full(len(points), -1), np.ones(len(points), bool), thresholds, edge, scatter)
+    if scatter > MAX_CELL_SCATTER:
+        # Rough at every scale tried (an SfM cloud of real rock): no grid facet is trusted;
+        # the facets are grown on each point's own plane, and the rest (the face itself, a
+        # noisy wall) is left to the voxel growing.
+        rough = detect_rough_facets(points, spacing)
+        return FacetDetection(rough.labels, np.zeros(len(points), bool), thresholds, edge, scatter, rough)
     labels = label_points(points, cells, grow_cells(cells, thresholds, pairs), thresholds.max_offset)
     planar = planar_components(points, cells.normal, labels, thresholds, normal_of=cells.point_cell)
     curved = (labels >= 0) & ~planar[np.maximum(labels, 0)] if len(planar) else np.zeros(len(points), bool)

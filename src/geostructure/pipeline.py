@@ -20,6 +20,7 @@ from .params import Params
 from .planes import Planes
 from .regionplanes import absorb_sparse_facets, region_planes, without_ribbons
 from .regions import grow_regions
+from .roughfacets import FACE_CONE, MIN_FACET_POINTS
 from .uncertainty import normal_standard_errors
 from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
@@ -177,10 +178,10 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         )
         counts["voxel_planes"] = len(voxels)
 
-    facet_record, facet_region = {}, np.zeros(0, dtype=bool)
+    facet_record, facet_region, envelope = {}, np.zeros(0, dtype=bool), None
     if params.detector == "facets":
         with _stage(seconds, "regions", report):
-            point_region, region_of_voxel, facet_record, facet_region = _grow_facets_then_voxels(
+            point_region, region_of_voxel, facet_record, facet_region, envelope = _grow_facets_then_voxels(
                 filtered, voxels, params, report, counts
             )
     else:
@@ -194,9 +195,10 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         n_regions = max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 1
         is_facet = np.zeros(n_regions, dtype=bool)
         is_facet[: len(facet_region)] = facet_region[:n_regions]
+        rough = envelope is not None  # the facets were grown on rough rock's own points
         min_points = np.where(
             is_facet,
-            params.min_points or default_min_points(len(filtered), "facets"),
+            params.min_points or (MIN_FACET_POINTS if rough else default_min_points(len(filtered), "facets")),
             params.min_points or default_min_points(len(filtered), "voxel"),
         )
         regions, kept = region_planes(
@@ -214,7 +216,8 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
             # one cell wide is no plane (points along a line, a pole, gave four when the
             # voxels no facet took were grown). Where it was not, its cells are no measure.
             trusted = facet_record["far_scatter_deg"] <= MAX_CELL_SCATTER
-            narrow_checked = np.ones(n_regions, dtype=bool) if trusted else is_facet
+            # Rough rock's facets are steps a few points wide, never a grid's cells.
+            narrow_checked = np.ones(n_regions, dtype=bool) if trusted else is_facet & ~rough
             regions, kept, counts["ribbons"] = without_ribbons(regions, kept, narrow_checked, facet_record["cell_edge"])
             if n_facets and params.merge:
                 regions, kept, alias = absorb_sparse_facets(
@@ -248,6 +251,8 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
                 up=frame.matrix[2],
             ),
         )
+        if envelope is not None:
+            planes = planes.with_columns(face_surface=face_surface(labels, planes.normal, envelope))
     return Result(
         cloud=cloud,
         params=params,
@@ -344,7 +349,26 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
         renumbered = np.zeros(int(new.max(initial=-1)) + 1, dtype=bool)
         renumbered[new[:-1][is_facet]] = True
         is_facet = renumbered
-    return point_region, region_of_voxel, found.record(), is_facet
+    return (
+        point_region,
+        region_of_voxel,
+        found.record(),
+        is_facet,
+        None if found.rough is None else found.rough.envelope,
+    )
+
+
+def face_surface(labels: np.ndarray, normals: np.ndarray, envelope: np.ndarray) -> np.ndarray:
+    """Per plane, 1 where it lies along the face's own surface (its normal within
+    :data:`~.roughfacets.FACE_CONE` of the face's over its points, ``envelope`` (N, 3) in the
+    cloud's coordinates) and 0 elsewhere: on rough rock those are pieces of the exposure,
+    measured, but no discontinuity, and they join no set."""
+    on = labels >= 0
+    n = len(normals)
+    face = np.stack([np.bincount(labels[on], envelope[on, a], minlength=n) for a in range(3)], axis=1)
+    face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
+    along = np.abs(np.einsum("ij,ij->i", normals, face))
+    return (along >= np.cos(np.radians(FACE_CONE))).astype(np.int64)
 
 
 def _relabel(point_region: np.ndarray, voxel_region: np.ndarray, merged_voxels: np.ndarray):

@@ -232,7 +232,9 @@ def sets_and_rock_mass(
         # The face without the ground before it and the clutter (vegetation) on it.
         parts = face_parts(points, labels, planes.normal, frame.matrix[2], spacing=spacing, vegetation=vegetation)
         face = pool.submit(exposure, metric, frame.matrix[2], spacing=spacing and spacing * f, members=parts.members)
-        sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=parts.off_face)
+        # On rough rock, the planes of the face's own surface are no discontinuity either.
+        leave_out = parts.off_face | (np.asarray(planes.extra.get("face_surface", 0)) > 0)
+        sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=leave_out)
         report("spacing and persistence")
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), parts=parts, errors=errors,
                                metres_per_unit=f, metric=metric)  # fmt: skip

@@ -416,3 +416,33 @@ def print_match(match, console: Console | None = None) -> None:
         f"mean normal error {match.mean_error:.3f} deg, max {match.max_error:.3f} deg, "
         f"{match.n_found} of {len(match.surfaces)} surfaces found"
     )
+
+
+def validation_lines(summary: dict) -> str:
+    """The scores against a field map (``validation.json``'s) as sentences.
+
+    Examples
+    --------
+    >>> print(validation_lines({"mapped": 4, "matched": 1, "planes": 2, "planes_matching": 1, "precision": 0.5,
+    ...     "max_distance": 0.6, "max_angle_deg": 10.0, "set_errors_deg": {"1": 3.04}, "set_means_from": "field map"}))
+    1 of 4 mapped planes matched (25%): a measured plane's centroid within 0.6 and its normal within 10 degrees.
+    1 of the 2 measured planes (50%) match a mapped one.
+    Set 1 (field map): 3.0 degrees from the nearest measured set.
+    """
+    mapped, matched = summary["mapped"], summary["matched"]
+    lines = [
+        f"{matched} of {mapped} mapped planes matched ({matched / max(mapped, 1):.0%}): a measured plane's "
+        f"centroid within {summary['max_distance']:g} and its normal within {summary['max_angle_deg']:g} degrees.",
+        f"{summary['planes_matching']} of the {summary['planes']} measured planes "
+        f"({summary['precision']:.0%}) match a mapped one."
+        if summary["planes"]
+        else "No plane was measured.",
+    ]
+    errors = summary.get("set_errors_deg")
+    if errors is None:
+        lines.append("No sets to score: run 'geostructure sets OUTDIR' (or measure --sets) first.")
+    for label, error in (errors or {}).items():
+        source = summary["set_means_from"]
+        lines.append(f"Set {label} ({source}): " + (f"{error:.1f} degrees from the nearest measured set."
+                     if error == error else "no measured set."))  # fmt: skip
+    return "\n".join(lines)

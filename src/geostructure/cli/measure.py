@@ -23,13 +23,22 @@ from ..pipeline import measure
 from ..progress import StageProgress
 from ..rockmass import with_rock_mass
 from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
-from ..scoring import add_evaluation
+from ..scoring import add_evaluation, add_validation
 from ..setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
 from ..slope_stability import add_kinematics, fit_face
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
-from ..tables import print_evaluation, print_kinematics, print_match, print_planes, print_sets, print_sweep
+from ..tables import (
+    print_evaluation,
+    print_kinematics,
+    print_match,
+    print_planes,
+    print_sets,
+    print_sweep,
+    validation_lines,
+)
+from ..validation import MAX_ANGLE, MAX_DISTANCE
 from .engine import add_engine_options, chosen_engine, measures_in_memory, run_streamed
 from .options import (
     add_measure_options,
@@ -75,9 +84,24 @@ def add_measure_commands(sub) -> None:
     add_engine_options(m)
     m.set_defaults(run=run_measure)
 
-    e = sub.add_parser("evaluate", help="score a measured OUTDIR against a ground-truth CSV")
+    e = sub.add_parser("evaluate", help="score a measured OUTDIR against a ground-truth CSV or a field map")
     e.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
-    e.add_argument("--truth", type=Path, required=True, help="CSV: surface, strike, dip, dip_direction[, center_*]")
+    e.add_argument("--truth", type=Path, help="CSV: surface, strike, dip, dip_direction[, center_*]")
+    e.add_argument(
+        "--fractures",
+        type=Path,
+        help="field map CSV: x, y, z, dip, dip_direction[, set] per mapped fracture or compass station "
+        "(or DICE's Xcenter, Ycenter, Zcenter, Dip, DipDirection); writes validation.csv",
+    )
+    e.add_argument("--set-means", type=Path, help="with --fractures: published set means (dip, dip_direction[, set])")
+    e.add_argument(
+        "--max-distance",
+        type=float,
+        default=MAX_DISTANCE,
+        help=f"with --fractures: a plane's centroid within this of a mapped centre (default {MAX_DISTANCE})",
+    )
+    e.add_argument("--max-angle", type=float, default=MAX_ANGLE,
+                   help=f"with --fractures: its normal within this many degrees (default {MAX_ANGLE:g})")  # fmt: skip
     e.add_argument(
         "--fit-frame",
         action="store_true",
@@ -261,6 +285,17 @@ def measure_cloud(
 
 
 def run_evaluate(args) -> int:
+    if (args.truth is None) == (args.fractures is None):
+        raise GeoStructureError("evaluate needs --truth TRUTH.csv or --fractures MAP.csv (one of the two).")
+    if args.fractures is not None:
+        summary, paths = add_validation(args.outdir, args.fractures, set_means=args.set_means,
+                                        max_distance=args.max_distance, max_angle=args.max_angle)  # fmt: skip
+        if not args.quiet:
+            print(validation_lines(summary))
+            print(f"wrote {', '.join(str(p) for p in paths.values())}")
+        return 0
+    if args.set_means is not None:
+        raise GeoStructureError("--set-means goes with --fractures.")
     evaluation, extra, paths = add_evaluation(args.outdir, args.truth, fit_frame=args.fit_frame)
     if not args.quiet:
         print_evaluation(evaluation)

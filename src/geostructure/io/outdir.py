@@ -49,6 +49,8 @@ MEASURE_FILES = (
     "run.json",
 )
 EVALUATION_FILES = ("evaluation.csv", "evaluation.json")
+#: What ``evaluate --fractures`` writes: the run against a field map.
+VALIDATION_FILES = ("validation.csv", "validation.json")
 #: What ``sets`` writes (and ``measure --sets``): the set table, and the plane tables with a set column.
 SETS_FILES = (
     "sets.csv",
@@ -66,7 +68,9 @@ SWEEP_FILES = ("sweep.csv", "sweep.json") + tuple(
     f"sweep_{factor}.{fmt}" for factor in ("zeta", "theta", "psi", "k", "all") for fmt in ("png", "svg")
 )
 #: Every name GeoStructure writes into an output folder; no other file there is ever touched.
-OWNED = frozenset(MEASURE_FILES + EVALUATION_FILES + SETS_FILES + REPORT_FILES + SWEEP_FILES + KINEMATICS_FILES)
+OWNED = frozenset(
+    MEASURE_FILES + EVALUATION_FILES + VALIDATION_FILES + SETS_FILES + REPORT_FILES + SWEEP_FILES + KINEMATICS_FILES
+)
 
 
 def check_outdir(outdir) -> Path:
