@@ -113,16 +113,20 @@ def knn_planes(points: np.ndarray, k: int = 30) -> tuple[np.ndarray, np.ndarray,
     return normal, variation, float(np.median(distances[:, 1]))
 
 
-def peer(path: str) -> dict:
-    """The DSE-style pipeline on a PLY file; returns planes (centroid, normal) and set poles."""
+def peer(path: str, min_points: int = 30) -> dict:
+    """The DSE-style pipeline on a PLY file (or an ``x y z ...`` text file); returns planes
+    (centroid, normal) of its clusters of ``min_points`` or more, and set poles."""
     from plyfile import PlyData
 
     from geostructure.orientation import normal_from_orientation, orientation_from_normals
     from geostructure.projection import pole_density
     from geostructure.rectangle import fit_plane
 
-    vertex = PlyData.read(path)["vertex"].data
-    points = np.column_stack([vertex["x"], vertex["y"], vertex["z"]]).astype(np.float64)
+    if str(path).endswith(".txt"):
+        points = np.loadtxt(path, usecols=(0, 1, 2))
+    else:
+        vertex = PlyData.read(path)["vertex"].data
+        points = np.column_stack([vertex["x"], vertex["y"], vertex["z"]]).astype(np.float64)
     offset = points.mean(axis=0)
     local = points - offset
     normal, variation, spacing = knn_planes(local, k=30)
@@ -150,7 +154,7 @@ def peer(path: str) -> dict:
         labels = dbscan(mine, 2.5 * spacing, 10)
         for c in range(int(labels.max(initial=-1)) + 1):
             cluster = mine[labels == c]
-            if len(cluster) >= 30:
+            if len(cluster) >= min_points:
                 centroid, plane_normal, _, _ = fit_plane(cluster)
                 centroids.append(centroid + offset)
                 normals.append(plane_normal)
@@ -158,10 +162,10 @@ def peer(path: str) -> dict:
             "set_normals": set_normals}  # fmt: skip
 
 
-def run_peer_process(path: Path, out: Path) -> dict:
+def run_peer_process(path: Path, out: Path, min_points: int = 30) -> dict:
     """The peer in a process of its own: seconds and peak memory are its own."""
     t = time.perf_counter()
-    subprocess.run([sys.executable, __file__, "--peer", str(path), str(out)], check=True)
+    subprocess.run([sys.executable, __file__, "--peer", str(path), str(out), str(min_points)], check=True)
     seconds = time.perf_counter() - t
     data = np.load(out)
     return {"seconds": seconds, "peak_mb": float(data["peak_mb"]), "centroids": data["centroids"],
@@ -233,7 +237,7 @@ def main() -> None:
     parser.add_argument("--bushes", type=int, default=0, help="bushes on the face")
     parser.add_argument("--persistence", type=float, default=0.0,
                         help="the joints' mean diameter (m), as discs; 0: planes through the rock mass")  # fmt: skip
-    parser.add_argument("--peer", nargs=2, metavar=("PLY", "OUT"), help=argparse.SUPPRESS)
+    parser.add_argument("--peer", nargs=3, metavar=("PLY", "OUT", "MIN_POINTS"), help=argparse.SUPPRESS)
     parser.add_argument("--measure", nargs=2, metavar=("PLY", "OUTDIR"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     the_commands_memory_settings()  # for every method's process
@@ -245,7 +249,7 @@ def main() -> None:
         (Path(args.measure[1]) / "peak.json").write_text(json.dumps({"peak_mb": peak_mb}))
         sys.exit(code)
     if args.peer:
-        result = peer(args.peer[0])
+        result = peer(args.peer[0], int(args.peer[2]))
         peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
         np.savez(args.peer[1], peak_mb=peak_mb, **result)
         return

@@ -48,7 +48,7 @@ def causes(points: np.ndarray, planes, fmap) -> dict[str, int]:
     """Why each mapped fracture the default missed was missed (see docs/rockmass.md)."""
     from scipy.spatial import cKDTree
 
-    normal, _ = point_normals(points)
+    normal, _, _, _, _ = point_normals(points)
     on_face = np.abs(np.einsum("ij,ij->i", normal, envelope_normals(points))) >= np.cos(np.radians(FACE_CONE))
     map_normals = normal_from_orientation(fmap.dip_direction, fmap.dip)
     centroids = np.column_stack([planes["centroid_x"], planes["centroid_y"], planes["centroid_z"]])

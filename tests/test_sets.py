@@ -3,8 +3,6 @@
 import csv
 import warnings
 
-import json
-
 import numpy as np
 import pytest
 from helpers import run_cli

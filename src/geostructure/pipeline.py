@@ -3,6 +3,7 @@ planes -> orientation."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -219,7 +220,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
             # Rough rock's facets are steps a few points wide, never a grid's cells.
             narrow_checked = np.ones(n_regions, dtype=bool) if trusted else is_facet & ~rough
             regions, kept, counts["ribbons"] = without_ribbons(regions, kept, narrow_checked, facet_record["cell_edge"])
-            if n_facets and params.merge:
+            if n_facets and params.merge and not rough:  # rough rock's facets are steps, not sparse pieces of a plane
                 regions, kept, alias = absorb_sparse_facets(
                     filtered.local, point_region, regions, kept, params.theta, params.psi * voxels.edge,
                     facet_record["facet_thresholds"]["spacing"], params.rectangle,
@@ -311,6 +312,13 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
     no facet (a surface noisier than the grid was chosen for), the paper's voxel region
     growing over those voxels. Also returns which of the regions are facets."""
     found = detect_facets(filtered.local)
+    sub_counts: dict = {}
+    if found.rough is not None:
+        # Rough rock: the paper's voxel growing over the whole cloud, as before the rough
+        # facets; they take their points out of its regions, except out of large ones.
+        every = subset_voxels(voxels, np.ones(len(voxels), dtype=bool))  # as the regrowing below
+        whole = _grow_voxel_regions(filtered, every, params, report, sub_counts)
+        found = _outside_large_surfaces(found, whole[0])
     point_region = found.labels.copy()
     n_facets = int(point_region.max(initial=-1)) + 1
     # The voxels to grow: those of curved facets, and those most of whose points no facet
@@ -322,13 +330,18 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
     free = np.bincount(voxels.point_voxel[on & unclaimed], minlength=len(voxels))
     regrow = free > UNCLAIMED_SHARE * total
     regrow[voxels.point_voxel[found.curved & on]] = True
+    if found.rough is not None:
+        regrow[:] = True  # grown above, whole
     regrown = unclaimed & on
     regrown[on] &= regrow[voxels.point_voxel[on]]
     region_of_voxel = voxel_majority(voxels.point_voxel, point_region, len(voxels))
-    sub_counts: dict = {}
     if regrow.any():
-        subset = subset_voxels(voxels, regrow)
-        sub_points, sub_region = _grow_voxel_regions(filtered, subset, params, report, sub_counts)
+        if found.rough is not None:
+            sub_points, sub_region = whole
+        else:
+            sub_points, sub_region = _grow_voxel_regions(
+                filtered, subset_voxels(voxels, regrow), params, report, sub_counts
+            )
         take = regrown & (sub_points >= 0)
         point_region[take] = n_facets + sub_points[take]
         region_of_voxel[regrow] = np.where(sub_region >= 0, n_facets + sub_region, -1)
@@ -358,6 +371,25 @@ def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Param
     )
 
 
+def _outside_large_surfaces(found, point_region: np.ndarray):
+    """Rough rock's facets (:mod:`.roughfacets`) only where the paper's voxel growing, over
+    the whole cloud (each point's region ``point_region``), grew no large surface
+    (:data:`~.merge.MERGE_MIN_POINTS` points or more: a wall, a roof, a road): on the Sceaux
+    Castle's noisy facade they had cut its walls apart; on the real outcrop no voxel region
+    is that large, and nothing changes."""
+    size = np.bincount(point_region[point_region >= 0], minlength=1)
+    large = (point_region >= 0) & (size[np.maximum(point_region, 0)] >= MERGE_MIN_POINTS)
+    if not large.any():
+        return found
+    labels = np.where(large, -1, found.labels)
+    count = np.bincount(labels[labels >= 0], minlength=int(found.labels.max(initial=-1)) + 1)
+    kept = np.flatnonzero(count >= MIN_FACET_POINTS)
+    kept = kept[np.argsort(-count[kept], kind="stable")]
+    renumber = np.full(len(count) + 1, -1)
+    renumber[kept] = np.arange(len(kept))
+    return dataclasses.replace(found, labels=renumber[labels])
+
+
 def face_surface(labels: np.ndarray, normals: np.ndarray, envelope: np.ndarray) -> np.ndarray:
     """Per plane, 1 where it lies along the face's own surface (its normal within
     :data:`~.roughfacets.FACE_CONE` of the face's over its points, ``envelope`` (N, 3) in the
@@ -365,7 +397,7 @@ def face_surface(labels: np.ndarray, normals: np.ndarray, envelope: np.ndarray) 
     measured, but no discontinuity, and they join no set."""
     on = labels >= 0
     n = len(normals)
-    face = np.stack([np.bincount(labels[on], envelope[on, a], minlength=n) for a in range(3)], axis=1)
+    face = np.stack([np.bincount(labels[on], envelope[on, a], minlength=n) for a in range(3)], axis=1).astype(float)
     face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
     along = np.abs(np.einsum("ij,ij->i", normals, face))
     return (along >= np.cos(np.radians(FACE_CONE))).astype(np.int64)

@@ -34,12 +34,15 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .cells import CellGrid, grid_planes, with_sparse_cells_filled
+from .cells import SURFACE_VARIATION, CellGrid, grid_planes, with_sparse_cells_filled
 
 #: Neighbours of each point's plane: the fewest that fit a plane through the noise (on the
 #: real outcrop 8 to 15 matched 107 to 143 of the 432 fractures, 20 and 30 fewer: the steps
 #: are a few spacings wide, and a wider neighbourhood rounds them into the face).
 NORMAL_NEIGHBOURS = 10
+#: Neighbours searched for the pairs that may join (those within JOIN_RADIUS): a disc of
+#: two spacings holds some 13 points of a surface.
+SEARCH_NEIGHBOURS = 16
 #: The face's planes: a grid this many times finer than the cloud's largest extent.
 ENVELOPE_DIVISIONS = 8
 #: A point whose plane lies within this many degrees of the face's is on the face (DSE's
@@ -52,6 +55,12 @@ JOIN_RADIUS = 2.0
 JOIN_ANGLE_RANGE = (5.0, 15.0)
 #: The fewest points of a facet (DSE's smallest cluster): a step some 3.5 spacings across.
 MIN_FACET_POINTS = 10
+#: A facet's points may stray from its plane (RMS) this many times as far as the points'
+#: neighbourhoods do from theirs (median); farther, it has drifted round a curve while
+#: growing. The roughest 1% of the Lastoni SW facets reach 5.5 times (a step grows rougher
+#: with its size on rough rock: twice kept 110 of the 127 fractures matched); facets that
+#: grew round the Sceaux Castle's mouldings reach 10 to 24 times.
+PLANAR_RESIDUALS = 8.0
 #: Points per batch of the per-point planes (bounds memory near 40 MB a batch).
 BATCH = 100_000
 
@@ -76,28 +85,35 @@ class RoughFacets:
         }
 
 
-def point_normals(points: np.ndarray, k: int = NORMAL_NEIGHBOURS) -> tuple[np.ndarray, np.ndarray]:
+def point_normals(
+    points: np.ndarray, k: int = NORMAL_NEIGHBOURS, search: int = SEARCH_NEIGHBOURS
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each point's unit normal (N, 3), of the least-squares plane through its ``k``
-    nearest neighbours, and those neighbours (N, k).
+    nearest neighbours, with its surface variation lambda_0 / (lambda_0 + lambda_1 +
+    lambda_2) (N,; Pauly et al. 2002) and the RMS distance of those neighbours to it (N,), and its ``search`` nearest neighbours (N, search; the
+    first the point itself) with their distances (N, search).
 
     Examples
     --------
     >>> rng = np.random.default_rng(0)
     >>> flat = np.c_[rng.random((500, 2)), 0.001 * rng.standard_normal(500)]
-    >>> normal, _ = point_normals(flat)
+    >>> normal, variation, residual, _, _ = point_normals(flat)
     >>> bool(np.all(np.abs(normal[:, 2]) > 0.95))
     True
     """
     points = np.asarray(points, dtype=np.float64)
-    k = min(k, len(points))
-    _, neighbours = cKDTree(points).query(points, k=k, workers=-1)
-    normal = np.empty((len(points), 3))
+    k, search = min(k, len(points)), min(max(k, search), len(points))
+    distances, neighbours = cKDTree(points).query(points, k=search, workers=-1)
+    normal, variation, residual = np.empty((len(points), 3)), np.empty(len(points)), np.empty(len(points))
     for start in range(0, len(points), BATCH):
-        rel = points[neighbours[start : start + BATCH]] - points[start : start + BATCH, None, :]
+        rel = points[neighbours[start : start + BATCH, :k]] - points[start : start + BATCH, None, :]
         rel -= rel.mean(axis=1, keepdims=True)
-        _, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", rel, rel))
+        values, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", rel, rel))
         normal[start : start + BATCH] = vectors[:, :, 0]
-    return normal, neighbours
+        values = np.maximum(values, 0.0)
+        variation[start : start + BATCH] = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
+        residual[start : start + BATCH] = np.sqrt(values[:, 0] / k)
+    return normal, variation, residual, neighbours, distances
 
 
 def envelope_normals(points: np.ndarray, divisions: int = ENVELOPE_DIVISIONS) -> np.ndarray:
@@ -125,8 +141,10 @@ def join_angle(normal: np.ndarray, neighbours: np.ndarray) -> float:
 
 
 def component_planes(points, component, envelope, which) -> tuple[np.ndarray, np.ndarray]:
-    """The least-squares plane's normal of each component in ``which`` (W, 3) and the mean
-    face normal over its points (W, 3), from moments summed per component."""
+    """The least-squares plane's normal of each component in ``which`` (W, 3), the mean face
+    normal over its points (W, 3), whether it is thin (its surface variation at most
+    :data:`~.cells.SURFACE_VARIATION`) and its points' RMS distance to its plane (W,), from
+    moments summed per component."""
     on = component >= 0
     index, rel = component[on], points[on] - points[on].mean(axis=0)
     n = len(component) + 1
@@ -137,9 +155,12 @@ def component_planes(points, component, envelope, which) -> tuple[np.ndarray, np
         for b in range(a, 3):
             m = np.bincount(index, rel[:, a] * rel[:, b], minlength=n)[which] / count
             cov[:, a, b] = cov[:, b, a] = m - mean[:, a] * mean[:, b]
-    plane = np.linalg.eigh(cov)[1][:, :, 0] if len(which) else np.zeros((0, 3))
-    face = np.stack([np.bincount(index, envelope[on, a], minlength=n)[which] for a in range(3)], axis=1)
-    return plane, face / np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
+    values, vectors = np.linalg.eigh(cov) if len(which) else (np.zeros((0, 3)), np.zeros((0, 3, 3)))
+    plane = vectors[:, :, 0]
+    thin = values[:, 0] <= SURFACE_VARIATION * np.maximum(values.sum(axis=1), 1e-300)
+    rms = np.sqrt(np.maximum(values[:, 0], 0.0))
+    face = np.stack([np.bincount(index, envelope[on, a], minlength=n)[which] for a in range(3)], axis=1).astype(float)
+    return plane, face / np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300), thin, rms
 
 
 def detect_rough_facets(points: np.ndarray, spacing: float) -> RoughFacets:
@@ -164,22 +185,31 @@ def detect_rough_facets(points: np.ndarray, spacing: float) -> RoughFacets:
     (2, True)
     """
     points = np.asarray(points, dtype=np.float64)
-    normal, neighbours = point_normals(points)
+    normal, variation, residual, neighbours, distances = point_normals(points)
     envelope = envelope_normals(points)
     on_face = np.abs(np.einsum("ij,ij->i", normal, envelope)) >= np.cos(np.radians(FACE_CONE))
-    pairs = cKDTree(points).query_pairs(JOIN_RADIUS * spacing, output_type="ndarray")
-    angle = join_angle(normal, neighbours)
-    pairs = pairs[~on_face[pairs[:, 0]] & ~on_face[pairs[:, 1]]]
+    # A point whose neighbourhood is a volume (vegetation, noise) lies on no facet.
+    off = on_face | (variation > SURFACE_VARIATION)
+    # The pairs: each point with those of its plane's neighbours within the join radius
+    # (a radius search of its own cost twice the time and memory on a million points).
+    close = distances[:, 1:] <= JOIN_RADIUS * spacing
+    pairs = np.column_stack([np.nonzero(close)[0], neighbours[:, 1:][close]])
+    angle = join_angle(normal, neighbours[:, :NORMAL_NEIGHBOURS])
+    pairs = pairs[~off[pairs[:, 0]] & ~off[pairs[:, 1]]]
     agree = np.abs(np.einsum("ij,ij->i", normal[pairs[:, 0]], normal[pairs[:, 1]])) >= np.cos(np.radians(angle))
     pairs = pairs[agree]
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
     _, component = connected_components(graph, directed=False)
-    component[on_face] = -1
+    component[off] = -1
     size = np.bincount(component[component >= 0], minlength=int(component.max(initial=-1)) + 1)
     kept = np.flatnonzero(size >= MIN_FACET_POINTS)
-    # A group whose own plane lies along the face is a rough patch of it, not a step.
-    plane, face = component_planes(points, component, envelope, kept)
-    kept = kept[np.abs(np.einsum("ij,ij->i", plane, face)) < np.cos(np.radians(FACE_CONE))]
+    # A group whose own plane lies along the face is a rough patch of it, not a step; one
+    # as thick as it is wide is no plane (points of a volume whose planes agree by chance).
+    # One whose points stray from its plane more than the cloud's own neighbourhoods do
+    # from theirs has drifted round a curve while growing (a noisy wall's corner).
+    plane, face, thin, rms = component_planes(points, component, envelope, kept)
+    flat = rms <= PLANAR_RESIDUALS * np.median(residual)
+    kept = kept[(np.abs(np.einsum("ij,ij->i", plane, face)) < np.cos(np.radians(FACE_CONE))) & thin & flat]
     kept = kept[np.argsort(-size[kept], kind="stable")]  # numbered by size, as the grid's facets
     renumber = np.full(len(size) + 1, -1)
     renumber[kept] = np.arange(len(kept))

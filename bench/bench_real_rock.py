@@ -1,0 +1,74 @@
+"""Benchmark: GeoStructure against the DSE-style peer on real rock, from the file, end to end.
+
+The cloud is the south-west half of the DICE Lastoni di Formin drone SfM outcrop
+(``../shared/data/dice_lastoni_sw``: 38,219 points at 3 cm, 432 hand-mapped fractures and
+two published set means). Each method runs in its own process from the text file, with
+its default options:
+
+- ``geostructure measure Lastoni_SW_3cm.txt -o OUT --sets``;
+- the peer of ``bench_outcrop.py`` (DSE's method as its paper describes it), keeping its
+  clusters of 30 points or more (as that benchmark does) and of 10 or more (DSE's own
+  minimum).
+
+Each is scored by the data's rule (``geostructure.validation``): mapped fractures matched
+(a plane's centroid within 0.6 m, its normal within 10 degrees), precision (the share of
+the planes that match one), and each published set's angle to the nearest set found. It
+prints seconds, points per second, peak memory and the ratio of the peer's time to ours.
+
+    python bench/bench_real_rock.py
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from bench_outcrop import run_geostructure, run_peer_process
+from common import compile_package, the_commands_memory_settings
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "dice_lastoni_sw"
+
+
+def scores(found: dict) -> dict:
+    """The data's rule on one method's planes and set normals."""
+    from geostructure.io.fieldmap import read_field_map
+    from geostructure.orientation import normal_from_orientation
+    from geostructure.validation import mapped_set_means, set_errors, validate
+
+    mapped = read_field_map(DATA / "fit_planes.csv")
+    means = read_field_map(DATA / "set_means.csv", located=False)
+    v = validate(found["centroids"], found["normals"], mapped.centres,
+                 normal_from_orientation(mapped.dip_direction, mapped.dip))  # fmt: skip
+    errors = set_errors(mapped_set_means(means.dip, means.dip_direction, ["1", "2"]), found["set_normals"])
+    return {"matched": f"{v.n_matched}/{len(mapped)}", "precision": round(v.precision, 3), "planes": len(v.useful),
+            "set_errors_deg": {k: round(e, 1) for k, e in errors.items()}}  # fmt: skip
+
+
+def main() -> None:
+    cloud = DATA / "Lastoni_SW_3cm.txt"
+    if not cloud.is_file():
+        sys.exit(f"{cloud}: not here (../shared/data is beside the checkout)")
+    the_commands_memory_settings()
+    compile_package()
+    n = sum(1 for _ in open(cloud))
+    print(f"{cloud.name}: {n:,} points, default options, each method in its own process from the file")
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = {"geostructure": run_geostructure(cloud, Path(tmp) / "out")}
+        for minimum in (30, 10):
+            runs[f"DSE-style peer, clusters of {minimum}+"] = run_peer_process(
+                cloud, Path(tmp) / f"peer{minimum}.npz", minimum
+            )
+    ours = runs["geostructure"]["seconds"]
+    for name, run in runs.items():
+        row = {"method": name, "seconds": round(run["seconds"], 2), "points_per_s": round(n / run["seconds"]),
+               "peak_mb": round(run["peak_mb"]), "peer_seconds_over_ours": round(run["seconds"] / ours, 2),
+               **scores(run)}  # fmt: skip
+        print(json.dumps(row))
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    main()
