@@ -35,15 +35,15 @@ def lastoni(tmp_path_factory):
 def test_the_default_finds_the_mapped_fractures(lastoni):
     _, scores = lastoni
     assert scores["mapped"] == 432
-    assert scores["matched"] >= 110, scores  # 127 on 2026-12-06; the DSE-style peer 51 to 99
-    assert scores["precision"] >= 0.25, scores  # 0.31
+    assert scores["matched"] >= 110, scores  # 125 on 2026-12-06; the DSE-style peer 51 to 99
+    assert scores["precision"] >= 0.25, scores  # 0.32
 
 
 def test_both_published_sets_are_found(lastoni):
     _, scores = lastoni
     errors = scores["set_errors_deg"]
     assert set(errors) == {"1", "2"}
-    assert max(errors.values()) <= 12.0, errors  # 5.0 and 6.9
+    assert max(errors.values()) <= 12.0, errors  # 8.1 and 8.3
 
 
 def test_the_face_itself_is_no_set(lastoni):

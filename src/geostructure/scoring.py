@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
+from .errors import InputError, ParameterError
 from .evaluate import Evaluation, evaluate
 from .framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from .io.atomic import write_json, write_table_csv
@@ -72,6 +72,16 @@ def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Eval
 
 def refit_frame(planes: Planes, truth: GroundTruth, frame: Frame, truth_path):
     """Planes and truth re-expressed in the frame fitted from the truth itself (see framefit)."""
+    # A rotation is fixed by two directions that are not parallel, in the truth and among
+    # the planes both.
+    for what, normals, count in (
+        ("ground-truth planes", truth.normals, len(truth)),
+        ("measured planes", planes.normal, len(planes)),
+    ):
+        if count < 2 or np.linalg.matrix_rank(np.asarray(normals).reshape(-1, 3), tol=1e-3) < 2:
+            raise InputError(
+                f"{truth_path}: --fit-frame needs two {what} or more that are not parallel (there are {count})."
+            )
     order = np.argsort(-planes.n_points, kind="stable")
     fit = fit_frame_to_truth(planes.normal[order], truth.normals, candidates=30)
     fit.matched = order[fit.matched]

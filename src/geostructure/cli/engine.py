@@ -105,6 +105,22 @@ def memory_bytes_per_point(args) -> int:
     return MEMORY_BYTES_PER_POINT_ROCK if wants_sets(args) or args.kinematics else MEMORY_BYTES_PER_POINT
 
 
+def check_scheduler_address(address: str) -> None:
+    """Refuse, before any work, a --scheduler that is no Dask address (``tcp://HOST:PORT``)."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+    except ImportError:
+        return  # the Dask extra is missing: the engine says so itself
+    try:
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except (ValueError, TypeError) as error:
+        raise GeoStructureError(
+            f"--scheduler {address!r} is no Dask scheduler address ({error}): give one as tcp://HOST:PORT."
+        ) from None
+
+
 def chosen_engine(args, paths) -> str:
     """The engine a run takes: the one asked, or for ``auto`` memory when the cloud fits."""
     engine = getattr(args, "engine", "memory")
@@ -113,6 +129,8 @@ def chosen_engine(args, paths) -> str:
         raise GeoStructureError(f"{' and '.join(given)} set up a Dask cluster: give them with --engine dask.")
     if args.workers is not None and args.workers < 1:
         raise GeoStructureError(f"--workers must be at least 1, not {args.workers}.")
+    if args.scheduler:
+        check_scheduler_address(args.scheduler)
     if engine != "auto":
         return engine
     limit = args.max_memory or default_max_memory()

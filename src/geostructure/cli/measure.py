@@ -139,7 +139,7 @@ def add_measure_commands(sub) -> None:
     d = sub.add_parser("demo", help="measure the bundled synthetic observatory scene")
     d.add_argument("-o", "--outdir", type=folder, default=Path("out/demo"))
     d.add_argument("--points", type=whole(1000), default=300_000, help="points in the scene")
-    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--seed", type=whole(0), default=0, help="the scene's random seed, 0 or more")
     d.add_argument(
         "--report",
         action=argparse.BooleanOptionalAction,

@@ -226,6 +226,8 @@ def crs_from(args) -> str | None:
     """``--crs`` as the text a cloud carries (``EPSG:XXXX``, or the WKT of a file), checked
     before any work; None when not given."""
     text = getattr(args, "crs", None)
+    if text is not None and not text.strip():
+        raise GeoStructureError("--crs is empty: give EPSG:XXXX or a file holding the CRS's WKT, or leave it out.")
     if not text:
         return None
     crs = parse_crs(text)

@@ -122,6 +122,12 @@ def add_kinematic_options(parser, *, flag: bool) -> None:
     )
 
 
+#: The largest --cohesion (kPa), --unit-weight (kN/m3) and --height (m) taken.
+MAX_COHESION = 1e5
+MAX_UNIT_WEIGHT = 100.0
+MAX_HEIGHT = 1e4
+
+
 def kinematic_settings(args) -> dict | None:
     """The kinematic tests' settings from the options, checked (before any work): friction,
     slope (None: fit it) and lateral limit; None when they were not asked for."""
@@ -140,12 +146,18 @@ def kinematic_settings(args) -> dict | None:
         upper = _dip_and_direction("--upper-slope", args.upper_slope, "12/195")
         if not (math.isfinite(upper[0]) and 0.0 <= upper[0] < (slope.dip if slope is not None else 90.0)):
             raise ParameterError(f"--upper-slope must dip 0 or more and less than the face, not {upper[0]:g} degrees.")
-    for name, value, least in (("--cohesion", args.cohesion, 0.0), ("--unit-weight", args.unit_weight, None)):
-        if not math.isfinite(value) or (value < least if least is not None else value <= 0):
+    # Bounds no rock reaches, so that the arithmetic cannot overflow: the strongest intact
+    # rock's cohesion is some 50 MPa, rock weighs 20 to 30 kN/m3, no slope is 10 km high.
+    for name, value, least, most in (
+        ("--cohesion", args.cohesion, 0.0, MAX_COHESION),
+        ("--unit-weight", args.unit_weight, None, MAX_UNIT_WEIGHT),
+        ("--height", args.height, None, MAX_HEIGHT),
+    ):
+        if value is None:
+            continue
+        if not math.isfinite(value) or (value < least if least is not None else value <= 0) or value > most:
             bound = "0 or more" if least is not None else "more than 0"
-            raise ParameterError(f"{name} must be a finite number, {bound}, not {value}.")
-    if args.height is not None and not (math.isfinite(args.height) and args.height > 0):
-        raise ParameterError(f"--height must be a finite number of metres, more than 0, not {args.height}.")
+            raise ParameterError(f"{name} must be a finite number, {bound} and at most {most:g}, not {value:g}.")
     return {
         "friction": args.friction,
         "slope": slope,

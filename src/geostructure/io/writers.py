@@ -26,9 +26,11 @@ from .outdir import EVALUATION_FILES, OutputSet, output_set
 from .results import PLANE_AREA, SCALAR, in_square_metres
 
 
-def _ascii(text: str) -> str:
-    """A PLY comment must be ASCII: other characters are written as escapes (café -> caf\\xe9)."""
-    return text.encode("ascii", "backslashreplace").decode("ascii")
+def ply_comment(text: str) -> str:
+    """A PLY comment must be ASCII on one line: other characters are written as escapes
+    (café -> caf\\xe9, a newline in a file name -> \\n)."""
+    text = text.encode("ascii", "backslashreplace").decode("ascii")
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def write_regions_ply(result, path) -> Path:
@@ -49,7 +51,7 @@ def write_regions_ply(result, path) -> Path:
     if filtered.vegetation is not None:
         vertex[SCALAR + "vegetation"] = filtered.vegetation
     return write_vertex_ply(
-        path, vertex, ["written by geostructure", f"source {_ascii(Path(result.cloud.source).name)}"]
+        path, vertex, ["written by geostructure", f"source {ply_comment(Path(result.cloud.source).name)}"]
     )
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from ..io.crs import parse_crs
 from ..io.laz import KeptWriteErrors, las_grid, rewrite_point_sets
 from ..io.results import SCALAR
+from ..io.writers import ply_comment
 
 
 class RegionsPly:
@@ -23,7 +24,7 @@ class RegionsPly:
         self._dtype = None
 
     def begin(self, n_points: int, lower, upper, cloud) -> None:
-        name = Path(cloud.source.split(",")[0]).name.encode("ascii", "backslashreplace").decode("ascii")
+        name = ply_comment(Path(cloud.source.split(",")[0]).name)
         fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), (SCALAR + "region_id", "<i4")]
         marked = cloud.vegetation is not None  # the spill's cloud carries an empty mark when any is
         fields += [(SCALAR + "vegetation", "u1")] if marked else []

@@ -222,7 +222,10 @@ def chunk_labels(chunk: Chunk, context: LabelContext):
     keep = context.keep.keep(local, chunk)
     kept = local[keep]
     voxel = context.voxels.find(kept)
-    labels = np.where(voxel >= 0, context.plane_of_voxel[np.maximum(voxel, 0)], -1).astype(np.int32)
+    # One entry past the voxels, -1: a point in no voxel, or a cloud with no voxel plane at
+    # all (collinear points), takes it.
+    plane_of_voxel = np.append(context.plane_of_voxel, -1)
+    labels = plane_of_voxel[np.where(voxel >= 0, voxel, len(plane_of_voxel) - 1)].astype(np.int32)
     mine = np.flatnonzero(labels >= 0)
     order = mine[label_order(labels[mine])]
     planes, starts = np.unique(labels[order], return_index=True)

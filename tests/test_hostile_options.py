@@ -1,0 +1,69 @@
+"""Options and names a hostile or careless user gives: one sentence and exit 2, never a
+traceback (each case failed so before 2026-12-06)."""
+
+import numpy as np
+import pytest
+from helpers import assert_one_sentence, folder_digests, run_cli, write_xyz
+
+
+@pytest.fixture(scope="module")
+def flat(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("hostile_options")
+    rng = np.random.default_rng(0)
+    return write_xyz(folder / "c.xyz", rng.random((3000, 3)) * [10.0, 10.0, 0.01])
+
+
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        (["--sets", "--kinematics", "--friction", "30", "--cohesion", "10", "--height", "1e308"], ["--height"]),
+        (["--sets", "--kinematics", "--friction", "30", "--cohesion", "1e308"], ["--cohesion"]),
+        (["--sets", "--kinematics", "--friction", "30", "--unit-weight", "1e300"], ["--unit-weight"]),
+        (["--engine", "dask", "--scheduler", "garbage"], ["--scheduler", "garbage"]),
+        (["--crs", ""], ["--crs"]),
+    ],
+)
+def test_options_that_cannot_mean_anything_are_refused_before_the_work(flat, tmp_path, capsys, options, words):
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, "measure", flat, "-o", out, "-q", *options)
+    assert code == 2
+    assert_one_sentence(err, *words)
+    assert not out.exists()
+
+
+def test_a_negative_demo_seed_is_refused(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        run_cli(capsys, "demo", "-o", tmp_path / "d", "--seed", "-1", "-q")
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "--seed" in err and "Traceback" not in err
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.parametrize("engine", ["memory", "stream"])
+def test_a_newline_in_the_file_name_is_written_escaped(flat, tmp_path, capsys, engine):
+    named = tmp_path / "a\nb.xyz"
+    named.write_bytes(flat.read_bytes())
+    out = tmp_path / "o\nut"
+    code, _, err = run_cli(capsys, "measure", named, "-o", out, "-q", "--engine", engine)
+    assert code == 0, err
+    header = (out / "regions.ply").read_bytes().split(b"end_header")[0]
+    assert b"comment source a\\nb.xyz\n" in header
+
+
+def test_collinear_points_streamed_give_no_plane_and_no_traceback(tmp_path, capsys):
+    t = np.linspace(0.0, 1.0, 3000)
+    line = write_xyz(tmp_path / "line.xyz", np.c_[t, 2 * t, 3 * t])
+    code, _, err = run_cli(capsys, "measure", line, "-o", tmp_path / "o", "-q", "--engine", "stream")
+    assert code == 0 and "no plane found" in err and "Traceback" not in err
+
+
+def test_a_frame_fit_needs_two_truth_planes(flat, tmp_path, capsys):
+    out = tmp_path / "m"
+    assert run_cli(capsys, "measure", flat, "-o", out, "-q")[0] == 0
+    truth = tmp_path / "t.csv"
+    truth.write_text("surface,dip,dip_direction\na,40,90\n")
+    before = folder_digests(out)
+    code, _, err = run_cli(capsys, "evaluate", out, "--truth", truth, "--fit-frame")
+    assert code == 2
+    assert_one_sentence(err, "t.csv", "--fit-frame")
+    assert folder_digests(out) == before
