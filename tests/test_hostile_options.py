@@ -67,3 +67,24 @@ def test_a_frame_fit_needs_two_truth_planes(flat, tmp_path, capsys):
     assert code == 2
     assert_one_sentence(err, "t.csv", "--fit-frame")
     assert folder_digests(out) == before
+
+
+def test_a_file_in_the_working_folder_is_never_removed(flat, tmp_path, capsys):
+    """An input inside OUTDIR/.geostructure-staging was deleted by the run it fed; a user's
+    file left there was deleted by the next run. Both are refused now, the file kept."""
+    out = tmp_path / "out"
+    assert run_cli(capsys, "measure", flat, "-o", out, "-q")[0] == 0
+    staging = out / ".geostructure-staging"
+    staging.mkdir()
+    inside = staging / "c.xyz"
+    inside.write_bytes(flat.read_bytes())
+    before = folder_digests(out)
+    code, _, err = run_cli(capsys, "measure", inside, "-o", out, "-q")
+    assert code == 2
+    assert_one_sentence(err, "c.xyz", ".geostructure-staging")
+    assert folder_digests(out) == before and inside.read_bytes() == flat.read_bytes()
+    inside.rename(staging / "note.txt")
+    code, _, err = run_cli(capsys, "measure", flat, "-o", out, "-q")
+    assert code == 2
+    assert_one_sentence(err, "note.txt")
+    assert (staging / "note.txt").read_bytes() == flat.read_bytes()

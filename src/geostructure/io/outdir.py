@@ -124,13 +124,19 @@ def prepare_outdir(outdir) -> Path:
 
 
 def check_inputs_not_outputs(outdir, inputs) -> None:
-    """Refuse an input file that a run would overwrite or remove: one of OUTDIR's output names."""
+    """Refuse an input file that a run would overwrite or remove: one of OUTDIR's output
+    names, or a file in its staging folder (the run's own working folder)."""
     outdir = Path(outdir)
     if not outdir.is_dir():
         return
+    staging = (outdir / STAGING).resolve()
     for source in inputs:
         if source is None or not Path(source).is_file():
             continue
+        if staging in Path(source).resolve().parents:
+            raise OutputError(
+                f"{source}: lies in {outdir / STAGING}, the run's own working folder; copy it elsewhere first."
+            )
         for name in sorted(OWNED):
             target = outdir / name
             if target.exists() and os.path.samefile(source, target):
@@ -331,7 +337,10 @@ def output_set(
         except BaseException as exc:
             if (outputs.staging / JOURNAL).exists():
                 raise  # committed: the next command finishes the move (recover)
-            shutil.rmtree(outputs.staging, ignore_errors=True)
+            try:
+                clear_staging(outputs.staging)
+            except OutputError:
+                pass  # something else was put there meanwhile: left, and the next run says so
             if isinstance(exc, OSError):  # a full disk, a quota, a file system gone read-only
                 raise OutputError(
                     f"{outdir}: cannot write the outputs ({exc.strerror or exc}); the folder holds what it held before."
@@ -366,7 +375,34 @@ def _roll_forward(outdir: Path) -> None:
         if name in OWNED:
             (outdir / name).unlink(missing_ok=True)
     _fsync(outdir)
-    shutil.rmtree(staging, ignore_errors=True)
+    clear_staging(staging)
+
+
+#: The files a staging folder may hold besides the outputs: the records and the journal.
+RECORD_NAMES = frozenset({"run.json", "sweep.json", JOURNAL})
+
+
+def clear_staging(staging: Path) -> None:
+    """Remove a staging folder and the files GeoStructure writes there (its outputs, records,
+    journal and their temporary files); one that holds anything else is refused, left as
+    it is: a run never removes what it did not create."""
+    staging = Path(staging)
+    if not staging.is_dir():
+        return
+    foreign = []
+    for entry in staging.iterdir():
+        match = TEMP_PATTERN.match(entry.name)
+        name = match.group("name") if match else entry.name
+        if (name in OWNED or name in RECORD_NAMES) and entry.is_file() and not entry.is_symlink():
+            entry.unlink(missing_ok=True)
+        else:
+            foreign.append(entry.name)
+    if foreign:
+        raise OutputError(
+            f"{staging}: holds {', '.join(sorted(foreign)[:3])}{' and more' if len(foreign) > 3 else ''}, which "
+            f"GeoStructure did not write there; move it out of this working folder, then run again."
+        )
+    staging.rmdir()
 
 
 def recover(outdir) -> None:
@@ -378,7 +414,7 @@ def recover(outdir) -> None:
         if read_record(staging / JOURNAL) is not None:
             _roll_forward(outdir)
         else:
-            shutil.rmtree(staging, ignore_errors=True)
+            clear_staging(staging)
     for entry in outdir.iterdir():
         match = TEMP_PATTERN.match(entry.name)
         if match and match.group("name") in OWNED and entry.is_file():
