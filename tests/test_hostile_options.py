@@ -88,3 +88,18 @@ def test_a_file_in_the_working_folder_is_never_removed(flat, tmp_path, capsys):
     assert code == 2
     assert_one_sentence(err, "note.txt")
     assert (staging / "note.txt").read_bytes() == flat.read_bytes()
+
+
+@pytest.mark.parametrize("name", ["run.json", "planes.csv", "sets.csv"])
+def test_a_folder_where_an_output_goes_is_refused_before_the_work(flat, tmp_path, capsys, name):
+    out = tmp_path / "out"
+    assert run_cli(capsys, "measure", flat, "-o", out, "-q")[0] == 0
+    (out / name).unlink(missing_ok=True)
+    (out / name).mkdir()
+    before = folder_digests(out)
+    for argv in (["measure", flat, "-o", out], ["sets", out]):
+        code, _, err = run_cli(capsys, *argv, "-q")
+        assert code == 2
+        assert_one_sentence(err, name)
+        assert folder_digests(out) == before and (out / name).is_dir()
+        assert not (out / ".geostructure-staging").exists()

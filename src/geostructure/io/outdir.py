@@ -98,6 +98,7 @@ def check_outdir(outdir) -> Path:
             if existing == outdir
             else f"{outdir}: cannot be created in {existing} (not writable)."
         )
+    check_output_targets(outdir)
     # The permission bits do not tell everything: root passes them where the file system
     # itself refuses (/proc, a root-squashed NFS share), and the refusal came only when the
     # results were written, after the whole measurement. A folder made and removed at once
@@ -111,6 +112,21 @@ def check_outdir(outdir) -> Path:
             else f"{outdir}: cannot be created in {existing} (the file system refused: {exc.strerror})."
         ) from None
     return outdir
+
+
+def check_output_targets(outdir) -> None:
+    """Refuse a folder where an output's place is taken by a folder or a link: the set
+    would move in without that file (or the staging folder be left behind)."""
+    outdir = Path(outdir)
+    if not outdir.is_dir():
+        return
+    for name in sorted(OWNED | RECORD_NAMES):
+        target = outdir / name
+        if target.is_symlink() or (target.exists() and not target.is_file()):
+            raise OutputError(
+                f"{target}: is {'a link' if target.is_symlink() else 'a folder'} where the output {name} goes; "
+                f"move it away or choose another output folder."
+            )
 
 
 def prepare_outdir(outdir) -> Path:
@@ -318,6 +334,7 @@ def output_set(
     ['planes.csv']
     """
     check_inputs_not_outputs(outdir, inputs)
+    check_output_targets(outdir)
     created = not Path(outdir).is_dir()
     outdir = prepare_outdir(outdir)
     with _removed_on_failure(outdir, created), _locked(outdir):
