@@ -103,3 +103,16 @@ def test_a_folder_where_an_output_goes_is_refused_before_the_work(flat, tmp_path
         assert_one_sentence(err, name)
         assert folder_digests(out) == before and (out / name).is_dir()
         assert not (out / ".geostructure-staging").exists()
+
+
+def test_dask_leaves_nothing_in_the_temporary_folder(flat, tmp_path, capsys, monkeypatch):
+    pytest.importorskip("distributed")
+    import tempfile
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setenv("TMPDIR", str(scratch))
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    code, _, err = run_cli(capsys, "measure", flat, "-o", tmp_path / "o", "-q", "--engine", "dask", "--workers", "1")
+    assert code == 0, err
+    assert sorted(p.name for p in scratch.iterdir()) == []  # was: dask-scratch-space

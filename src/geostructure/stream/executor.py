@@ -35,17 +35,29 @@ class DaskExecutor:
             from distributed import Client, LocalCluster
         except ImportError:
             raise GeoStructureError("--engine dask needs dask.distributed: pip install 'geostructure[dask]'.") from None
-        self._cluster = None
+        self._cluster, self._scratch = None, None
         if address:
             try:
                 self.client = Client(address, timeout="10s")
             except (OSError, TimeoutError) as error:
                 raise GeoStructureError(f"{address}: no Dask scheduler answers there ({error}).") from None
         else:
-            self._cluster = LocalCluster(
-                n_workers=workers or 2, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-            self.client = Client(self._cluster)
+            # The workers' scratch space in a folder of this run's, removed on close: Dask's
+            # default, dask-scratch-space in the temporary folder, outlived every run.
+            import tempfile
+
+            import dask
+
+            self._scratch = tempfile.mkdtemp(prefix="geostructure-dask-")
+            with dask.config.set({"temporary-directory": self._scratch}):
+                self._cluster = LocalCluster(
+                    n_workers=workers or 2,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    local_directory=self._scratch,
+                )
+                self.client = Client(self._cluster)
         self.n_workers = max(1, len(self.client.scheduler_info()["workers"]))
 
     def map(self, fn, chunks, context):
@@ -64,6 +76,12 @@ class DaskExecutor:
             future.release()
 
     def close(self) -> None:
-        self.client.close()
-        if self._cluster is not None:
-            self._cluster.close()
+        import shutil
+
+        try:
+            self.client.close()
+            if self._cluster is not None:
+                self._cluster.close()
+        finally:
+            if self._scratch is not None:
+                shutil.rmtree(self._scratch, ignore_errors=True)
