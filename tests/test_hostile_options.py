@@ -116,3 +116,47 @@ def test_dask_leaves_nothing_in_the_temporary_folder(flat, tmp_path, capsys, mon
     code, _, err = run_cli(capsys, "measure", flat, "-o", tmp_path / "o", "-q", "--engine", "dask", "--workers", "1")
     assert code == 0, err
     assert sorted(p.name for p in scratch.iterdir()) == []  # was: dask-scratch-space
+
+
+@pytest.fixture(scope="module")
+def outcrop_file(tmp_path_factory):
+    from geostructure.synthetic import outcrop_scene
+
+    folder = tmp_path_factory.mktemp("outcrop_file")
+    return write_xyz(folder / "outcrop.xyz", outcrop_scene(width=8.0, height=5.0, seed=5).cloud.points)
+
+
+KINEMATIC_RUN = ["--sets", "--kinematics", "--friction", "30", "-q"]
+
+
+def test_a_late_refusal_commits_nothing(outcrop_file, tmp_path, capsys):
+    """The upper slope is checked against the fitted face only after the measure: the
+    refusal left a new folder with a complete measure and sets. One command, one commit."""
+    out = tmp_path / "new"
+    code, _, err = run_cli(capsys, "measure", outcrop_file, "-o", out, *KINEMATIC_RUN,
+                           "--cohesion", "10", "--upper-slope", "89/180")  # fmt: skip
+    assert code == 2
+    assert_one_sentence(err, "upper slope")
+    assert not out.exists()
+    assert run_cli(capsys, "measure", outcrop_file, "-o", out, *KINEMATIC_RUN)[0] == 0
+    before = folder_digests(out)
+    code, _, _ = run_cli(capsys, "measure", outcrop_file, "-o", out, *KINEMATIC_RUN,
+                         "--cohesion", "10", "--upper-slope", "89/180")  # fmt: skip
+    assert code == 2 and folder_digests(out) == before
+
+
+def test_an_interrupt_during_the_kinematics_commits_nothing(outcrop_file, tmp_path, capsys, monkeypatch):
+    import geostructure.slope_stability as stability
+
+    out = tmp_path / "o"
+    assert run_cli(capsys, "measure", outcrop_file, "-o", out, "-q")[0] == 0
+    before = folder_digests(out)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(stability, "kinematics_of", interrupted)
+    code, _, err = run_cli(capsys, "measure", outcrop_file, "-o", out, *KINEMATIC_RUN, "--report")
+    assert code != 0 and "Traceback" not in err
+    assert folder_digests(out) == before  # the measure and sets before it are not committed alone
+    assert not (out / ".geostructure-staging").exists()

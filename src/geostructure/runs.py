@@ -58,6 +58,7 @@ def save_measurement(
     sets=None,
     rock=None,
     point_files=True,
+    then=None,
 ) -> dict[str, Path]:
     """Write a measurement's files, and optionally its evaluation and report, as one set.
 
@@ -82,6 +83,10 @@ def save_measurement(
         ``planes.csv`` and ``run.json``.
     point_files : bool or callable
         How ``regions.ply`` and ``regions.laz`` are written (:func:`~.io.writers.write_result`).
+    then : callable, optional
+        ``then(outputs)`` stages more files into the same set before the report (the
+        kinematics of ``measure --kinematics``), reading the staged ones, and returns their
+        paths: the set commits once, after it, or not at all.
 
     Returns
     -------
@@ -102,7 +107,11 @@ def save_measurement(
         paths = write_result(result, outputs, extra, sets, rock, point_files=point_files)
         if evaluation is not None:
             paths.update(stage_evaluation(outputs, evaluation, evaluation_extra))
+        if then is not None:
+            outputs.write_record()  # the staged set's readers read its record too
+            paths.update(then(outputs))
         if report:
+            outputs.write_record()
             paths.update(stage_report(outputs, outputs.staging, max_points))
     return paths
 

@@ -9,6 +9,7 @@ per plane, per pair of planes and per set, and adds ``kinematics.csv``, ``wedges
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -182,68 +183,93 @@ def add_kinematics(
     >>> summary["slope"]["source"], sorted(paths)
     ('fitted', ['kinematics', 'kinematics_json', 'kinematics_png', 'wedges'])
     """
-    from .runs import detected_spacing, redraw_report  # lazy: runs imports the report's modules when drawing
+    from .runs import redraw_report  # lazy: runs imports the report's modules when drawing
 
-    report = progress or (lambda stage, done, total: None)
     with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES + REPORT_FILES) as outputs:
-        frame = Frame.from_dict(outputs.record.get("frame") or {})
         had_report = (outputs.outdir / "report.html").is_file()
-        planes = read_planes(outputs.outdir)
-        strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
-        if slope is None or (cohesion and height is None):
-            report("slope", 0, None)
-            points, region, vegetation = points or read_measured(outputs.outdir, outputs.record, planes.offset)[:3]
-            if slope is None:
-                spacing = detected_spacing(outputs.record.get("detection"))
-                labels = plane_rows(region, planes.region_id)
-                slope = fit_face(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
-                                                             spacing=spacing, vegetation=vegetation),
-                                 offset=planes.offset)  # fmt: skip
-            if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
-                height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
-                strength["height_source"] = "the cloud's height"
-        if cohesion:
-            strength["height_m"] = float(height)
-            strength.setdefault("height_source", "given")
-        face = slope if isinstance(slope, FittedFace) else FittedFace(slope, None, (slope,))
-        if upper_slope is not None:
-            gentlest = min(part.dip for part in face.slopes)  # of a face in sections, its gentlest
-            if not upper_slope[0] < gentlest:
-                raise ParameterError(
-                    f"the upper slope ({upper_slope[0]:g} deg) must dip less than the face ({gentlest:.1f} deg): "
-                    f"there is no crest otherwise."
-                )
-            strength["upper_slope_dip"], strength["upper_slope_dip_direction"] = map(float, upper_slope)
-        report("kinematics", 0, None)
-        # each plane tested against the slope of the section it lies in
-        sections = (face.plane_sections(planes), face.slopes) if len(face.slopes) > 1 else None
-        summary, rows, wedge_columns, figure = kinematics_of(
-            planes, read_sets(outputs.outdir), face.slope, friction, lateral_limit, strength, sections
-        )
-        warn_of(bent_slope(summary["slope"]), outdir)
-        warn_of(gentle_slope(summary), outdir)
-        note_of(sectioned_slope(summary), outdir)
-        report("write", 0, None)
-        write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
-        write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))
-        write_json(summary, outputs.path("kinematics.json"))
-        # tight: the legend grows with the sets and their wedges
-        write_figure(
-            figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120, bbox_inches="tight"
-        )
-        outputs.record["kinematics"] = {
-            k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg", "strength")
-        }
-        names = {
-            "kinematics": "kinematics.csv",
-            "wedges": "wedges.csv",
-            "kinematics_json": "kinematics.json",
-            "kinematics_png": "kinematics.png",
-        }
-        paths = {key: outputs.final(name) for key, name in names.items()}
+        summary, paths = stage_kinematics(
+            outputs, outputs.outdir, friction, slope=slope, lateral_limit=lateral_limit, cohesion=cohesion,
+            unit_weight=unit_weight, height=height, upper_slope=upper_slope, progress=progress, points=points,
+        )  # fmt: skip
         if had_report:  # the report's stereonet shows the envelopes: draw it again
             paths.update(redraw_report(outputs))
     return summary, paths
+
+
+def stage_kinematics(
+    outputs,
+    source,
+    friction: float,
+    *,
+    slope: Slope | None = None,
+    lateral_limit: float = LATERAL_LIMIT,
+    cohesion: float = 0.0,
+    unit_weight: float = UNIT_WEIGHT,
+    height: float | None = None,
+    upper_slope: tuple[float, float] | None = None,
+    progress=None,
+    points: tuple | None = None,
+):
+    """The kinematic tests of the planes in ``source`` (a measured folder, or the staging
+    folder of a set being written), their files written into the open set ``outputs``,
+    which commits them with the rest of its files: one command, one commit (a refusal or an
+    interrupt here leaves the folder as it was). The options are :func:`add_kinematics`'s;
+    returns the summary and output kind -> final path."""
+    from .runs import detected_spacing  # lazy, as above
+
+    report = progress or (lambda stage, done, total: None)
+    source = Path(source)
+    frame = Frame.from_dict(outputs.record.get("frame") or {})
+    planes = read_planes(source)
+    strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
+    if slope is None or (cohesion and height is None):
+        report("slope", 0, None)
+        points, region, vegetation = points or read_measured(source, outputs.record, planes.offset)[:3]
+        if slope is None:
+            spacing = detected_spacing(outputs.record.get("detection"))
+            labels = plane_rows(region, planes.region_id)
+            slope = fit_face(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
+                                                         spacing=spacing, vegetation=vegetation),
+                             offset=planes.offset)  # fmt: skip
+        if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
+            height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
+            strength["height_source"] = "the cloud's height"
+    if cohesion:
+        strength["height_m"] = float(height)
+        strength.setdefault("height_source", "given")
+    face = slope if isinstance(slope, FittedFace) else FittedFace(slope, None, (slope,))
+    if upper_slope is not None:
+        gentlest = min(part.dip for part in face.slopes)  # of a face in sections, its gentlest
+        if not upper_slope[0] < gentlest:
+            raise ParameterError(
+                f"the upper slope ({upper_slope[0]:g} deg) must dip less than the face ({gentlest:.1f} deg): "
+                f"there is no crest otherwise."
+            )
+        strength["upper_slope_dip"], strength["upper_slope_dip_direction"] = map(float, upper_slope)
+    report("kinematics", 0, None)
+    # each plane tested against the slope of the section it lies in
+    sections = (face.plane_sections(planes), face.slopes) if len(face.slopes) > 1 else None
+    summary, rows, wedge_columns, figure = kinematics_of(
+        planes, read_sets(source), face.slope, friction, lateral_limit, strength, sections
+    )
+    where = outputs.outdir
+    warn_of(bent_slope(summary["slope"]), where)
+    warn_of(gentle_slope(summary), where)
+    note_of(sectioned_slope(summary), where)
+    report("write", 0, None)
+    write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
+    write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))
+    write_json(summary, outputs.path("kinematics.json"))
+    # tight: the legend grows with the sets and their wedges
+    write_figure(figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120, bbox_inches="tight")
+    outputs.record["kinematics"] = {k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg", "strength")}
+    names = {
+        "kinematics": "kinematics.csv",
+        "wedges": "wedges.csv",
+        "kinematics_json": "kinematics.json",
+        "kinematics_png": "kinematics.png",
+    }
+    return summary, {key: outputs.final(name) for key, name in names.items()}
 
 
 KINEMATICS_COLUMNS = (

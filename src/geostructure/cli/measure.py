@@ -25,7 +25,7 @@ from ..rockmass import with_rock_mass
 from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
 from ..scoring import add_evaluation, add_validation
 from ..setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
-from ..slope_stability import add_kinematics, fit_face
+from ..slope_stability import fit_face, stage_kinematics
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
@@ -232,6 +232,23 @@ def measure_cloud(
             note_voxel_planes(params.detector, cloud.source)
             note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
             note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
+        kinematics = kinematic_settings(args)
+        if kinematics is not None and kinematics["slope"] is None and rock is not None:
+            # The face the sets' rock mass was read on, fitted here, where its points are:
+            # the folder's would be read back and told from their ground and clutter again.
+            members = None if rock.point_part is None else rock.point_part == FACE
+            kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=rock.face_bend,
+                                           offset=result.filtered.offset, sections=rock.sections)  # fmt: skip
+        kinematic_summary = {}
+
+        def stage_kinematics_too(outputs):
+            """The kinematics, in the measure's own set: one command, one commit."""
+            held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # the folder's points
+            summary, kinematic_paths = stage_kinematics(outputs, outputs.staging, **kinematics, progress=progress,
+                                                        points=(held, result.labels, result.filtered.vegetation))  # fmt: skip
+            kinematic_summary.update(summary)
+            return kinematic_paths
+
         progress("write", 0, None)
         if callable(point_files):  # a thinned survey's: a pass over all its points, with its own bar
             point_files = functools.partial(point_files, progress=progress)
@@ -245,21 +262,8 @@ def measure_cloud(
             sets=sets,
             rock=rock,
             point_files=point_files,
+            then=stage_kinematics_too if kinematics is not None else None,
         )
-    kinematics = kinematic_settings(args)
-    if kinematics is not None and kinematics["slope"] is None and rock is not None:
-        # The face the sets' rock mass was read on, fitted here, where its points are:
-        # the folder's would be read back and told from their ground and clutter again.
-        members = None if rock.point_part is None else rock.point_part == FACE
-        kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=rock.face_bend,
-                                       offset=result.filtered.offset, sections=rock.sections)  # fmt: skip
-    if kinematics is not None:  # a set of its own, added to the measured folder
-        held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # the folder's points
-        with StageProgress(enabled=not args.quiet) as progress:
-            kinematic_summary, kinematic_paths = add_kinematics(
-                args.outdir, **kinematics, progress=progress, points=(held, result.labels, result.filtered.vegetation)
-            )
-        paths.update(kinematic_paths)
     say_what_was_left(
         len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None, args.min_points
     )
