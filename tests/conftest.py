@@ -50,3 +50,24 @@ def plane_points(normal, n=4000, size=10.0, noise=0.01, center=(0, 0, 0), seed=0
     v = np.cross(normal, u)
     ab = (rng.random((n, 2)) - 0.5) * size
     return np.asarray(center) + ab[:, :1] * u + ab[:, 1:] * v + rng.normal(0, noise, (n, 1)) * normal
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """Debian's headless Chromium under selenium, logging the page's console; skipped with a
+    message where it is not installed (a failure in CI, which installs it)."""
+    import os
+    import shutil
+
+    from geostructure.testing.browser import CHROMIUM, DRIVER, start_chromium
+
+    if not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)):
+        message = "Debian's chromium and chromium-driver are not installed (make test installs them as root)"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+    pytest.importorskip("selenium.webdriver")
+    driver, profile = start_chromium(log_console=True)
+    yield driver
+    driver.quit()
+    shutil.rmtree(profile, ignore_errors=True)

@@ -1,7 +1,5 @@
 """End-to-end: report.html in a real headless Chromium (Debian's chromium + chromedriver)."""
 
-import os
-import shutil
 import time
 
 import pytest
@@ -9,23 +7,8 @@ import pytest
 from geostructure.evaluate import match_scene
 from geostructure.io.writers import write_evaluation, write_outputs
 from geostructure.report.html import build_report
-from geostructure.testing.browser import CHROMIUM, DRIVER, start_chromium
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
-
-
-@pytest.fixture(scope="module")
-def browser():
-    if not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)):
-        message = "Debian's chromium and chromium-driver are not installed (make test installs them as root)"
-        if os.environ.get("CI"):
-            pytest.fail(message)
-        pytest.skip(message)
-    pytest.importorskip("selenium.webdriver")
-    driver, profile = start_chromium(log_console=True)
-    yield driver
-    driver.quit()
-    shutil.rmtree(profile, ignore_errors=True)
 
 
 def open_report(driver, path, timeout=90):

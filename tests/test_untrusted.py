@@ -2,7 +2,6 @@
 name, on every path into the page) and not as a formula in any CSV the project writes."""
 
 import csv
-import os
 import shutil
 import time
 
@@ -114,31 +113,18 @@ def _number(text: str) -> bool:
 
 @pytest.mark.browser
 @pytest.mark.slow
-def test_nothing_runs_in_chromium_when_every_plane_is_clicked(hostile_run):
-    from geostructure.testing.browser import CHROMIUM, DRIVER, start_chromium
-
-    if not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)):
-        message = "Debian's chromium and chromium-driver are not installed (make test installs them as root)"
-        if os.environ.get("CI"):
-            pytest.fail(message)
-        pytest.skip(message)
-    pytest.importorskip("selenium.webdriver")
+def test_nothing_runs_in_chromium_when_every_plane_is_clicked(hostile_run, browser):
     out, _ = hostile_run
-    driver, profile = start_chromium()
-    try:
-        driver.get((out / "report.html").resolve().as_uri())
-        end = time.monotonic() + 90
-        while not driver.execute_script("return window.reportReady === true"):
-            assert time.monotonic() < end, "report.html never finished drawing"
-            time.sleep(0.1)
-        title = driver.title
-        for row in driver.find_elements("css selector", "#planes tbody tr"):
-            row.click()
-            assert driver.title == title
-            assert not driver.find_elements("css selector", "#info img, #planes img, #sets img")
-        # The name is shown as the text it is; a script that ran would have set the title to 'owned'.
-        assert driver.title == f"GeoStructure: {HOSTILE}.xyz"
-        assert driver.find_element("id", "title").text == driver.title
-    finally:
-        driver.quit()
-        shutil.rmtree(profile, ignore_errors=True)
+    browser.get((out / "report.html").resolve().as_uri())
+    end = time.monotonic() + 90
+    while not browser.execute_script("return window.reportReady === true"):
+        assert time.monotonic() < end, "report.html never finished drawing"
+        time.sleep(0.1)
+    title = browser.title
+    for row in browser.find_elements("css selector", "#planes tbody tr"):
+        row.click()
+        assert browser.title == title
+        assert not browser.find_elements("css selector", "#info img, #planes img, #sets img")
+    # The name is shown as the text it is; a script that ran would have set the title to 'owned'.
+    assert browser.title == f"GeoStructure: {HOSTILE}.xyz"
+    assert browser.find_element("id", "title").text == browser.title

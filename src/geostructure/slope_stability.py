@@ -120,20 +120,9 @@ def fit_slope(points, frame: Frame = Frame(), members=None, bend: float | None =
     )
 
 
-def add_kinematics(
-    outdir,
-    friction: float,
-    *,
-    slope: Slope | None = None,
-    lateral_limit: float = LATERAL_LIMIT,
-    cohesion: float = 0.0,
-    unit_weight: float = UNIT_WEIGHT,
-    height: float | None = None,
-    upper_slope: tuple[float, float] | None = None,
-    progress=None,
-    points: tuple | None = None,
-):
+def add_kinematics(outdir, friction: float, **options):
     """Run the kinematic tests on a measured folder and add their files (see the module).
+    ``options``: :func:`stage_kinematics`'s keywords, listed here.
 
     Parameters
     ----------
@@ -187,10 +176,7 @@ def add_kinematics(
 
     with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES + REPORT_FILES) as outputs:
         had_report = (outputs.outdir / "report.html").is_file()
-        summary, paths = stage_kinematics(
-            outputs, outputs.outdir, friction, slope=slope, lateral_limit=lateral_limit, cohesion=cohesion,
-            unit_weight=unit_weight, height=height, upper_slope=upper_slope, progress=progress, points=points,
-        )  # fmt: skip
+        summary, paths = stage_kinematics(outputs, outputs.outdir, friction, **options)
         if had_report:  # the report's stereonet shows the envelopes: draw it again
             paths.update(redraw_report(outputs))
     return summary, paths
@@ -213,8 +199,8 @@ def stage_kinematics(
     """The kinematic tests of the planes in ``source`` (a measured folder, or the staging
     folder of a set being written), their files written into the open set ``outputs``,
     which commits them with the rest of its files: one command, one commit (a refusal or an
-    interrupt here leaves the folder as it was). The options are :func:`add_kinematics`'s;
-    returns the summary and output kind -> final path."""
+    interrupt here leaves the folder as it was). The keywords are described under
+    :func:`add_kinematics`; returns the summary and output kind -> final path."""
     from .runs import detected_spacing  # lazy, as above
 
     report = progress or (lambda stage, done, total: None)
