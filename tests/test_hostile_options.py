@@ -160,3 +160,25 @@ def test_an_interrupt_during_the_kinematics_commits_nothing(outcrop_file, tmp_pa
     assert code != 0 and "Traceback" not in err
     assert folder_digests(out) == before  # the measure and sets before it are not committed alone
     assert not (out / ".geostructure-staging").exists()
+
+
+def test_a_file_of_nul_bytes_is_refused_at_once(tmp_path, capsys):
+    path = tmp_path / "nul.xyz"
+    with open(path, "wb") as fh:  # sparse: 64 MB of NUL bytes, no newline
+        fh.truncate(64 << 20)
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "o", "-q")
+    assert code == 2
+    assert_one_sentence(err, "nul.xyz", "NUL")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_truth_of_too_many_surfaces_is_refused_before_the_matching(flat, tmp_path, capsys):
+    out = tmp_path / "m"
+    assert run_cli(capsys, "measure", flat, "-o", out, "-q")[0] == 0
+    truth = tmp_path / "t.csv"
+    truth.write_text("surface,dip,dip_direction\n" + "".join(f"s{i},40,90\n" for i in range(10_001)))
+    before = folder_digests(out)
+    code, _, err = run_cli(capsys, "evaluate", out, "--truth", truth)
+    assert code == 2
+    assert_one_sentence(err, "t.csv", "10,001")
+    assert folder_digests(out) == before

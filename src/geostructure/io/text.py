@@ -122,12 +122,25 @@ def _decimal_points(line: str) -> str:
     return line.replace(",", ".")
 
 
+#: The longest line a text cloud's first lines may hold (characters): a point's line is
+#: under a hundred; a file whose first line runs on for a megabyte is no text cloud (a 2 GB
+#: file of NUL bytes, one "line", took 6.2 GB of memory before it was refused).
+MAX_LINE = 1 << 20
+
+
 def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
-    """The first ``n`` non-blank, non-comment lines with their 1-based numbers."""
+    """The first ``n`` non-blank, non-comment lines with their 1-based numbers; a file whose
+    lines run past :data:`MAX_LINE` or hold NUL bytes is refused, read no further."""
     found = []
     try:
         with open(path, "r", encoding="utf-8-sig") as fh:  # -sig: a byte-order mark is not data
-            for number, line in enumerate(fh, start=1):
+            for number, line in enumerate(iter(lambda: fh.readline(MAX_LINE), ""), start=1):
+                if "\0" in line:
+                    raise GeoStructureError(f"{path}: holds NUL bytes on line {number}: not a text point cloud.")
+                if len(line) >= MAX_LINE and not line.endswith("\n"):
+                    raise GeoStructureError(
+                        f"{path}: line {number} runs past {MAX_LINE:,} characters: not a text point cloud."
+                    )
                 if line.strip() and not line.lstrip().startswith(("#", "//")):
                     found.append((number, line))
                     if len(found) == n:
