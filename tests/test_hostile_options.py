@@ -21,6 +21,7 @@ def flat(tmp_path_factory):
         (["--sets", "--kinematics", "--friction", "30", "--unit-weight", "1e300"], ["--unit-weight"]),
         (["--engine", "dask", "--scheduler", "garbage"], ["--scheduler", "garbage"]),
         (["--crs", ""], ["--crs"]),
+        (["--engine", "stream", "--spill-dir", "/nonexistent/spill"], ["--spill-dir", "/nonexistent/spill"]),
     ],
 )
 def test_options_that_cannot_mean_anything_are_refused_before_the_work(flat, tmp_path, capsys, options, words):

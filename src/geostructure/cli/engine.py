@@ -105,6 +105,23 @@ def memory_bytes_per_point(args) -> int:
     return MEMORY_BYTES_PER_POINT_ROCK if wants_sets(args) or args.kinematics else MEMORY_BYTES_PER_POINT
 
 
+def check_spill_dir(folder) -> None:
+    """Refuse, before any work, a --spill-dir that is no writable folder (it was reported
+    after the read as the output folder's failure)."""
+    import tempfile
+    from pathlib import Path
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise GeoStructureError(
+            f"--spill-dir {folder}: no such folder; give an existing folder with room for the points."
+        )
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".geostructure-probe-", dir=folder))
+    except OSError as exc:
+        raise GeoStructureError(f"--spill-dir {folder}: the folder is not writable ({exc.strerror}).") from None
+
+
 def check_scheduler_address(address: str) -> None:
     """Refuse, before any work, a --scheduler that is no Dask address (``tcp://HOST:PORT``)."""
     try:
@@ -131,6 +148,8 @@ def chosen_engine(args, paths) -> str:
         raise GeoStructureError(f"--workers must be at least 1, not {args.workers}.")
     if args.scheduler:
         check_scheduler_address(args.scheduler)
+    if getattr(args, "spill_dir", None) is not None:
+        check_spill_dir(args.spill_dir)
     if engine != "auto":
         return engine
     limit = args.max_memory or default_max_memory()
