@@ -19,6 +19,10 @@ def flat(tmp_path_factory):
         (["--sets", "--kinematics", "--friction", "30", "--cohesion", "10", "--height", "1e308"], ["--height"]),
         (["--sets", "--kinematics", "--friction", "30", "--cohesion", "1e308"], ["--cohesion"]),
         (["--sets", "--kinematics", "--friction", "30", "--unit-weight", "1e300"], ["--unit-weight"]),
+        (
+            ["--sets", "--kinematics", "--friction", "30", "--cohesion", "5", "--unit-weight", "1e-300"],
+            ["--unit-weight"],
+        ),
         (["--engine", "dask", "--scheduler", "garbage"], ["--scheduler", "garbage"]),
         (["--crs", ""], ["--crs"]),
         (["--engine", "stream", "--spill-dir", "/nonexistent/spill"], ["--spill-dir", "/nonexistent/spill"]),
@@ -183,3 +187,10 @@ def test_a_truth_of_too_many_surfaces_is_refused_before_the_matching(flat, tmp_p
     assert code == 2
     assert_one_sentence(err, "t.csv", "10,001")
     assert folder_digests(out) == before
+
+
+def test_huge_frame_vectors_are_only_directions(flat, tmp_path, capsys):
+    """--up 1e308 0 0 printed numpy's overflow as an internal warning beside the refusal."""
+    code, _, err = run_cli(capsys, "measure", flat, "-o", tmp_path / "o", "-q",
+                           "--up", "0", "0", "1e308", "--north", "0", "1e308", "0")  # fmt: skip
+    assert code == 0 and "internal warning" not in err and "RuntimeWarning" not in err, err

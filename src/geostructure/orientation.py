@@ -88,8 +88,11 @@ class Frame:
             raise ParameterError("`up` and `north` each need three numbers.")
         if not (np.isfinite(up).all() and np.isfinite(north).all()):
             raise ParameterError(f"`up` and `north` must be finite numbers, not {up.tolist()} and {north.tolist()}.")
-        if np.linalg.norm(up) == 0:
-            raise ParameterError("`up` must not be the zero vector.")
+        if not up.any() or not north.any():
+            raise ParameterError("`up` and `north` must not be the zero vector.")
+        # Scaled to their largest component first: only the directions count, and a norm of
+        # (1e308, 0, 0) overflows.
+        up, north = up / np.abs(up).max(), north / np.abs(north).max()
         up = up / np.linalg.norm(up)
         north = north - (north @ up) * up
         if np.linalg.norm(north) < 1e-6:

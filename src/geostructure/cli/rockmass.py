@@ -122,10 +122,10 @@ def add_kinematic_options(parser, *, flag: bool) -> None:
     )
 
 
-#: The largest --cohesion (kPa), --unit-weight (kN/m3) and --height (m) taken.
+#: The bounds of --cohesion (kPa), --unit-weight (kN/m3) and --height (m) taken.
 MAX_COHESION = 1e5
-MAX_UNIT_WEIGHT = 100.0
-MAX_HEIGHT = 1e4
+MIN_UNIT_WEIGHT, MAX_UNIT_WEIGHT = 1.0, 100.0
+MIN_HEIGHT, MAX_HEIGHT = 0.01, 1e4
 
 
 def kinematic_settings(args) -> dict | None:
@@ -147,17 +147,17 @@ def kinematic_settings(args) -> dict | None:
         if not (math.isfinite(upper[0]) and 0.0 <= upper[0] < (slope.dip if slope is not None else 90.0)):
             raise ParameterError(f"--upper-slope must dip 0 or more and less than the face, not {upper[0]:g} degrees.")
     # Bounds no rock reaches, so that the arithmetic cannot overflow: the strongest intact
-    # rock's cohesion is some 50 MPa, rock weighs 20 to 30 kN/m3, no slope is 10 km high.
+    # rock's cohesion is some 50 MPa, rock weighs 20 to 30 kN/m3 (water 9.8), no slope is
+    # 10 km high, nor a block measured on one a centimetre.
     for name, value, least, most in (
         ("--cohesion", args.cohesion, 0.0, MAX_COHESION),
-        ("--unit-weight", args.unit_weight, None, MAX_UNIT_WEIGHT),
-        ("--height", args.height, None, MAX_HEIGHT),
+        ("--unit-weight", args.unit_weight, MIN_UNIT_WEIGHT, MAX_UNIT_WEIGHT),
+        ("--height", args.height, MIN_HEIGHT, MAX_HEIGHT),
     ):
         if value is None:
             continue
-        if not math.isfinite(value) or (value < least if least is not None else value <= 0) or value > most:
-            bound = "0 or more" if least is not None else "more than 0"
-            raise ParameterError(f"{name} must be a finite number, {bound} and at most {most:g}, not {value:g}.")
+        if not (math.isfinite(value) and least <= value <= most):
+            raise ParameterError(f"{name} must be a finite number from {least:g} to {most:g}, not {value:g}.")
     return {
         "friction": args.friction,
         "slope": slope,
