@@ -194,3 +194,13 @@ def test_huge_frame_vectors_are_only_directions(flat, tmp_path, capsys):
     code, _, err = run_cli(capsys, "measure", flat, "-o", tmp_path / "o", "-q",
                            "--up", "0", "0", "1e308", "--north", "0", "1e308", "0")  # fmt: skip
     assert code == 0 and "internal warning" not in err and "RuntimeWarning" not in err, err
+
+
+def test_a_ply_of_random_bytes_is_refused_without_numpy_warnings(tmp_path, capsys):
+    header = b"ply\nformat binary_little_endian 1.0\nelement vertex 1000\n"
+    header += b"property float x\nproperty float y\nproperty float z\nend_header\n"
+    path = tmp_path / "random.ply"
+    path.write_bytes(header + np.random.default_rng(0).integers(0, 256, 12_000, dtype=np.uint8).tobytes())
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "o", "-q")
+    assert code == 2
+    assert_one_sentence(err, "random.ply")  # no "internal warning: RuntimeWarning ... in cast"

@@ -111,7 +111,10 @@ def vertex_columns(vertex: np.ndarray, names) -> np.ndarray:
     """
     from numpy.lib.recfunctions import structured_to_unstructured  # lazy: numpy's own, PLY only
 
-    return structured_to_unstructured(vertex[list(names)], dtype=np.float64, copy=False)
+    # A damaged file's NaN and infinities are refused by the checks that follow, in words;
+    # numpy's cast would only have warned of them first.
+    with np.errstate(invalid="ignore", over="ignore"):
+        return structured_to_unstructured(vertex[list(names)], dtype=np.float64, copy=False)
 
 
 def ply_vertices(path: Path):
