@@ -204,3 +204,33 @@ def test_a_ply_of_random_bytes_is_refused_without_numpy_warnings(tmp_path, capsy
     code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "o", "-q")
     assert code == 2
     assert_one_sentence(err, "random.ply")  # no "internal warning: RuntimeWarning ... in cast"
+
+
+@pytest.mark.parametrize("forge", ["object", "deep"])
+def test_a_forged_run_record_is_refused_by_every_reader(flat, tmp_path, capsys, forge):
+    """run.json of the wrong shape (an object where the offset's numbers go, or 100,000
+    nested brackets) gave a TypeError or a RecursionError traceback."""
+    import json
+
+    out = tmp_path / "out"
+    assert run_cli(capsys, "measure", flat, "-o", out, "-q")[0] == 0
+    record = out / "run.json"
+    if forge == "object":
+        data = json.loads(record.read_text())
+        data["offset"] = {"a": 1}
+        record.write_text(json.dumps(data))
+    else:
+        record.write_text("[" * 100_000 + "]" * 100_000)
+    truth = tmp_path / "t.csv"
+    truth.write_text("surface,dip,dip_direction\na,40,90\nb,80,180\n")
+    before = folder_digests(out)
+    for argv in (
+        ["report", out],
+        ["sets", out],
+        ["evaluate", out, "--truth", truth],
+        ["kinematics", out, "--friction", "30"],
+    ):
+        code, _, err = run_cli(capsys, *argv, "-q")
+        assert code == 2, argv
+        assert_one_sentence(err, "run.json")
+        assert folder_digests(out) == before

@@ -169,9 +169,14 @@ def test_report_and_evaluate_refuse_a_mixed_folder(measured, tmp_path, capsys, c
 def test_a_folder_without_a_manifest_is_not_trusted(measured, capsys):
     record = json.loads((measured / "run.json").read_text())
     del record["outputs"]
+    sealed = dict(record)
+    del record["record_sha256"]  # as an older GeoStructure wrote it, without its seal
     (measured / "run.json").write_text(json.dumps(record))
     code, _, err = run_cli(capsys, "report", measured)
     assert code == 2 and "lists no outputs" in err
+    (measured / "run.json").write_text(json.dumps(sealed))  # the seal kept, the record edited
+    code, _, err = run_cli(capsys, "report", measured)
+    assert code == 2 and "was changed since GeoStructure wrote it" in err
 
 
 # 6. Wrong shapes are refused at the API, never reshaped.

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import OutputError
-from .atomic import TEMP_PATTERN, write_json
+from .atomic import TEMP_PATTERN, plain, write_json
 
 STAGING = ".geostructure-staging"
 JOURNAL = "COMMIT.json"
@@ -184,12 +184,38 @@ def _matches(path: Path, entry) -> bool:
 
 
 def read_record(path: Path) -> dict | None:
-    """A JSON record (``run.json``, a journal) as a dict; None when absent or not one."""
+    """A JSON record (``run.json``, a journal) as a dict; None when absent or not one (or
+    nested too deep to read: 100,000 brackets)."""
     try:
         record = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
     return record if isinstance(record, dict) else None
+
+
+#: The key under which a record holds the digest of the rest of itself.
+SEAL = "record_sha256"
+
+
+def record_digest(record: dict) -> str:
+    """SHA-256 of a record without its seal, in one canonical JSON text."""
+    body = {k: v for k, v in record.items() if k != SEAL}
+    text = json.dumps(plain(body), sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def sealed(record: dict) -> dict:
+    """The record with its digest: a run record edited by hand (a number made an object, an
+    offset made a string) is told from the one GeoStructure wrote, and refused, rather than
+    read until a reader fails on it.
+
+    Examples
+    --------
+    >>> record = sealed({"offset": [0.0, 0.0, 10.0]})
+    >>> record[SEAL] == record_digest(record), record_digest({**record, "offset": {"a": 1}}) == record[SEAL]
+    (True, False)
+    """
+    return {**{k: v for k, v in record.items() if k != SEAL}, SEAL: record_digest(record)}
 
 
 def verified_record(outdir, record_name: str = "run.json", command: str = "geostructure measure", ignore=()) -> dict:
@@ -233,6 +259,10 @@ def verified_record(outdir, record_name: str = "run.json", command: str = "geost
     record = read_record(path)
     if record is None:
         raise OutputError(f"{path}: not a GeoStructure run record (not a JSON object).")
+    if SEAL in record and record[SEAL] != record_digest(record):
+        raise OutputError(
+            f"{path}: was changed since GeoStructure wrote it, so it cannot be trusted; run '{command}' again."
+        )
     outputs = record.get("outputs")
     if not isinstance(outputs, dict):
         raise OutputError(
@@ -299,8 +329,9 @@ class OutputSet:
         return entry if (size, mtime) == (stat.st_size, stat.st_mtime_ns) else file_entry(path)
 
     def write_record(self) -> Path:
-        """Stage the record as it stands (for readers inside the transaction, such as the report)."""
-        return write_json(self.record, self.staging / self.record_name)
+        """Stage the record as it stands (for readers inside the transaction, such as the
+        report), sealed with its own digest (:func:`sealed`)."""
+        return write_json(sealed(self.record), self.staging / self.record_name)
 
 
 @contextmanager
