@@ -21,7 +21,7 @@ from .params import Params
 from .planes import Planes
 from .regionplanes import absorb_sparse_facets, region_planes, without_ribbons
 from .regions import grow_regions
-from .roughfacets import FACE_CONE, MIN_FACET_POINTS
+from .roughfacets import FACE_CONE, MIN_FACET_POINTS, mean_directions, numbered_by_size
 from .uncertainty import normal_standard_errors
 from .voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 
@@ -384,10 +384,7 @@ def _outside_large_surfaces(found, point_region: np.ndarray):
     labels = np.where(large, -1, found.labels)
     count = np.bincount(labels[labels >= 0], minlength=int(found.labels.max(initial=-1)) + 1)
     kept = np.flatnonzero(count >= MIN_FACET_POINTS)
-    kept = kept[np.argsort(-count[kept], kind="stable")]
-    renumber = np.full(len(count) + 1, -1)
-    renumber[kept] = np.arange(len(kept))
-    return dataclasses.replace(found, labels=renumber[labels])
+    return dataclasses.replace(found, labels=numbered_by_size(labels, kept, count))
 
 
 def face_surface(labels: np.ndarray, normals: np.ndarray, envelope: np.ndarray) -> np.ndarray:
@@ -395,10 +392,7 @@ def face_surface(labels: np.ndarray, normals: np.ndarray, envelope: np.ndarray) 
     :data:`~.roughfacets.FACE_CONE` of the face's over its points, ``envelope`` (N, 3) in the
     cloud's coordinates) and 0 elsewhere: on rough rock those are pieces of the exposure,
     measured, but no discontinuity, and they join no set."""
-    on = labels >= 0
-    n = len(normals)
-    face = np.stack([np.bincount(labels[on], envelope[on, a], minlength=n) for a in range(3)], axis=1).astype(float)
-    face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
+    face = mean_directions(labels, envelope, len(normals))
     along = np.abs(np.einsum("ij,ij->i", normals, face))
     return (along >= np.cos(np.radians(FACE_CONE))).astype(np.int64)
 

@@ -9,7 +9,9 @@ point's own plane; this detector does too, without DSE's pole-density peaks (who
 and place on that cloud moved with every neighbourhood size tried, and with them the
 fractures found, 85 to 115 of 432):
 
-1. **Each point's plane** from its :data:`NORMAL_NEIGHBOURS` nearest neighbours.
+1. **Each point's plane** from its :data:`NORMAL_NEIGHBOURS` nearest neighbours; a point
+   whose neighbourhood is a volume (surface variation over the clutter test's
+   :data:`~.cells.SURFACE_VARIATION`) joins no facet.
 2. **The face** (the exposure's envelope): each point's plane on a grid an eighth of the
    cloud's extent wide (:data:`ENVELOPE_DIVISIONS`; the 3 x 3 x 3 block about its cell). A
    point whose own plane lies within :data:`FACE_CONE` degrees of it is on the face, not on
@@ -18,8 +20,13 @@ fractures found, 85 to 115 of 432):
 3. **Growing**: two points within :data:`JOIN_RADIUS` spacings join when their planes agree
    within the cloud's own neighbour angle (the median angle between the planes of points
    that close, held to 5 to 15 degrees as the grid's threshold is); facets are the
-   connected components, as in :mod:`.facets`, and those of at least
-   :data:`MIN_FACET_POINTS` points are kept.
+   connected components, as in :mod:`.facets`; those of at least :data:`MIN_FACET_POINTS`
+   points are kept when their own plane lies off the face, they are thin, and their
+   points stray from it at most :data:`PLANAR_RESIDUALS` times as far as the points'
+   neighbourhoods do from theirs.
+
+The pipeline (:func:`~.pipeline.measure`) then takes the facets' points out of the voxel
+growing's regions, except out of its large surfaces.
 
 The figures that chose each constant, on the real outcrop and the synthetic faces, are in
 ``docs/rockmass.md`` ("Real rock").
@@ -140,6 +147,23 @@ def join_angle(normal: np.ndarray, neighbours: np.ndarray) -> float:
     return float(np.clip(angle, *JOIN_ANGLE_RANGE))
 
 
+def mean_directions(labels: np.ndarray, vectors: np.ndarray, n: int) -> np.ndarray:
+    """The unit mean (n, 3) of each label's ``vectors`` (N, 3; -1 labels none), all in one
+    sense (as :func:`envelope_normals` gives them); zero for a label with no vector."""
+    on = labels >= 0
+    total = np.stack([np.bincount(labels[on], vectors[on, a], minlength=n) for a in range(3)], axis=1).astype(float)
+    return total / np.maximum(np.linalg.norm(total, axis=1, keepdims=True), 1e-300)
+
+
+def numbered_by_size(labels: np.ndarray, kept: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """``labels`` with the groups ``kept`` numbered 0, 1, ... from the largest (``size`` per
+    group) and every other point -1, as the grid's facets are numbered."""
+    kept = kept[np.argsort(-size[kept], kind="stable")]
+    renumber = np.full(len(size) + 1, -1)  # the last entry: -1 stays -1
+    renumber[kept] = np.arange(len(kept))
+    return renumber[labels]
+
+
 def component_planes(points, component, envelope, which) -> tuple[np.ndarray, np.ndarray]:
     """The least-squares plane's normal of each component in ``which`` (W, 3), the mean face
     normal over its points (W, 3), whether it is thin (its surface variation at most
@@ -159,8 +183,7 @@ def component_planes(points, component, envelope, which) -> tuple[np.ndarray, np
     plane = vectors[:, :, 0]
     thin = values[:, 0] <= SURFACE_VARIATION * np.maximum(values.sum(axis=1), 1e-300)
     rms = np.sqrt(np.maximum(values[:, 0], 0.0))
-    face = np.stack([np.bincount(index, envelope[on, a], minlength=n)[which] for a in range(3)], axis=1).astype(float)
-    return plane, face / np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300), thin, rms
+    return plane, mean_directions(component, envelope, n)[which], thin, rms
 
 
 def detect_rough_facets(points: np.ndarray, spacing: float) -> RoughFacets:
@@ -210,7 +233,4 @@ def detect_rough_facets(points: np.ndarray, spacing: float) -> RoughFacets:
     plane, face, thin, rms = component_planes(points, component, envelope, kept)
     flat = rms <= PLANAR_RESIDUALS * np.median(residual)
     kept = kept[(np.abs(np.einsum("ij,ij->i", plane, face)) < np.cos(np.radians(FACE_CONE))) & thin & flat]
-    kept = kept[np.argsort(-size[kept], kind="stable")]  # numbered by size, as the grid's facets
-    renumber = np.full(len(size) + 1, -1)
-    renumber[kept] = np.arange(len(kept))
-    return RoughFacets(renumber[component], on_face, envelope, angle)
+    return RoughFacets(numbered_by_size(component, kept, size), on_face, envelope, angle)
