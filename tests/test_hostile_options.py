@@ -25,6 +25,8 @@ def flat(tmp_path_factory):
         ),
         (["--engine", "dask", "--scheduler", "garbage"], ["--scheduler", "garbage"]),
         (["--crs", ""], ["--crs"]),
+        (["--psi", "1e308"], ["psi", "1/zeta"]),
+        (["--sigma", "1e308"], ["sigma", "--filter none"]),
         (["--engine", "stream", "--spill-dir", "/nonexistent/spill"], ["--spill-dir", "/nonexistent/spill"]),
     ],
 )
@@ -34,6 +36,33 @@ def test_options_that_cannot_mean_anything_are_refused_before_the_work(flat, tmp
     assert code == 2
     assert_one_sentence(err, *words)
     assert not out.exists()
+
+
+def test_a_mesh_sample_count_no_memory_holds_is_refused_by_its_option(flat, tmp_path, capsys):
+    """--mesh-samples 1000000000000 was reported as the cloud file not fitting in memory."""
+    with pytest.raises(SystemExit) as exit_:
+        run_cli(capsys, "measure", flat, "-o", tmp_path / "o", "-q", "--mesh-samples", "1000000000000")
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "--mesh-samples" in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_las_offset_of_infinity_is_a_damaged_header(tmp_path, capsys):
+    """The offset gave numpy's 'invalid value in subtract' as an internal warning beside the
+    refusal."""
+    import struct
+
+    from helpers import write_classified_las
+
+    path = write_classified_las(tmp_path / "c.las", np.random.default_rng(1).random((500, 3)) * 10, np.full(500, 2))
+    data = bytearray(path.read_bytes())
+    struct.pack_into("<d", data, 155, float("inf"))
+    path.write_bytes(bytes(data))
+    for engine in ("memory", "stream"):
+        code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "o", "-q", "--engine", engine)
+        assert code == 2
+        assert_one_sentence(err, "c.las", "x offset")
+        assert not (tmp_path / "o").exists()
 
 
 def test_a_negative_demo_seed_is_refused(tmp_path, capsys):
@@ -234,3 +263,34 @@ def test_a_forged_run_record_is_refused_by_every_reader(flat, tmp_path, capsys, 
         assert code == 2, argv
         assert_one_sentence(err, "run.json")
         assert folder_digests(out) == before
+
+
+def test_a_forged_plane_table_is_refused_by_its_name(flat, tmp_path, capsys):
+    """A NaN normal written into planes.csv, run.json resealed to match, went through 'sets'
+    without a word."""
+    import csv
+    import json
+
+    from geostructure.io.outdir import SEAL, file_entry, sealed
+
+    out = tmp_path / "out"
+    assert run_cli(capsys, "measure", flat, "-o", out, "-q")[0] == 0
+    table = out / "planes.csv"
+    rows = list(csv.reader(table.open(newline="")))
+    rows[1][rows[0].index("normal_x")] = "nan"
+    with table.open("w", newline="") as fh:
+        csv.writer(fh).writerows(rows)
+    record = json.loads((out / "run.json").read_text())
+
+    def relisted(node):
+        if isinstance(node, dict):
+            return {k: file_entry(table) if k == "planes.csv" and isinstance(v, dict) else relisted(v)
+                    for k, v in node.items() if k != SEAL}  # fmt: skip
+        return [relisted(v) for v in node] if isinstance(node, list) else node
+
+    (out / "run.json").write_text(json.dumps(sealed(relisted(record))))
+    before = folder_digests(out)
+    code, _, err = run_cli(capsys, "sets", out, "-q")
+    assert code == 2
+    assert_one_sentence(err, "planes.csv", "normal")
+    assert folder_digests(out) == before

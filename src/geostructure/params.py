@@ -13,6 +13,10 @@ from .filter import METHODS as FILTER_METHODS
 from .rectangle import METHODS as RECTANGLE_METHODS
 from .regions import REFERENCES
 
+#: Beyond this many standard deviations the outlier filter keeps every point of any real cloud, and
+#: its squares stay far from overflow; ``--filter none`` says so plainly.
+MAX_FILTER_SIGMA = 1000.0
+
 #: The paper's Table 1 (start, end, step): the ranges of its four experiments.
 TABLE1 = {"zeta": (0.01, 0.07, 0.006), "theta": (0.0, 30.0, 3.0), "psi": (0.01, 0.6, 0.06), "k": (1, 20, 2)}
 
@@ -99,10 +103,20 @@ class Params:
             (0 < self.zeta < 1, f"zeta must lie between 0 and 1 (a fraction of the cloud's extent), got {self.zeta}"),
             (0 <= self.theta <= 90, f"theta must lie between 0 and 90 degrees, got {self.theta}"),
             (self.psi > 0, f"psi must be positive (voxel edges), got {self.psi}"),
+            (
+                self.psi * self.zeta <= 1,
+                f"psi must be at most 1/zeta = {1 / self.zeta:g} voxel edges (a larger offset is wider than the "
+                f"cloud itself), got {self.psi:g}",
+            ),
             (int(self.k) == self.k and self.k >= 1, f"k must be a whole number of at least 1, got {self.k}"),
             (self.min_points is None or self.min_points >= 3, f"min-points must be at least 3, got {self.min_points}"),
             (self.filter in FILTER_METHODS, f"filter must be one of {', '.join(FILTER_METHODS)}, got '{self.filter}'"),
             (self.filter_sigma > 0, f"filter sigma must be positive, got {self.filter_sigma}"),
+            (
+                self.filter_sigma <= MAX_FILTER_SIGMA,
+                f"filter sigma must be at most {MAX_FILTER_SIGMA:g} standard deviations (--filter none keeps every "
+                f"point), got {self.filter_sigma:g}",
+            ),
             (self.min_voxel_points >= 3, f"min voxel points must be at least 3, got {self.min_voxel_points}"),
             (0 < self.max_curvature <= 1 / 3, f"max curvature must lie in (0, 1/3], got {self.max_curvature}"),
             (self.reference in REFERENCES, f"reference must be one of {', '.join(REFERENCES)}, got '{self.reference}'"),

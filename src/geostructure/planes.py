@@ -271,6 +271,14 @@ class Planes:
                 f"{path}: not a GeoStructure planes.csv (a row is short, or a cell is not a number)."
             ) from None
         column = {name: table[:, i] for i, name in enumerate(header)}
+        normal = np.c_[column["normal_x"], column["normal_y"], column["normal_z"]]
+        centroid = np.c_[column["centroid_x"], column["centroid_y"], column["centroid_z"]]
+        with np.errstate(all="ignore"):
+            unit = np.abs(np.linalg.norm(normal, axis=1) - 1.0) < 1e-3
+        if not (np.isfinite(centroid).all() and unit.all()):
+            raise InputError(
+                f"{path}: not a GeoStructure planes.csv (a centroid is not finite, or a normal is not a unit vector)."
+            )
         for name in LATER_COLUMNS:
             column.setdefault(name, np.full(len(table), np.nan))
         values = {name: np.stack([column[c] for c in columns], axis=1) for name, columns in LAYOUT}

@@ -15,7 +15,7 @@ from ..evaluate import evaluate, match_scene, scene_truth
 from ..face import FACE
 from ..io.crs import cloud_unit, given_crs, note_unstated_unit, true_north_frame
 from ..io.outdir import output_set
-from ..io.readers import DEFAULT_MESH_SAMPLES, read_cloud
+from ..io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
 from ..io.truth import read_truth
 from ..io.writers import write_table_csv
@@ -72,7 +72,7 @@ def add_measure_commands(sub) -> None:
     m.add_argument("-o", "--outdir", type=folder, required=True, help="folder for planes.csv, regions.ply, run.json")
     m.add_argument(
         "--mesh-samples",
-        type=whole(0),
+        type=whole(0, MAX_MESH_SAMPLES),
         default=DEFAULT_MESH_SAMPLES,
         help="points sampled on a PLY mesh's faces (0: use the vertices only)",
     )
@@ -132,7 +132,7 @@ def add_measure_commands(sub) -> None:
     w.add_argument("--step", type=positive_float)
     w.add_argument("--workers", type=whole(1), default=2, help="runs in parallel (default %(default)s)")
     w.add_argument("--points", type=whole(1000), default=300_000, help="points in the --demo scene")
-    w.add_argument("--mesh-samples", type=whole(0), default=DEFAULT_MESH_SAMPLES)
+    w.add_argument("--mesh-samples", type=whole(0, MAX_MESH_SAMPLES), default=DEFAULT_MESH_SAMPLES)
     add_measure_options(w, auto_default=False)
     w.set_defaults(run=run_sweep)
 

@@ -50,8 +50,8 @@ def declination(text: str) -> float:
     return value
 
 
-def whole(minimum: int):
-    """An argparse type: a whole number of at least ``minimum``."""
+def whole(minimum: int, maximum: int | None = None):
+    """An argparse type: a whole number of at least ``minimum`` (and at most ``maximum``)."""
 
     def parse(text: str) -> int:
         try:
@@ -60,6 +60,8 @@ def whole(minimum: int):
             raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
         if value < minimum:
             raise argparse.ArgumentTypeError(f"{value} is less than {minimum}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"{value} is more than {maximum}")
         return value
 
     parse.__name__ = f"whole number >= {minimum}"

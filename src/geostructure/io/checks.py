@@ -83,7 +83,8 @@ def check_coordinate_step(points: np.ndarray, stored_step: tuple[float, str] | N
     if stored_step is None or len(points) < 10:
         return
     step, stored = stored_step
-    extent = float(np.max(column_max(points) - column_min(points)))  # NaN for non-finite rows: not checked
+    with np.errstate(invalid="ignore", over="ignore"):  # non-finite rows give NaN: refused by check_points
+        extent = float(np.max(column_max(points) - column_min(points)))
     if not step > STEP_CHECK_SHARE * extent:
         return
     from ..density import point_spacing  # lazy: only for a coarsely stored cloud

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..cloud import Cloud
 from ..copies import without_copies
-from ..errors import GeoStructureError, GeoStructureNote
+from ..errors import GeoStructureError, GeoStructureNote, ParameterError
 from .checks import check_coordinate_step, check_points, las_step, ply_step
 from .crs import check_cloud_crs
 from .failures import check_laz_chunks, laz_readers, translated_read_errors
@@ -28,6 +28,9 @@ SUFFIXES = (".ply", ".las", ".laz", ".e57") + TEXT_SUFFIXES
 LAS_CHUNK = 2_000_000
 #: Points sampled on a mesh's faces when a PLY carries triangles (see :func:`sample_mesh`).
 DEFAULT_MESH_SAMPLES = 200_000
+#: The most points sampled on a mesh: 100 million samples already take 4.8 GB with their normals,
+#: more than a mesh's own vertices ever justify.
+MAX_MESH_SAMPLES = 100_000_000
 
 
 def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
@@ -79,6 +82,8 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
 
 def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
     """PLY, ASCII or binary, float or double; extra vertex properties are ignored."""
+    if mesh_samples is not None and not 0 <= mesh_samples <= MAX_MESH_SAMPLES:
+        raise ParameterError(f"mesh samples must lie between 0 and {MAX_MESH_SAMPLES:,}, not {mesh_samples}.")
     data, vertex = ply_vertices(path)
     names = vertex.dtype.names
     points = vertex_columns(vertex, "xyz")
@@ -358,12 +363,13 @@ def read_las(path: Path) -> Cloud:
 def check_las_header(path: Path) -> None:
     """Catch a header whose counts cannot be true before laspy loops over them (a flipped
     byte in the VLR count would have it read four billion records), and one with a scale of
-    0 or not a number (every coordinate on that axis would read its offset, or NaN)."""
+    0 or not a number (every coordinate on that axis would read its offset, or NaN) or an
+    offset that is not finite."""
     import struct
 
     with open(path, "rb") as fh:
-        head = fh.read(155)
-    if len(head) < 155 or head[:4] != b"LASF":
+        head = fh.read(179)
+    if len(head) < 179 or head[:4] != b"LASF":
         raise GeoStructureError(f"{path}: not a LAS/LAZ file (no 'LASF' signature).")
     scales = struct.unpack_from("<3d", head, 131)
     bad = next((axis for axis, scale in zip("xyz", scales) if not (np.isfinite(scale) and scale != 0)), None)
@@ -371,6 +377,13 @@ def check_las_header(path: Path) -> None:
         raise GeoStructureError(
             f"{path}: the header is damaged: the {bad} scale is {scales['xyz'.index(bad)]:g}, where a LAS "
             f"file's coordinates are integers times a scale that is not 0."
+        )
+    offsets = struct.unpack_from("<3d", head, 155)
+    bad = next((axis for axis, offset in zip("xyz", offsets) if not np.isfinite(offset)), None)
+    if bad is not None:
+        raise GeoStructureError(
+            f"{path}: the header is damaged: the {bad} offset is {offsets['xyz'.index(bad)]:g}, where a LAS "
+            f"file's coordinates are integers times a scale plus a finite offset."
         )
     header_size, point_offset, n_vlrs = struct.unpack_from("<HII", head, 94)
     size = path.stat().st_size
