@@ -50,16 +50,20 @@ class SfmReport:
 
 
 @contextmanager
-def quiet_colmap(level: int = 2):
-    """COLMAP logs every step to stderr; keep errors only while it works (then restore)."""
+def quiet_colmap(level: int = 3):
+    """COLMAP logs every step through glog: to stderr, and for each error a log file in the
+    temporary folder. While it works, keep only what stops the process (level 3, FATAL), and
+    never to a file: a failure is said in GeoStructure's own sentence instead. The settings
+    are restored afterwards."""
     import pycolmap
 
-    old = pycolmap.logging.minloglevel
-    pycolmap.logging.minloglevel = level
+    settings = pycolmap.logging
+    old = settings.minloglevel, settings.logtostderr
+    settings.minloglevel, settings.logtostderr = level, True
     try:
         yield
     finally:
-        pycolmap.logging.minloglevel = old
+        settings.minloglevel, settings.logtostderr = old
 
 
 def list_images(folder) -> list[Path]:
