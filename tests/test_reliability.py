@@ -111,6 +111,27 @@ def test_planes_csv_keeps_utm_precision(tmp_path, capsys):
             assert float(b[f"centroid_{axis}"]) - offset[i] == pytest.approx(float(a[f"centroid_{axis}"]), abs=1e-6)
 
 
+def test_the_automatic_choice_does_not_depend_on_where_the_cloud_sits(tmp_path, capsys):
+    """With the default (automatic) parameters, groups of two points on the grid had a
+    normal the rounding chose: at UTM and at (1.2e7, 1.3e7) a small plane came out with
+    other points and its centroid moved tenths of a metre."""
+    points = scene_points(20_000, seed=4)
+    rows = {}
+    for name, shift in (("origin", np.zeros(3)), ("utm", np.array([5e5 + 0.37, 5e6 + 0.81, 100.3])),
+                        ("far", np.array([1.2e7, 1.3e7, 1e3]))):  # fmt: skip
+        path = write_xyz(tmp_path / f"{name}.xyz", points + shift)
+        code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / name, "-q")
+        assert code == 0, err
+        table = list(csv.DictReader(open(tmp_path / name / "planes.csv")))
+        rows[name] = np.array([[float(r["n_points"])] + [float(r[f"centroid_{a}"]) for a in "xyz"] for r in table])
+        rows[name][:, 1:] -= shift
+    assert len(rows["origin"]) >= 7
+    for name in ("utm", "far"):
+        assert rows[name].shape == rows["origin"].shape
+        assert np.array_equal(rows[name][:, 0], rows["origin"][:, 0])
+        assert np.abs(rows[name][:, 1:] - rows["origin"][:, 1:]).max() < 1e-6
+
+
 def test_regions_ply_gives_back_the_input_coordinates_bit_for_bit(tmp_path, capsys):
     from plyfile import PlyData
 
