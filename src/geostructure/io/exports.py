@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from .atomic import write_table_csv
 
 #: The columns of ``planes_dips.csv`` always written; ``Set`` follows the orientation pair
@@ -11,15 +13,21 @@ from .atomic import write_table_csv
 DIPS_COLUMNS = ("Dip Direction", "Dip", "X (East)", "Y (North)", "Z (Elev.)", "Region", "Points")
 
 
-def write_dips_csv(planes, path) -> Path:
+def write_dips_csv(planes, path, rotation=None) -> Path:
     """``planes_dips.csv``, for Rocscience Dips and Allmendinger's Stereonet.
 
     Dip Direction and Dip first (the orientation pair, as field notebooks write it), then
-    ``Set`` when the planes have sets, then Dips' location columns (the centroid, in the
-    cloud's coordinates) and, as extra columns, the region id, its point count and, with
+    ``Set`` when the planes have sets, then Dips' location columns and, as extra columns, the region id, its point count and, with
     the rock mass, its joint (``joints.csv``'s number, blank for a plane in no set). Dips
     numbers its sets from 1 and leaves a pole in no set blank: ``Set`` is the run's set
     number plus one (set 0 of ``sets.csv`` is Set 1 here), empty for a plane in no set.
+
+    The location columns hold east, north and elevation: the centroid turned by
+    ``rotation`` (3 x 3, rows the frame's unit east, north and up in the cloud's axes, as
+    :class:`~geostructure.orientation.Frame` holds them), or the centroid as it is when
+    ``rotation`` is None (a cloud in a coordinate system, whose x and y are its eastings
+    and northings). In the ``paper`` frame (x north, y west) Dips would otherwise place
+    every plane a quarter turn away.
 
     Examples
     --------
@@ -38,7 +46,7 @@ def write_dips_csv(planes, path) -> Path:
     }
     if "set" in planes.extra:
         values["Set"] = ["" if s < 0 else str(s + 1) for s in planes.extra["set"].astype(int).tolist()]
-    centroid = planes.centroid
+    centroid = planes.centroid if rotation is None else planes.centroid @ np.asarray(rotation, dtype=np.float64).T
     for axis, name in enumerate(DIPS_COLUMNS[2:5]):
         values[name] = centroid[:, axis].tolist()
     values["Region"] = planes.region_id.tolist()

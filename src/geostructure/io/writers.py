@@ -182,7 +182,10 @@ def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) ->
     planes = in_square_metres(planes, recorded_unit(outputs.record)["metres"])
     outputs.record.update(PLANE_AREA)
     planes.to_csv(outputs.path("planes.csv"))
-    write_dips_csv(planes, outputs.path("planes_dips.csv"))
+    # East, north and elevation for Dips: a CRS's own eastings and northings as they are;
+    # otherwise the centroids turned into the measuring frame (identity for ENU clouds).
+    frame = outputs.record.get("frame") or {}
+    write_dips_csv(planes, outputs.path("planes_dips.csv"), None if crs else frame.get("rotation"))
     names = ["planes.csv", "planes_dips.csv"]
     if crs or enu_origin is not None:
         write_geojson(planes, outputs.path("planes.geojson"), crs=crs, enu_origin=enu_origin)
