@@ -104,9 +104,9 @@ class Params:
             (0 <= self.theta <= 90, f"theta must lie between 0 and 90 degrees, got {self.theta}"),
             (self.psi > 0, f"psi must be positive (voxel edges), got {self.psi}"),
             (
-                self.psi * self.zeta <= 1,
-                f"psi must be at most 1/zeta = {1 / self.zeta:g} voxel edges (a larger offset is wider than the "
-                f"cloud itself), got {self.psi:g}",
+                not 0 < self.zeta < 1 or self.psi * self.zeta <= 1,  # zeta's own check comes first
+                f"psi must be at most 1/zeta = {1 / max(self.zeta, 1e-300):g} voxel edges (a larger offset is "
+                f"wider than the cloud itself), got {self.psi:g}",
             ),
             (int(self.k) == self.k and self.k >= 1, f"k must be a whole number of at least 1, got {self.k}"),
             (self.min_points is None or self.min_points >= 3, f"min-points must be at least 3, got {self.min_points}"),
