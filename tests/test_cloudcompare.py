@@ -43,3 +43,35 @@ def test_cloudcompare_loads_region_id_as_a_scalar_field_at_utm_coordinates(tmp_p
     assert len(table) == len(written)
     assert np.abs(table[:, :3] - written).max() < 1e-3  # within 1 mm of the input, UTM included
     np.testing.assert_array_equal(table[:, 3].astype(int), vertex["scalar_region_id"])
+
+
+def cloudcompare_table(ply, exported) -> tuple[list[str], np.ndarray]:
+    """The cloud CloudCompare's command line reads from ``ply``: its ASC header's names and rows."""
+    command = [XVFB, "-a", CLOUDCOMPARE, "-SILENT", "-AUTO_SAVE", "OFF", "-O", "-GLOBAL_SHIFT", "AUTO", str(ply)]
+    command += ["-C_EXPORT_FMT", "ASC", "-PREC", "6", "-ADD_HEADER", "-SAVE_CLOUDS", "FILE", str(exported)]
+    subprocess.run(command, check=True, capture_output=True, timeout=120)
+    header = exported.read_text().splitlines()[0].lstrip("/").split()
+    return header, np.loadtxt(exported, comments="//")
+
+
+@pytest.mark.parametrize("how", ["measure --sets", "sets OUTDIR"])
+def test_cloudcompare_colours_the_points_by_set_joint_and_face_part(tmp_path, capsys, how):
+    """Issue 45: after --sets only regions.laz carried set, joint and face_part, and Debian's
+    CloudCompare (2.11) reads no LAS at all."""
+    from helpers import run_cli, write_xyz
+
+    cloud = write_xyz(tmp_path / "outcrop.xyz", outcrop_scene(width=6.0, height=4.0, seed=1).cloud.points)
+    out = tmp_path / "out"
+    if how == "measure --sets":
+        assert run_cli(capsys, "measure", cloud, "-o", out, "-q", "--sets")[0] == 0
+    else:
+        assert run_cli(capsys, "measure", cloud, "-o", out, "-q")[0] == 0
+        assert run_cli(capsys, "sets", out, "-q")[0] == 0
+    header, table = cloudcompare_table(out / "regions.ply", tmp_path / "regions.asc")
+    names = header[-4:]
+    assert names == ["region_id", "set", "face_part", "joint"]
+    vertex = PlyData.read(str(out / "regions.ply"))["vertex"].data
+    for column, name in enumerate(names, start=len(header) - 4):
+        np.testing.assert_array_equal(table[:, column].astype(int), vertex["scalar_" + name])
+    sets = table[:, header.index("set")]
+    assert len(np.unique(sets[sets >= 0])) >= 3  # the outcrop's three joint sets, on its points

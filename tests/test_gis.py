@@ -110,6 +110,20 @@ def test_a_las_crs_is_kept_and_the_planes_land_in_oregon(tmp_path, capsys):
             ["ogrinfo", "-so", "-al", str(out / "planes.geojson")], capture_output=True, text=True
         ).stdout
         assert "WGS 84" in text and "Extent: (-12" in text
+    # Issue 45: the GeoJSON's properties were Oregon feet beside WGS84 geometry
+    feet = json.loads((out / "run.json").read_text())
+    properties = [feature["properties"] for feature in data["features"]]
+    assert not any(name in p for p in properties for name in ("centroid_x", "centroid_y", "rect_center_x"))
+    centres = np.array([[p["centroid_lon"], p["centroid_lat"], p["centroid_height_m"]] for p in properties])
+    np.testing.assert_allclose(centres[:, 0], lon, atol=1e-9)
+    np.testing.assert_allclose(centres[:, 1], lat, atol=1e-9)
+    np.testing.assert_allclose(
+        centres[:, 2], native[:, 2] * 0.3048, rtol=1e-9
+    )  # international feet (the CRS) to metres
+    assert feet["crs"]
+    if shutil.which("ogrinfo"):
+        text = subprocess.run(["ogrinfo", "-so", "-al", str(out / "planes.geojson")], capture_output=True, text=True)
+        assert "centroid_lon: Real" in text.stdout and "centroid_x" not in text.stdout
 
 
 def _orientations(out):

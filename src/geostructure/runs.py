@@ -25,6 +25,7 @@ from .io.laz import add_point_sets
 from .io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
 from .io.results import read_planes, read_sets
 from .io.writers import (
+    rewrite_regions_ply,
     sets_record,
     write_joints_csv,
     write_plane_tables,
@@ -40,7 +41,7 @@ from .scoring import Evaluation, stage_evaluation
 from .setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
 from .sets import JointSets, find_sets
 from .stream.output import rewrite_regions_laz
-from .stream.thin import FOLDER_ROWS, cell_point_sets, read_measured
+from .stream.thin import FOLDER_ROWS, cell_point_sets, point_set_values, read_measured
 from .threads import preload
 from .uncertainty import normal_standard_errors, with_correlated_tilt
 
@@ -331,6 +332,11 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         paths["dips"] = outputs.final("planes_dips.csv")
         if "planes.gpkg" in staged:
             paths.update(geojson=outputs.final("planes.geojson"), gpkg=outputs.final("planes.gpkg"))
+        # The point files gain each point's set, joint and face part: regions.ply for a
+        # CloudCompare that reads no LAS, regions.laz for the rest.
+        rewrite_regions_ply(outputs.outdir / "regions.ply", outputs.path("regions.ply"),
+                            point_set_values(outputs.outdir, planes, rock.point_part, cells), FOLDER_ROWS)  # fmt: skip
+        paths["regions"] = outputs.final("regions.ply")
         if (outputs.outdir / "regions.laz").is_file():  # folders before 2026-12-02 have none
             if cells is None:
                 add_point_sets(outputs.outdir / "regions.laz", outputs.path("regions.laz"), planes, rock.point_part)

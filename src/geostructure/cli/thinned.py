@@ -105,7 +105,7 @@ class ThinnedSurvey:
             part_of = np.zeros(len(thinned), dtype=np.uint8)
             if rock is not None and rock.point_part is not None:
                 part_of[keep] = rock.point_part
-        writers = [RegionsPly(outputs.path("regions.ply")), RegionsLaz(outputs.path("regions.laz"), extra)]
+        writers = [RegionsPly(outputs.path("regions.ply"), bool(extra)), RegionsLaz(outputs.path("regions.laz"), extra)]
         n_kept = int(thinned.counts[keep].sum())
         for writer in writers:
             writer.begin(n_kept, spill.lower, spill.upper, spill.cloud())

@@ -8,6 +8,8 @@ one, no file claims a place it does not know (:data:`NO_CRS_NOTE`).
 - ``planes.geojson``: RFC 7946 has a single CRS, WGS84 longitude/latitude, and no ``crs``
   member (GDAL, so QGIS, ignores one). The corners are transformed with pyproj from the
   cloud's CRS; heights are the cloud's own, in metres (its vertical datum is not changed).
+  Its properties are the plane table's columns, the centroid as ``centroid_lon``,
+  ``centroid_lat`` and ``centroid_height_m`` (no number in the cloud's CRS).
 - ``planes.gpkg``: QGIS's own format, in the cloud's native CRS (no loss from a transform),
   with two layers: ``planes``, the region rectangles as 3-D polygons carrying every column
   of the plane table (sets, traces, kinematics when present), and ``centroids``, points
@@ -48,17 +50,36 @@ def _lon_lat(points: np.ndarray, crs=None, enu_origin=None) -> np.ndarray:
     return np.column_stack([lon, lat, points[:, 2] * metres_per_unit(crs)])
 
 
-def _properties(planes) -> list[dict]:
-    return [{k: v for k, v in row.items() if k not in GEOMETRY_COLUMNS} for row in planes.rows()]
+#: Plane-table columns that are positions in the cloud's CRS: ``planes.geojson`` (WGS84)
+#: gives the centroid as longitude, latitude and height in metres instead, so that no
+#: number in the file is in another system than its geometry (Oregon feet on a WGS84 map).
+CLOUD_POSITION_COLUMNS = ("centroid_x", "centroid_y", "centroid_z", "rect_center_x", "rect_center_y", "rect_center_z")
+
+
+def _properties(planes, drop=GEOMETRY_COLUMNS) -> list[dict]:
+    return [{k: v for k, v in row.items() if k not in drop} for row in planes.rows()]
+
+
+def _wgs84_properties(planes, crs, enu_origin) -> list[dict]:
+    """The plane table's columns for ``planes.geojson``: positions as WGS84 longitude and
+    latitude and height in metres (``centroid_lon``, ``centroid_lat``, ``centroid_height_m``)
+    in place of the cloud's coordinates."""
+    rows = _properties(planes, GEOMETRY_COLUMNS + CLOUD_POSITION_COLUMNS)
+    if not rows:
+        return rows
+    centres = _lon_lat(planes.centroid, crs, enu_origin)
+    named = ("centroid_lon", "centroid_lat", "centroid_height_m")
+    return [{**dict(zip(named, centre)), **row} for centre, row in zip(centres.tolist(), rows)]
 
 
 def geojson(planes, crs: str | None = None, enu_origin=None) -> dict:
     """The region rectangles as RFC 7946 polygons (longitude, latitude, height) with every
-    column of the plane table as properties."""
+    column of the plane table as properties, its positions in WGS84 too
+    (:func:`_wgs84_properties`)."""
     corners = planes.corners.reshape(-1, 3)
     lon_lat = _lon_lat(corners, crs, enu_origin).reshape(-1, 4, 3) if len(corners) else np.zeros((0, 4, 3))
     features = []
-    for ring, properties in zip(lon_lat.tolist(), _properties(planes)):
+    for ring, properties in zip(lon_lat.tolist(), _wgs84_properties(planes, crs, enu_origin)):
         # RFC 7946: exterior rings counter-clockwise seen from above
         x, y = np.array(ring)[:, 0], np.array(ring)[:, 1]
         if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:

@@ -21,7 +21,7 @@ from .atomic import atomic_path, write_json, write_table_csv
 from .crs import recorded_unit
 from .exports import write_dips_csv
 from .gis import write_geojson, write_gpkg
-from .laz import point_joints, point_sets, write_regions_laz, write_voxel_planes_laz
+from .laz import POINT_SET_DIMENSIONS, point_joints, point_sets, write_regions_laz, write_voxel_planes_laz
 from .outdir import EVALUATION_FILES, OutputSet, output_set
 from .results import PLANE_AREA, SCALAR, in_square_metres
 
@@ -33,26 +33,85 @@ def ply_comment(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
-def write_regions_ply(result, path) -> Path:
+#: The per-point fields ``regions.ply`` carries after ``--sets``, as CloudCompare's scalar
+#: fields (``scalar_set``, ``scalar_face_part``, ``scalar_joint``): the dimensions
+#: ``regions.laz`` carries (:data:`~.laz.POINT_SET_DIMENSIONS`), for a CloudCompare that reads
+#: no LAS (Debian's 2.11).
+POINT_SET_FIELDS = tuple((SCALAR + name, np.dtype(kind).str) for name, kind in POINT_SET_DIMENSIONS)
+#: PLY's names of the numpy types the point files hold.
+PLY_TYPES = {"f8": "double", "i4": "int", "i2": "short", "u1": "uchar"}
+
+
+def regions_dtype(vegetation: bool, point_sets: bool) -> np.dtype:
+    """The vertex record of ``regions.ply``: x, y, z (double), ``scalar_region_id``, then a
+    ``scalar_vegetation`` flag and the :data:`POINT_SET_FIELDS` when asked."""
+    fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), (SCALAR + "region_id", "<i4")]
+    fields += [(SCALAR + "vegetation", "u1")] if vegetation else []
+    return np.dtype(fields + (list(POINT_SET_FIELDS) if point_sets else []))
+
+
+def ply_header(dtype: np.dtype, n_points: int, comments) -> bytes:
+    """A binary little-endian PLY header for ``n_points`` vertices of ``dtype``."""
+    lines = ["ply", "format binary_little_endian 1.0", *(f"comment {c}" for c in comments)]
+    lines.append(f"element vertex {n_points}")
+    lines += [f"property {PLY_TYPES[dtype[name].str[1:]]} {name}" for name in dtype.names]
+    return ("\n".join(lines) + "\nend_header\n").encode("ascii")
+
+
+def regions_comments(source: str) -> list[str]:
+    """``regions.ply``'s comments: who wrote it and from which file."""
+    return ["written by geostructure", f"source {ply_comment(Path(source).name)}"]
+
+
+def write_regions_ply(result, path, point_sets: dict | None = None) -> Path:
     """``regions.ply``: the filtered points (double) with an int ``scalar_region_id`` (-1 for
-    none), and a ``scalar_vegetation`` flag (1 for a point the input classifies as
-    vegetation) when the input classifies any so, for ``geostructure sets`` to read back.
+    none), a ``scalar_vegetation`` flag (1 for a point the input classifies as vegetation)
+    when the input classifies any so, for ``geostructure sets`` to read back, and with
+    ``point_sets`` (``set``, ``face_part``, ``joint`` per point, as :func:`~.laz.write_regions_laz`
+    takes them) the :data:`POINT_SET_FIELDS`.
 
     The ``scalar_`` prefix is what CloudCompare's PLY reader asks, in its command-line mode
     (no dialog), to load a property as a scalar field (named ``region_id`` there).
     """
     filtered = result.filtered
-    fields = [("x", "f8"), ("y", "f8"), ("z", "f8"), (SCALAR + "region_id", "i4")]
-    fields += [] if filtered.vegetation is None else [(SCALAR + "vegetation", "u1")]
-    vertex = np.empty(len(filtered), dtype=fields)
+    vertex = np.empty(len(filtered), dtype=regions_dtype(filtered.vegetation is not None, point_sets is not None))
     for axis, name in enumerate("xyz"):  # Cloud.points column by column, into the record itself
         np.add(filtered.local[:, axis], filtered.offset[axis], out=vertex[name])
     vertex[SCALAR + "region_id"] = result.labels
     if filtered.vegetation is not None:
         vertex[SCALAR + "vegetation"] = filtered.vegetation
-    return write_vertex_ply(
-        path, vertex, ["written by geostructure", f"source {ply_comment(Path(result.cloud.source).name)}"]
-    )
+    for name, value in (point_sets or {}).items():
+        vertex[SCALAR + name] = value
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        fh.write(ply_header(vertex.dtype, len(vertex), regions_comments(result.cloud.source)))
+        vertex.tofile(fh)
+    return Path(path)
+
+
+def rewrite_regions_ply(source, path, values, rows: int) -> Path:
+    """Write ``source`` (a ``regions.ply``) again to ``path``, ``rows`` points at a time, each
+    with its fields as they were and the :data:`POINT_SET_FIELDS` from ``values`` (an
+    iterable of dicts, name -> array, per ``rows`` points, in the file's order): ``sets``
+    on a measured folder, whose point files gain the sets it found."""
+    from plyfile import PlyData
+
+    data = PlyData.read(str(source), mmap=True)
+    vertex = data["vertex"].data
+    kept = [n for n in vertex.dtype.names if n not in dict(POINT_SET_FIELDS)]
+    dtype = np.dtype([(n, vertex.dtype[n].newbyteorder("<")) for n in kept] + list(POINT_SET_FIELDS))
+    values = iter(values)
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        fh.write(ply_header(dtype, len(vertex), data.comments))
+        for start in range(0, len(vertex), rows):
+            part = vertex[start : start + rows]
+            out = np.empty(len(part), dtype=dtype)
+            for name in kept:
+                out[name] = part[name]
+            fields = next(values)
+            for name, value in fields.items():
+                out[SCALAR + name] = value
+            out.tofile(fh)
+    return Path(path)
 
 
 def write_vertex_ply(path, vertex: np.ndarray, comments: list[str]) -> Path:
@@ -229,12 +288,16 @@ def write_result(
             labelled = None if sets is None else point_sets(result.labels, planes)
             joint = None if sets is None else point_joints(result.labels, planes)
             part = None if rock is None else rock.point_part
+            point_fields = None
+            if sets is not None:
+                point_fields = {"set": labelled, "joint": joint,
+                                "face_part": np.zeros(len(labelled), np.uint8) if part is None else part}  # fmt: skip
 
             def written(write, name, *args) -> Path:  # hashed for the manifest in its thread, once written
                 return outputs.hash_staged(write(result, outputs.path(files[name]), *args))
 
             point_writes = [
-                pool.submit(written, write_regions_ply, "regions"),
+                pool.submit(written, write_regions_ply, "regions", point_fields),
                 pool.submit(written, write_regions_laz, "regions_laz", labelled, part, joint),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin

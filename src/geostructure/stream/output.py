@@ -11,34 +11,26 @@ import numpy as np
 from ..io.crs import parse_crs
 from ..io.laz import KeptWriteErrors, las_grid, rewrite_point_sets
 from ..io.results import SCALAR
-from ..io.writers import ply_comment
+from ..io.writers import ply_header, regions_comments, regions_dtype
 
 
 class RegionsPly:
-    """``regions.ply``: the kept points (double) with an int ``scalar_region_id``, and a
-    ``scalar_vegetation`` flag when the survey classifies any point as vegetation."""
+    """``regions.ply``: the kept points (double) with an int ``scalar_region_id``, a
+    ``scalar_vegetation`` flag when the survey classifies any point as vegetation, and with
+    ``point_sets`` the sets' fields (:data:`~geostructure.io.writers.POINT_SET_FIELDS`) that
+    each chunk's ``fields`` give."""
 
-    def __init__(self, path):
+    def __init__(self, path, point_sets: bool = False):
         self.path = Path(path)
+        self.point_sets = point_sets
         self._file = None
         self._dtype = None
 
     def begin(self, n_points: int, lower, upper, cloud) -> None:
-        name = ply_comment(Path(cloud.source.split(",")[0]).name)
-        fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), (SCALAR + "region_id", "<i4")]
         marked = cloud.vegetation is not None  # the spill's cloud carries an empty mark when any is
-        fields += [(SCALAR + "vegetation", "u1")] if marked else []
-        self._dtype = np.dtype(fields)
-        header = (
-            "ply\nformat binary_little_endian 1.0\ncomment written by geostructure\n"
-            f"comment source {name}\nelement vertex {n_points}\n"
-            "property double x\nproperty double y\nproperty double z\n"
-            f"property int {SCALAR}region_id\n"
-            + (f"property uchar {SCALAR}vegetation\n" if marked else "")
-            + "end_header\n"
-        )
+        self._dtype = regions_dtype(marked, self.point_sets)
         self._file = open(self.path, "wb")
-        self._file.write(header.encode("ascii"))
+        self._file.write(ply_header(self._dtype, n_points, regions_comments(cloud.source.split(",")[0])))
 
     def write(self, points: np.ndarray, labels: np.ndarray, vegetation=None, fields=None) -> None:
         rows = np.empty(len(points), dtype=self._dtype)
@@ -46,6 +38,9 @@ class RegionsPly:
         rows[SCALAR + "region_id"] = labels
         if SCALAR + "vegetation" in self._dtype.names:
             rows[SCALAR + "vegetation"] = 0 if vegetation is None else vegetation
+        if self.point_sets:
+            for name, value in fields.items():
+                rows[SCALAR + name] = value
         rows.tofile(self._file)
 
     def end(self) -> None:

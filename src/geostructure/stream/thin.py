@@ -280,3 +280,22 @@ def cell_point_sets(folder, finder: VoxelTable, planes, face_part=None):
             xyz = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
             parts = np.asarray(face_part, dtype=np.uint8)[finder.find(xyz)]
         yield {"set": point_sets(region, planes), "face_part": parts, "joint": point_joints(region, planes)}
+
+
+def point_set_values(folder, planes, face_part=None, cells: VoxelTable | None = None):
+    """Per :data:`FOLDER_ROWS` rows of a folder's ``regions.ply``: each point's set, joint and
+    face part, in the file's order. A thinned run's (``cells`` its measured points' table)
+    through :func:`cell_point_sets`; otherwise the file's rows are the points measured, and
+    ``face_part`` (one per row) is read along."""
+    if cells is not None:
+        yield from cell_point_sets(folder, cells, planes, face_part)
+        return
+    vertex = open_regions(folder)
+    for a in range(0, len(vertex), FOLDER_ROWS):
+        region = np.asarray(ply_field(vertex[a : a + FOLDER_ROWS], "region_id"), dtype=np.int64)
+        parts = np.zeros(len(region), np.uint8) if face_part is None else np.asarray(face_part[a : a + len(region)])
+        yield {
+            "set": point_sets(region, planes),
+            "face_part": parts.astype(np.uint8),
+            "joint": point_joints(region, planes),
+        }
