@@ -43,3 +43,50 @@ def test_dips_locations_are_east_north_and_elevation_in_every_frame(tmp_path, ca
         near = np.linalg.norm(found[:, 2:5] - plane[2:5], axis=1)
         best = np.argmin(axial + near)
         assert axial[best] < 2.0 and near[best] < 0.1, (plane, found[best])
+
+
+@pytest.fixture(scope="module")
+def outcrop_sets(tmp_path_factory):
+    """The synthetic outcrop's default size (20 x 9 m), measured with --sets."""
+    from geostructure.synthetic import outcrop_scene
+
+    folder = tmp_path_factory.mktemp("outcrop_sets")
+    cloud = write_xyz(folder / "outcrop.xyz", outcrop_scene(seed=0).cloud.points)
+    return cloud, folder / "out"
+
+
+def test_no_mean_trace_is_longer_than_the_exposure(outcrop_sets, capsys):
+    """The 20 m face gave mean traces of 22.1 and 32.9 m (and, before, 106.3 m with a standard
+    error as large): no face this size measures them. Now a bound, a flag and a sentence."""
+    cloud, out = outcrop_sets
+    code, stdout, _ = run_cli(capsys, "measure", cloud, "-o", out, "--sets")
+    assert code == 0
+    rows = list(csv.DictReader(open(out / "sets.csv")))
+    flagged = [r for r in rows if "trace_longer_than_exposure" in r["flags"].split(";")]
+    assert flagged
+    for row in rows:
+        mean, span = float(row["joint_trace_mean_m"]), float(row["exposure_span_m"])
+        assert 15.0 < span < 25.0  # the 20 x 9 m face's diagonal
+        assert np.isnan(mean) or mean <= span
+    for row in flagged:
+        assert float(row["joint_trace_estimate_m"]) > float(row["exposure_span_m"])
+        assert row["persistence"].endswith("or more")
+        assert f"Set {row['set']}'s joint traces, most of them running out of sight" in " ".join(stdout.split())
+
+
+@pytest.mark.real_data
+def test_no_block_volume_from_fewer_than_three_sets(tmp_path, capsys):
+    """The indoor pump room's one 'set' (its floor and shelves) gave an 11 m³ block."""
+    import json
+
+    from conftest import shared_file
+
+    out = tmp_path / "pump"
+    code, stdout, _ = run_cli(capsys, "measure", shared_file("pye57_pump/pumpAVisualReferenceImage.e57"), "-o", out,
+                              "--sets", "--report")  # fmt: skip
+    assert code == 0
+    rock = json.loads((out / "run.json").read_text())["sets"]["rock_mass"]
+    measured = [r for r in csv.DictReader(open(out / "sets.csv")) if np.isfinite(float(r["spacing_m"]))]
+    assert len(measured) < 3 and rock["block_volume_m3"] is None
+    assert "no block volume" in " ".join(stdout.split()) and "m³ (large)" not in stdout
+    assert "no block volume" in (out / "report.html").read_text()

@@ -36,11 +36,60 @@ from .jointtable import Joints
 from .rqd import block_size_class, rqd_from_jv, rqd_range
 from .sections import FaceSections, face_sections_of, section_exposures, sectioned_persistence
 from .spacing import nearest_plane_gaps, pooled_scanlines, scanline_spacing, spacing_class, spacing_statistics
-from .traces import TraceLengths, joint_traces, trace_lengths
+from .traces import TraceLengths, joint_traces, persistence_class, trace_lengths
 from .uncertainty import correlated_tilt
 
 #: Palmstrom (2005)'s block shape factor for Vb = beta Jv^-3 (equidimensional blocks).
 BLOCK_SHAPE_FACTOR = 36.0
+#: Sets with a measured spacing a block volume needs: fewer cut slabs or columns.
+BLOCK_SETS = 3
+#: Joint traces seen end to end below which a set's mean trace length (the censored
+#: exponential's, its standard error the mean over their root) is too loose to give without
+#: saying so: at 3 the standard error is 58% of the mean.
+FEW_WHOLE_TRACES = 3
+#: The flags of ``sets.csv``'s ``flags`` column (:func:`set_flags`), each with its sentence
+#: under the tables (:mod:`.setnotes`).
+SPACING_NOT_MEASURED = "spacing_not_measured"
+TRACES_ALL_CENSORED = "traces_all_censored"
+FEW_WHOLE_TRACES_FLAG = "few_whole_traces"
+TRACE_BEYOND_EXPOSURE = "trace_longer_than_exposure"
+
+
+def set_flags(row: dict) -> list[str]:
+    """What in a set's row (:meth:`RockMass.set_rows`) is not a measurement as it stands:
+    the spacing no scanline measures (a set along the face), traces that all run out of
+    sight (the mean not measured, the length seen a lower bound), a mean resting on
+    :data:`FEW_WHOLE_TRACES` or fewer whole traces, a mean longer than the exposure spans.
+
+    Examples
+    --------
+    >>> set_flags({"spacing_m": float("nan"), "joint_traces": 0})
+    ['spacing_not_measured']
+    >>> set_flags({"spacing_m": 0.4, "joint_traces": 9, "joint_traces_censored": 9,
+    ...            "joint_trace_estimate_m": float("nan"), "exposure_span_m": 20.0})
+    ['traces_all_censored']
+    """
+    flags = [] if np.isfinite(row["spacing_m"]) else [SPACING_NOT_MEASURED]
+    traces, hidden = int(row.get("joint_traces", 0)), int(row.get("joint_traces_censored", 0))
+    estimate = float(row.get("joint_trace_estimate_m", np.nan))
+    if traces and not np.isfinite(estimate):
+        flags.append(TRACES_ALL_CENSORED)
+    elif estimate > float(row.get("exposure_span_m", np.inf)):
+        flags.append(TRACE_BEYOND_EXPOSURE)
+    elif traces and hidden and traces - hidden <= FEW_WHOLE_TRACES:
+        flags.append(FEW_WHOLE_TRACES_FLAG)
+    return flags
+
+
+def exposure_span(exposures) -> float:
+    """The longest line across the exposed face (m): the diagonal of the largest section's
+    occupied cells."""
+    spans = [0.0]
+    for face in exposures:
+        rows, columns = np.nonzero(face.occupied)
+        if len(rows):
+            spans.append(float(np.hypot(np.ptp(rows) + 1, np.ptp(columns) + 1) * face.cell))
+    return max(spans)
 
 #: The columns ``sets.csv`` adds per set after the orientation statistics.
 ROCK_SET_COLUMNS = (
@@ -80,9 +129,12 @@ ROCK_SET_COLUMNS = (
     "joint_trace_median_m",
     "joint_trace_mean_m",
     "joint_trace_std_error_m",
+    "joint_trace_estimate_m",
+    "exposure_span_m",
     "persistence",
     "spacing_class",
     "n_joints",
+    "flags",
 )
 
 
@@ -102,6 +154,7 @@ class RockMass:
     persistence: Persistence
     exposure_area: float
     set_labels: np.ndarray
+    exposure_span: float = float("inf")  # m: the longest line across the exposed face (its sections')
     scanlines: list = field(default_factory=list)
     trace_scanlines: list = field(default_factory=list)  # the joints met only where their traces show
     joint_trace_lengths: list = field(default_factory=list)  # per set, its joints' traces (TraceLengths)
@@ -169,8 +222,11 @@ class RockMass:
 
     @property
     def block_volume(self) -> float:
-        """Palmstrom's Vb = 36 Jv^-3 (m^3)."""
-        return BLOCK_SHAPE_FACTOR * self.jv**-3 if self.jv > 0 else float("nan")
+        """Palmstrom's Vb = 36 Jv^-3 (m^3), NaN with fewer than :data:`BLOCK_SETS` sets whose
+        spacing was measured: one or two sets cut slabs or columns, which no count closes
+        into blocks (an indoor room's floor gave an 11 m^3 "block")."""
+        measured = int(np.isfinite(self.spacing).sum())
+        return BLOCK_SHAPE_FACTOR * self.jv**-3 if self.jv > 0 and measured >= BLOCK_SETS else float("nan")
 
     def block_volume_three_sets(self, set_normals) -> float:
         """S1 S2 S3 / (sin g12 sin g23 sin g31) for the three largest sets (m^3; ISRM 1978),
@@ -251,6 +307,14 @@ class RockMass:
             row["joint_trace_mean_m"] = lengths.mean
             row["joint_trace_std_error_m"] = lengths.std_error
             row["persistence"] = lengths.persistence
+            row["exposure_span_m"] = self.exposure_span
+            row["joint_trace_estimate_m"] = lengths.mean
+            if lengths.mean > self.exposure_span:
+                # The censored estimate reaches past anything this face can show: not a
+                # measurement. The traces seen are what is known, as a lower bound.
+                row["joint_trace_mean_m"] = row["joint_trace_std_error_m"] = float("nan")
+                row["persistence"] = persistence_class(float(lengths.length.mean()), at_least=True)
+            row["flags"] = ";".join(set_flags(row))
             row["spacing_class"] = spacing_class(line.spacing)
             row["n_joints"] = int(n_joints[s])
             rows.append(row)
@@ -347,7 +411,7 @@ def rock_mass(
         plane_section = face_sections_of(exposures, point_section, labels, len(normals))
     persistence = sectioned_persistence(points, labels, normals, exposures, plane_section, up)
     n_sets = len(set_normals)
-    result = RockMass(persistence, float(sum(f.area for f in exposures)), set_labels)
+    result = RockMass(persistence, float(sum(f.area for f in exposures)), set_labels, exposure_span(exposures))
     result.face_bend, result.face_sections, result.sections = face.bend, len(exposures), sections
     if parts is not None:
         result.ground, result.clutter, result.point_part = parts.ground, parts.clutter, parts.point_part

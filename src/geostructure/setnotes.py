@@ -18,7 +18,7 @@ import numpy as np
 from .errors import GeoStructureNote, GeoStructureWarning
 from .exposure import BENT_FACE
 from .face import CLUTTER
-from .rockmass import RockMass
+from .rockmass import BLOCK_SETS, FEW_WHOLE_TRACES, TRACE_BEYOND_EXPOSURE, RockMass
 from .spacing import MIN_SCANLINE_COSINE
 from .uncertainty import MIN_TILT_FACETS
 
@@ -31,7 +31,12 @@ def set_notes(set_id: int, row: dict) -> list[str]:
     >>> set_notes(2, {"spacing_m": 0.4, "spacing_basis": "persistent", "joint_traces": 5, "joint_trace_mean_m": 2.1})
     []
     """
-    notes = (unmeasured_spacing(set_id, row), persistence_note(set_id, row), censored_traces_note(set_id, row))
+    notes = (
+        unmeasured_spacing(set_id, row),
+        persistence_note(set_id, row),
+        censored_traces_note(set_id, row),
+        trace_beyond_exposure_note(set_id, row),
+    )
     return [note for note in notes if note]
 
 
@@ -113,6 +118,24 @@ def jv_scope(rows: list[dict]) -> str:
     return f" (without set{'s' if len(missing) > 1 else ''} {', '.join(map(str, missing))})"
 
 
+def block_phrase(block_volume: float, size_class: str, rows: list[dict]) -> str:
+    """The tables' words for the block volume: its value and ISRM size, or, with fewer than
+    :data:`~.rockmass.BLOCK_SETS` sets whose spacing was measured (``rows``, as
+    :func:`jv_scope` takes them), why there is none.
+
+    Examples
+    --------
+    >>> block_phrase(0.29, "medium-sized blocks", [{"spacing_m": 0.7}] * 3)
+    ', block 0.29 m³ (medium-sized)'
+    >>> block_phrase(float("nan"), "large blocks", [{"spacing_m": 0.68}])
+    ', no block volume (1 set with a spacing: blocks close on 3)'
+    """
+    if np.isfinite(block_volume):
+        return f", block {block_volume:.2g} m³ ({size_class.removesuffix(' blocks')})"
+    measured = sum(1 for row in rows if np.isfinite(row["spacing_m"]))
+    return f", no block volume ({measured} set{'' if measured == 1 else 's'} with a spacing: blocks close on {BLOCK_SETS})"
+
+
 def rqd_phrase(from_jv, least=None, greatest=None) -> str:
     """The tables' words for RQD: from Jv (Palmström 2005), and its range along a line
     (Priest & Hudson 1976) where measured; ``""`` without Jv.
@@ -133,12 +156,6 @@ def rqd_phrase(from_jv, least=None, greatest=None) -> str:
         low, high = f"{least:.0f}", f"{greatest:.0f}"
         along = f" ({low} in every direction)" if low == high else f" ({low} to {high} by direction)"
     return f", RQD {from_jv:.0f}{along}"
-
-
-#: Joint traces seen end to end below which a set's mean trace length (the censored
-#: exponential's, its standard error the mean over their root) is too loose to give without
-#: saying so: at 3 the standard error is 58% of the mean.
-FEW_WHOLE_TRACES = 3
 
 
 def censored_traces_note(set_id: int, row: dict) -> str | None:
@@ -163,7 +180,7 @@ def censored_traces_note(set_id: int, row: dict) -> str | None:
     True
     """
     traces = int(float(row.get("joint_traces") or 0))
-    if not traces:
+    if not traces or TRACE_BEYOND_EXPOSURE in str(row.get("flags", "")).split(";"):
         return None
     mean = float(row.get("joint_trace_mean_m", np.nan))
     if np.isfinite(mean):
@@ -182,6 +199,30 @@ def censored_traces_note(set_id: int, row: dict) -> str | None:
     return (
         f"{every} out of sight (to the face's edge or a hole), so {whose} is not measured: the "
         f"{float(row['joint_trace_median_m']):.2f} m {seen} is a lower bound, and its persistence is {row['persistence']}."
+    )
+
+
+def trace_beyond_exposure_note(set_id: int, row: dict) -> str | None:
+    """A sentence when set ``set_id``'s mean trace length, as the censored traces give it,
+    is longer than any line across the exposed face (:data:`~.rockmass.TRACE_BEYOND_EXPOSURE`
+    in its row's ``flags``): no face this size measures it, so it is not given; the traces
+    seen are a lower bound. None otherwise.
+
+    Examples
+    --------
+    >>> row = {"flags": "trace_longer_than_exposure", "joint_trace_estimate_m": 106.3, "exposure_span_m": 21.9,
+    ...        "joint_trace_median_m": 11.6, "persistence": "high or more"}
+    >>> trace_beyond_exposure_note(1, row)
+    "Set 1's joint traces, most of them running out of sight, give a mean length of 106.3 m, longer than any line across the exposed face (21.9 m): no face this size measures it, so it is not given; the 11.60 m median seen is a lower bound, and its persistence is high or more."
+    """
+    if TRACE_BEYOND_EXPOSURE not in str(row.get("flags", "")).split(";"):
+        return None
+    return (
+        f"Set {set_id}'s joint traces, most of them running out of sight, give a mean length of "
+        f"{float(row['joint_trace_estimate_m']):.1f} m, longer than any line across the exposed face "
+        f"({float(row['exposure_span_m']):.1f} m): no face this size measures it, so it is not given; the "
+        f"{float(row['joint_trace_median_m']):.2f} m median seen is a lower bound, and its persistence is "
+        f"{row['persistence']}."
     )
 
 

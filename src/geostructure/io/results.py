@@ -135,7 +135,7 @@ def read_spacings(folder) -> dict[int, np.ndarray]:
 
 
 #: The columns of ``sets.csv`` that hold words, not numbers.
-TEXT_SET_COLUMNS = {"spacing_best_fit", "spacing_basis", "persistence", "spacing_class"}
+TEXT_SET_COLUMNS = {"spacing_best_fit", "spacing_basis", "persistence", "spacing_class", "flags"}
 
 
 def read_sets(folder) -> list[dict]:

@@ -21,7 +21,7 @@ from ..io.tiles import describe
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..setnotes import bent_face, jv_scope, off_face_scope, rqd_phrase, set_notes
+from ..setnotes import bent_face, block_phrase, jv_scope, off_face_scope, rqd_phrase, set_notes
 from .kinematic_tables import kinematic_table, set_swatch
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -364,12 +364,14 @@ def set_table(scene: ReportScene) -> str:
     measured = "spacing_m" in scene.sets[0]
     jv = rock.get("jv_per_m3") if rock else None  # null in run.json when no set has a spacing
     if measured and jv is not None and np.isfinite(jv):
-        caption += (
-            f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³{jv_scope(scene.sets)}, "
-            f"block volume {rock['block_volume_m3']:.3g} m³ (Palmström, 36/Jv³)"
-        )
-        if rock.get("block_size_class"):  # folders before 2026-12-05 have none
-            caption += f", {rock['block_size_class']} (ISRM)"
+        caption += f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³{jv_scope(scene.sets)}"
+        block = rock.get("block_volume_m3")
+        if block is not None and np.isfinite(block):
+            caption += f", block volume {block:.3g} m³ (Palmström, 36/Jv³)"
+            if rock.get("block_size_class"):  # folders before 2026-12-05 have none
+                caption += f", {rock['block_size_class']} (ISRM)"
+        else:
+            caption += block_phrase(float("nan"), "", scene.sets)
         if rock.get("rqd_from_jv") is not None:  # folders before 2026-12-05 have none
             caption += rqd_phrase(
                 rock["rqd_from_jv"], rock.get("rqd_min_by_direction"), rock.get("rqd_max_by_direction")
