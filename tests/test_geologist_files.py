@@ -90,3 +90,48 @@ def test_no_block_volume_from_fewer_than_three_sets(tmp_path, capsys):
     assert len(measured) < 3 and rock["block_volume_m3"] is None
     assert "no block volume" in " ".join(stdout.split()) and "m³ (large)" not in stdout
     assert "no block volume" in (out / "report.html").read_text()
+
+
+@pytest.mark.real_data
+def test_a_run_says_how_few_points_lie_in_a_plane(tmp_path, capsys):
+    """On jfm_outcrop_test a third of the points end in a plane, and the command said nothing."""
+    from conftest import shared_file
+
+    code, _, err = run_cli(capsys, "measure", shared_file("jfm_outcrop_test/test.txt"), "-o", tmp_path / "o")
+    assert code == 0
+    line = next(line for line in err.splitlines() if "lie in a plane" in line)
+    assert "of the 1,132 points" in line and "note:" in line
+
+
+@pytest.mark.real_data
+def test_files_that_do_not_touch_are_measured_with_a_note(tmp_path, capsys):
+    """A folder of two unrelated clouds (a town and a test scene 160 m below it) was merged
+    into one cloud without a word, and the table was titled with the last file's name."""
+    from conftest import shared_file
+
+    folder = shared_file("odmsemantic3d/test.laz").parent
+    code, stdout, err = run_cli(capsys, "measure", folder, "-o", tmp_path / "o")
+    assert code == 0
+    assert "2 groups that do not touch (brighton_small.laz; test.laz)" in " ".join(err.split())
+    assert "Planes in brighton_small.laz, test.laz" in stdout
+
+
+def test_a_level_plane_prints_no_azimuth(tmp_path, capsys):
+    rng = np.random.default_rng(2)
+    level = np.c_[rng.random((4000, 2)) * 10, rng.normal(0, 0.002, 4000)]
+    code, stdout, _ = run_cli(capsys, "measure", write_xyz(tmp_path / "level.xyz", level), "-o", tmp_path / "o")
+    assert code == 0
+    row = next(line for line in stdout.splitlines() if line.startswith("│  0 │"))
+    assert row.count("level") == 2  # strike and dip direction
+    assert float(next(csv.DictReader(open(tmp_path / "o" / "planes.csv")))["dip"]) < 0.1
+    assert "\n1 plane from 4,000 points" in stdout
+
+
+def test_set_wording_agrees_with_its_numbers(tmp_path, capsys):
+    from geostructure.errors import GeoStructureWarning
+    from geostructure.sets import find_sets
+
+    normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.05, 1.0], [0.05, 0.0, 1.0], [1.0, 0, 0.1]])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    with pytest.warns(GeoStructureWarning, match="4 planes make at most 1 set of 3 planes, not the 2 asked for"):
+        find_sets(normals, n_sets=2)

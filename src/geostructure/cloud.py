@@ -160,4 +160,5 @@ class Cloud:
 
     @property
     def name(self) -> str:
-        return Path(self.source).name
+        """The file's name, or the files' (tiles read as one cloud name theirs, comma-separated)."""
+        return ", ".join(Path(part).name for part in str(self.source).split(", "))

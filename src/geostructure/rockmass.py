@@ -91,6 +91,7 @@ def exposure_span(exposures) -> float:
             spans.append(float(np.hypot(np.ptp(rows) + 1, np.ptp(columns) + 1) * face.cell))
     return max(spans)
 
+
 #: The columns ``sets.csv`` adds per set after the orientation statistics.
 ROCK_SET_COLUMNS = (
     "spacing_m",

@@ -89,17 +89,17 @@ def persistence_note(set_id: int, row: dict) -> str | None:
 
 def off_face_scope(ground: int, clutter: int) -> str:
     """What of the planes in no set is not the rock's: ``"; of them 1 the level ground before
-    the face and 31 in clutter such as vegetation"``, or ``""`` when none is.
+    the face and 31 in clutter off the face (vegetation, debris, objects)"``, or ``""`` when none is.
 
     Examples
     --------
     >>> off_face_scope(1, 31)
-    '; of them 1 the level ground before the face and 31 in clutter such as vegetation'
+    '; of them 1 the level ground before the face and 31 in clutter off the face (vegetation, debris, objects)'
     >>> off_face_scope(0, 0)
     ''
     """
     parts = [f"{n} {what}" for n, what in ((ground, "the level ground before the face"),
-                                           (clutter, "in clutter such as vegetation")) if n]  # fmt: skip
+                                           (clutter, "in clutter off the face (vegetation, debris, objects)")) if n]  # fmt: skip
     return f"; of them {' and '.join(parts)}" if parts else ""
 
 
@@ -133,7 +133,9 @@ def block_phrase(block_volume: float, size_class: str, rows: list[dict]) -> str:
     if np.isfinite(block_volume):
         return f", block {block_volume:.2g} m³ ({size_class.removesuffix(' blocks')})"
     measured = sum(1 for row in rows if np.isfinite(row["spacing_m"]))
-    return f", no block volume ({measured} set{'' if measured == 1 else 's'} with a spacing: blocks close on {BLOCK_SETS})"
+    return (
+        f", no block volume ({measured} set{'' if measured == 1 else 's'} with a spacing: blocks close on {BLOCK_SETS})"
+    )
 
 
 def rqd_phrase(from_jv, least=None, greatest=None) -> str:

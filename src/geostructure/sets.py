@@ -227,9 +227,10 @@ def find_sets(
     if not fits:
         if n_sets is not None:
             warnings.warn(
-                f"{len(x)} {'plane makes' if len(x) == 1 else 'planes make'} at most {len(x) // MIN_SET_PLANES} "
-                f"sets of {MIN_SET_PLANES} planes, not the "
-                f"{n_sets} asked for: no set was fitted; ask for fewer, or leave the number to BIC.",
+                f"{len(x)} {'plane makes' if len(x) == 1 else 'planes make'} at most "
+                f"{len(x) // MIN_SET_PLANES} {'set' if len(x) // MIN_SET_PLANES == 1 else 'sets'} of "
+                f"{MIN_SET_PLANES} planes, not the {n_sets} asked for: no set was fitted; ask for fewer, or leave the "
+                f"number to BIC.",
                 GeoStructureWarning,
                 stacklevel=2,
             )

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 from rich.console import Console
 from rich.table import Table
@@ -69,9 +67,7 @@ def print_planes(
     shown = planes.subset(np.argsort(-planes.n_points, kind="stable")[:max_rows])
     caption = f"the {len(shown)} of {len(planes)} planes with the most points; all in planes.csv"
     caption = caption if len(shown) < len(planes) else None
-    table = Table(
-        title=f"Planes in {Path(str(result.cloud.source)).name} (frame: {result.frame.name})", caption=caption
-    )
+    table = Table(title=f"Planes in {result.cloud.name} (frame: {result.frame.name})", caption=caption)
     for column in ("id", "points", "area m²", "strike", "dip", "dip dir", "± deg", "centroid"):
         table.add_column(column, justify="right")
     for row in shown.rows():
@@ -79,9 +75,9 @@ def print_planes(
             str(row["region_id"]),
             f"{row['n_points']:,}",
             f"{row['area_m2']:.4g}",
-            f"{row['strike']:05.1f}",
+            azimuth(row["strike"], row["dip"], row["normal_uncertainty_deg"]),
             f"{row['dip']:04.1f}",
-            f"{row['dip_direction']:05.1f}",
+            azimuth(row["dip_direction"], row["dip"], row["normal_uncertainty_deg"]),
             f"{row['normal_uncertainty_deg']:.2f}",
             f"{row['centroid_x']:.2f}, {row['centroid_y']:.2f}, {row['centroid_z']:.2f}",
         )
@@ -95,7 +91,11 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     if not len(sets):
         n = len(sets.labels)
         console.print(
-            f"No joint set: no {MIN_SET_PLANES} of the {n} planes share an orientation."
+            (
+                f"No joint set: the {n} planes do not share an orientation."
+                if n == MIN_SET_PLANES
+                else f"No joint set: no {MIN_SET_PLANES} of the {n} planes share an orientation."
+            )  # fmt: skip
             if n >= MIN_SET_PLANES
             else f"No joint set: {n} plane{'' if n == 1 else 's'}, and a set needs {MIN_SET_PLANES}."
         )
@@ -129,7 +129,7 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
             str(row["n_planes"]),
             f"{row['area_m2']:.4g}",
             f"{row['dip']:04.1f}",
-            f"{row['dip_direction']:05.1f}",
+            azimuth(row["dip_direction"], row["dip"], row["alpha95_deg"]),
             f"{row['fisher_k']:.0f}",
             f"{row['alpha95_deg']:.1f}",
             f"{row['spherical_variance']:.3f}",
@@ -139,6 +139,19 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     for s, more in enumerate(rock_rows):
         for note in set_notes(s, more) if more else ():
             console.print(note)
+
+
+def azimuth(value: float, dip: float, uncertainty: float) -> str:
+    """A strike or dip direction as the tables print it, or "level" for a plane whose dip is
+    within its normal's uncertainty (degrees) of level, where no azimuth means anything
+    (a level plane printed a dip direction of 075.2 at dip 0.0); planes.csv keeps the number.
+
+    Examples
+    --------
+    >>> azimuth(75.2, 0.0, 0.5), azimuth(75.2, 12.0, 0.5), azimuth(5.0, 0.4, float("nan"))
+    ('level', '075.2', '005.0')
+    """
+    return "level" if dip < 0.05 or dip < uncertainty else f"{value:05.1f}"
 
 
 def counted(n: int, noun: str) -> str:

@@ -20,7 +20,7 @@ from ..stream import DaskExecutor, SerialExecutor, measure_stream
 from ..stream.engine import DEFAULT_CHUNK_POINTS
 from ..stream.output import RegionsLaz, RegionsPly
 from ..stream.source import estimate_points
-from ..tables import print_evaluation, print_planes
+from ..tables import counted, print_evaluation, print_planes
 from .options import base_params, crs_from, crs_record, given_factors, say_what_was_left
 from .rockmass import wants_sets
 
@@ -198,13 +198,13 @@ def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=N
                 written.update(stage_report(outputs, outputs.staging, None))
     finally:
         executor.close()
-    say_what_was_left(len(result), "voxel", result.cloud.crs is not None, args.min_points)
+    say_what_was_left(len(result), "voxel", result.cloud.crs is not None, args.min_points, result.counts)
     if not args.quiet:
         print_planes(result, metres_per_unit=recorded_unit({"crs": result.cloud.crs, **about_crs})["metres"])
         if evaluation is not None:
             print_evaluation(evaluation)
         print(
-            f"{len(result)} planes from {result.counts['input']:,} points ({engine} engine) in "
+            f"{counted(len(result), 'plane')} from {result.counts['input']:,} points ({engine} engine) in "
             f"{time.perf_counter() - t:.1f} s; wrote {', '.join(str(p) for p in written.values())}"
         )
     return 0

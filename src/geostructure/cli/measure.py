@@ -30,6 +30,7 @@ from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
 from ..tables import (
+    counted,
     print_evaluation,
     print_kinematics,
     print_match,
@@ -265,7 +266,11 @@ def measure_cloud(
             then=stage_kinematics_too if kinematics is not None else None,
         )
     say_what_was_left(
-        len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None, args.min_points
+        len(result),
+        result.params.detector,
+        cloud.crs is not None or cloud.enu_origin is not None,
+        args.min_points,
+        result.counts,
     )
     if not args.quiet:
         print_planes(result, planes=None if sets is None else with_rock_mass(result.planes, sets, rock),  # as written
@@ -282,7 +287,7 @@ def measure_cloud(
         of_survey = f" of the survey's {thinned['survey_points']:,}" if thinned.get("cell") else ""
         joints = f" ({len(rock.joints)} joints)" if rock is not None and rock.joints is not None else ""
         print(
-            f"{len(result)} planes{joints} from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
+            f"{counted(len(result), 'plane')}{joints} from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
             f"wrote {', '.join(str(p) for p in paths.values())}"
         )
     return 0

@@ -11,19 +11,24 @@ plane that crosses tile borders is one plane.
 from __future__ import annotations
 
 import glob
+import warnings
 from pathlib import Path
 
 import numpy as np
 
+from ..bounds import column_max, column_min
 from ..cloud import Cloud
 from ..copies import without_copies
-from ..errors import GeoStructureError
+from ..errors import GeoStructureError, GeoStructureNote
 from .crs import check_cloud_crs, parse_crs
 from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, TEXT_SUFFIXES, las_crs, merged_left_out, open_las, read_cloud
 from .text import holds_rows_of_numbers
 
 #: Files named in a message before it says how many more there are.
 NAMED_FILES = 3
+#: Tiles of one survey touch: two files whose bounding boxes, each grown by this share of
+#: its own diagonal, do not overlap lie apart (two sites, or a cloud in another frame).
+TOUCH_SHARE = 0.05
 
 
 def expand_inputs(specs) -> list[Path]:
@@ -108,6 +113,7 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
             check_same_crs(clouds[0], cloud, paths[0], path)
         clouds.append(cloud)
         report("read", i + 1, len(paths))
+    note_apart(paths, [np.vstack([column_min(c.points), column_max(c.points)]) for c in clouds])
     points = np.vstack([c.points for c in clouds])
     normals = np.vstack([c.normals for c in clouds]) if all(c.normals is not None for c in clouds) else None
     vegetation = (
@@ -129,6 +135,49 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
         vegetation=vegetation,
     )
     return without_copies(merged)  # overlapping tiles: the copies of one tile's points in another
+
+
+def touching_groups(boxes) -> list[list[int]]:
+    """The files that touch, in groups (indices into ``boxes``, each a (2, 3) lower and
+    upper corner): two touch when their boxes, each grown by :data:`TOUCH_SHARE` of its
+    diagonal, overlap; a group is every file reached through touching ones.
+
+    Examples
+    --------
+    >>> a, b, far = ([[0, 0, 0], [10, 10, 5]], [[10.2, 0, 0], [20, 10, 5]], [[0, 0, 160], [5, 5, 167]])
+    >>> touching_groups([a, b, far])
+    [[0, 1], [2]]
+    """
+    boxes = np.asarray(boxes, dtype=np.float64)
+    grow = TOUCH_SHARE * np.linalg.norm(boxes[:, 1] - boxes[:, 0], axis=1)
+    lower, upper = boxes[:, 0] - grow[:, None], boxes[:, 1] + grow[:, None]
+    touch = np.all((lower[:, None] <= upper[None]) & (lower[None] <= upper[:, None]), axis=2)
+    group = list(range(len(boxes)))
+
+    def root(i: int) -> int:
+        while group[i] != i:
+            i = group[i]
+        return i
+
+    for i, j in zip(*np.nonzero(np.triu(touch, 1))):
+        group[root(int(j))] = root(int(i))
+    roots = [root(i) for i in range(len(boxes))]
+    return [[i for i in range(len(boxes)) if roots[i] == r] for r in dict.fromkeys(roots)]
+
+
+def note_apart(paths, boxes) -> None:
+    """A note when the files given as tiles of one survey fall apart into groups that do not
+    touch (:func:`touching_groups`): they are still measured as one cloud, as asked."""
+    groups = touching_groups(boxes)
+    if len(groups) < 2:
+        return
+    named = "; ".join(describe([Path(paths[i]).name for i in g]) for g in groups)
+    warnings.warn(
+        f"the {len(paths)} files fall into {len(groups)} groups that do not touch ({named}): they are measured "
+        f"as one cloud, as tiles of one survey; measure each on its own if they are separate sites.",
+        GeoStructureNote,
+        stacklevel=3,
+    )
 
 
 def check_headers(paths) -> tuple[str, Path] | None:
