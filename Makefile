@@ -5,17 +5,28 @@ STAMP := $(VENV)/.installed-stamp
 
 .PHONY: demo test lint bench install system-deps clean
 
-$(STAMP): pyproject.toml constraints.txt
+# Two installs into one .venv: the package alone (what measure, sets, kinematics, report and
+# the demo need) for `make demo`, and every extra (tests, video/photo reconstruction, Dask)
+# for `make test`. BASE is the first, STAMP the second.
+BASE := $(VENV)/.base-stamp
+
+$(BASE): pyproject.toml constraints.txt
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -c constraints.txt -e .
+	touch $@
+
+$(STAMP): $(BASE)
 	$(PY) -m pip install -q -c constraints.txt -e ".[test,reconstruct,dask]"
 	touch $@
 
 install: $(STAMP)
 
-demo: $(STAMP)
+demo: $(BASE)
 	$(VENV)/bin/geostructure demo -o out/demo
 
+# Debian packages the tests use (Chromium, ChromeDriver, GDAL, CloudCompare, xvfb, libGL):
+# installed with apt-get when run as root, and said before; skipped with a note otherwise.
 system-deps:
 	bash scripts/install-system-deps.sh
 
