@@ -29,7 +29,7 @@ def screenshots(report: Path, folder: Path, prefix: str = "report") -> list[Path
         time.sleep(4)  # plotly draws the WebGL view after the page loads
         for view in VIEWS:
             found = driver.find_elements(By.ID, view)
-            if not found:
+            if not found or not found[0].size["height"]:  # no sets: no spacing panel
                 continue
             driver.execute_script("arguments[0].scrollIntoView();", found[0])
             time.sleep(0.5)

@@ -135,3 +135,64 @@ def test_set_wording_agrees_with_its_numbers(tmp_path, capsys):
     normals /= np.linalg.norm(normals, axis=1)[:, None]
     with pytest.warns(GeoStructureWarning, match="4 planes make at most 1 set of 3 planes, not the 2 asked for"):
         find_sets(normals, n_sets=2)
+
+
+def report_payload(folder) -> dict:
+    import json
+    import re
+
+    html = (folder / "report.html").read_text()
+    return json.loads(re.search(r'<script id="payload" type="application/json">(.*?)</script>', html, re.S).group(1))
+
+
+@pytest.mark.real_data
+def test_the_report_gives_areas_in_square_metres_and_blanks_for_no_set(tmp_path, capsys):
+    """pdal_autzen (Oregon feet): the set table said m² and the plane table ft² on one page;
+    -1 stood for "no set" and "no joint"."""
+    from conftest import shared_file
+
+    out = tmp_path / "autzen"
+    code, _, _ = run_cli(capsys, "measure", shared_file("pdal_autzen/autzen_trim.laz"), "-o", out, "--sets",
+                         "--report", "-q")  # fmt: skip
+    assert code == 0
+    page = report_payload(out)
+    labels = {c["key"]: c["label"] for c in page["columns"]}
+    assert labels["area_m2"] == "Area (m²)" and labels["fit_residual"] == "Roughness (ft)"
+    table = {int(r["region_id"]): r for r in csv.DictReader(open(out / "planes.csv"))}
+    for row in page["planes"]:
+        assert row["area_m2"] == pytest.approx(float(table[row["region_id"]]["area_m2"]), rel=1e-9)
+        written = int(table[row["region_id"]]["set"])
+        assert row["set"] == (None if written < 0 else written)
+    assert any(row["set"] is None for row in page["planes"])
+
+
+def test_the_report_net_names_its_envelopes_and_kinematics_per_plane(outcrop_sets, tmp_path, capsys):
+    from geostructure.report.view3d import SET_COLORS, TOPPLING_COLOR
+
+    cloud, _ = outcrop_sets
+    out = tmp_path / "k"
+    assert run_cli(capsys, "measure", cloud, "-o", out, "-q", "--sets", "--kinematics", "--friction", "30",
+                   "--report")[0] == 0  # fmt: skip
+    page = report_payload(out)
+    net = page["stereonet"]
+    assert net["layout"]["showlegend"] is True
+    named = {t.get("name") for t in net["data"] if t.get("showlegend") is not False}
+    assert {"toppling envelope", "planar daylight envelope", "pole friction cone", "set 0"} <= named
+    assert "primitive" not in named and "selected pole" not in named
+    kinds = {row["kinematics"] for row in page["planes"]}
+    assert "not critical" in kinds and any(k.startswith("planar sliding (FS ") for k in kinds)
+    assert TOPPLING_COLOR not in SET_COLORS  # orange was a set's, the toppling poles' and its envelope's
+
+
+@pytest.mark.real_data
+def test_no_kamb_contours_from_a_handful_of_poles(tmp_path, capsys):
+    from conftest import shared_file
+
+    from geostructure.report.stereonet import MIN_CONTOUR_POLES
+
+    out = tmp_path / "jfm"
+    code, _, _ = run_cli(capsys, "measure", shared_file("jfm_outcrop_test/test.txt"), "-o", out, "--report", "-q")
+    assert code == 0
+    planes = list(csv.DictReader(open(out / "planes.csv")))
+    assert len(planes) < MIN_CONTOUR_POLES
+    assert not [t for t in report_payload(out)["stereonet"]["data"] if t["type"] == "contour"]

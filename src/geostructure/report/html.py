@@ -26,6 +26,7 @@ from .kinematic_tables import kinematic_table, set_swatch
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
 from .spacing_plot import figure_spacing
+from .stereonet import MIN_CONTOUR_POLES
 from .view3d import figure_3d, figure_json, hover_text, panel_title, plane_colors, set_color
 
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
@@ -39,7 +40,7 @@ COLUMNS = [
     ("dip", "Dip", 1),
     ("dip_direction", "Dip dir.", 1),
     ("normal_uncertainty_deg", "± (°)", 2),
-    ("area_m2", "Area ({unit}²)", 2),
+    ("area_m2", "Area (m²)", 2),
     ("n_points", "Points", 0),
     ("fit_residual", "Roughness ({unit})", 4),
     ("planarity", "Planarity", 3),
@@ -91,6 +92,7 @@ def render(scene: ReportScene, title: str) -> str:
         "columns": [{"key": k, "label": label.format(unit=unit), "digits": d} for k, label, d in COLUMNS]
         + ([{"key": "set", "label": "Set", "digits": 0}] if "set" in scene.planes.extra else [])
         + ([{"key": "joint", "label": "Joint", "digits": 0}] if "joint" in scene.planes.extra else [])
+        + ([{"key": "kinematics", "label": "Kinematics", "digits": None}] if scene.plane_kinematics else [])
         + ([{"key": "truth_error", "label": "Truth error (°)", "digits": 2}] if scene.truth else []),
         "meta": {
             "source": scene.source,
@@ -171,7 +173,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
 
     dd, dip = scene.planes.dip_direction, scene.planes.dip
     fig = go.Figure()
-    if len(dd) >= 3:
+    if len(dd) >= MIN_CONTOUR_POLES:
         x, y, density = pole_density(dd, dip)
         fig.add_trace(
             go.Contour(
@@ -196,6 +198,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
             line=dict(color="black", width=1.5),
             hoverinfo="skip",
             name="primitive",
+            showlegend=False,
         )
     )
     if scene.sets:  # each set's mean great circle and alpha95 cone instead of the planes' circles
@@ -221,6 +224,7 @@ def figure_stereonet(scene: ReportScene) -> dict:
                     line=dict(color=color, width=1.5, dash="dot"),
                     name=f"set {int(row['set'])} alpha95",
                     hoverinfo="skip",
+                    showlegend=False,
                 )  # fmt: skip
             )
     else:
@@ -251,13 +255,22 @@ def figure_stereonet(scene: ReportScene) -> dict:
             name="poles",
             customdata=np.arange(len(dd)),
             marker=dict(color=pole_colors, size=7, line=dict(color="white", width=1)),
-            text=[hover_text(r, scene.truth.get(r["region_id"]), scene.unit) for r in scene.planes.rows()],
+            text=[
+                hover_text(r, scene.truth.get(r["region_id"]), scene.unit, scene.metres_per_unit)
+                for r in scene.planes.rows()
+            ],
             hovertemplate="%{text}<extra></extra>",
         )
     )
     fig.add_trace(
         go.Scatter(
-            x=[], y=[], mode="lines", name="selected circle", hoverinfo="skip", line=dict(color="#e6a100", width=3)
+            x=[],
+            y=[],
+            mode="lines",
+            name="selected circle",
+            hoverinfo="skip",
+            line=dict(color="#e6a100", width=3),
+            showlegend=False,
         )
     )
     fig.add_trace(
@@ -268,17 +281,24 @@ def figure_stereonet(scene: ReportScene) -> dict:
             name="selected pole",
             hoverinfo="skip",
             marker=dict(color="#ffd400", size=14, line=dict(color="black", width=1.5)),
+            showlegend=False,
         )
     )
     axis = dict(visible=False, range=[-1.12, 1.12], fixedrange=True)
     title, top = panel_title(_net_title(scene), NET_HEIGHT)
+    # With kinematics, a legend under the net names each envelope (a click hides one; a face
+    # tested in sections has one entry a section, so that overlapping sections can be told
+    # apart); without, the net alone.
+    legend = [t for t in fig.data if t.showlegend is not False and t.name]
+    below = 30 + 19 * len(legend) if scene.kinematics else 10
     fig.update_layout(
         xaxis=dict(axis, scaleanchor="y"),
         yaxis=axis,
-        showlegend=False,
+        showlegend=bool(scene.kinematics),
+        legend=dict(font=dict(size=9), orientation="v", tracegroupgap=0, yanchor="top", y=-0.02, x=0),
         plot_bgcolor="white",
-        margin=dict(l=10, r=10, t=top, b=10),
-        height=NET_HEIGHT,
+        margin=dict(l=10, r=10, t=top, b=below),
+        height=NET_HEIGHT + below,
         title=title,
         annotations=[dict(x=0, y=1.08, text="N", showarrow=False, font=dict(size=14))],
     )
@@ -390,10 +410,16 @@ def set_table(scene: ReportScene) -> str:
 
 def table_rows(scene: ReportScene) -> list[dict]:
     """Plane rows for the page: table values, info text, 3D corners and stereonet data."""
-    rows = []
+    rows, square_metres = [], scene.metres_per_unit**2
     for row, corners in zip(scene.planes.rows(), scene.planes.local_corners):
         truth = scene.truth.get(row["region_id"])
         out = {key: row.get(key) for key, _, _ in COLUMNS + [("set", "", 0), ("joint", "", 0)] if key in row}
+        out["area_m2"] = row["area_m2"] * square_metres  # the plane table holds the cloud's unit squared
+        if scene.plane_kinematics:
+            out["kinematics"] = scene.plane_kinematics.get(row["region_id"], "")
+        for key in ("set", "joint"):  # -1 is "none": a blank cell, and "in no set" in the info line
+            if key in out and out[key] is not None and out[key] < 0:
+                out[key] = None
         out["corners"] = np.round(corners, 4).tolist()
         out["great_circle"] = [np.round(a, 4).tolist() for a in great_circle_xy(row["dip_direction"], row["dip"])]
         out["pole"] = [float(a) for a in pole_xy(row["dip_direction"], row["dip"])]

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..orientation import whole_azimuth
 from ..projection import enu_vectors, equal_area_xy, great_circle_xy, pole_xy, small_circle_xy
+from .view3d import TOPPLING_COLOR
 
 
 def _line_xy(trend, plunge):
@@ -38,10 +39,10 @@ def envelope_curves(kinematics: dict) -> list[tuple[str, str, str, np.ndarray, n
         x, y = _line_xy(np.full_like(plunge, alpha + 180.0 + side * limit), plunge)
         curves.append(("planar lateral limit", "#1f4fd1", "dot", x, y))
         x, y = _line_xy(np.full_like(plunge, alpha + side * limit), plunge)
-        curves.append(("toppling lateral limit", "darkorange", "dot", x, y))
+        curves.append(("toppling lateral limit", TOPPLING_COLOR, "dot", x, y))
     if psi - friction > 0:
         arc = np.linspace(alpha - limit, alpha + limit, 41)
-        curves.append(("toppling envelope", "darkorange", "solid", *_line_xy(arc, np.full_like(arc, psi - friction))))
+        curves.append(("toppling envelope", TOPPLING_COLOR, "solid", *_line_xy(arc, np.full_like(arc, psi - friction))))
     if psi < 90.0:
         curves.append(("direct toppling circle", "saddlebrown", "dashdot", *small_circle_xy(0.0, 90.0, psi)))
     return curves

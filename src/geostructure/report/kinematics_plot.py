@@ -6,7 +6,7 @@ import numpy as np
 
 from ..orientation import whole_azimuth
 from ..projection import quiet_mplstereonet
-from .view3d import set_color
+from .view3d import TOPPLING_COLOR, set_color
 
 #: Intersection lines drawn at most per kind: an outcrop's 1,500 planes make a million pairs,
 #: and a quarter of a million crosses drew a solid band over the envelopes. A random draw of
@@ -45,7 +45,7 @@ def kinematics_figure(
     fig=None,
     panel=(0, 1),
 ):
-    """Poles (critical for planar sliding red, for flexural toppling orange), the slope's great
+    """Poles (critical for planar sliding red, for flexural toppling cyan), the slope's great
     circle (the wedges' daylight envelope), the planar daylight envelope and lateral limits,
     the friction cones of poles and of lines, the toppling envelope, and the critical wedges'
     intersection lines (crosses), and the intersections in the direct toppling zones (inside the
@@ -86,7 +86,7 @@ def kinematics_figure(
             plunge,
             np.full_like(plunge, (alpha_f + side * lateral_limit) % 360.0),
             ":",
-            color="darkorange",
+            color=TOPPLING_COLOR,
             linewidth=1.0,
         )
     ring = np.linspace(0.0, 360.0, 181)
@@ -94,14 +94,14 @@ def kinematics_figure(
     curve(np.full_like(ring, friction), ring, "m--", linewidth=1.2, label="line friction cone")
     if psi_f - friction > 0:  # toppling envelope: poles plunging less than slope dip - friction
         arc = np.linspace(alpha_f - lateral_limit, alpha_f + lateral_limit, 41) % 360.0
-        curve(np.full_like(arc, psi_f - friction), arc, "-", color="darkorange", linewidth=1.5,
+        curve(np.full_like(arc, psi_f - friction), arc, "-", color=TOPPLING_COLOR, linewidth=1.5,
               label="toppling envelope")  # fmt: skip
     if psi_f < 90.0:  # direct toppling: lines steeper than 90 - slope dip lean out of the face
         curve(np.full_like(ring, 90.0 - psi_f), ring, "-.", color="saddlebrown", linewidth=1.0,
               label="direct toppling circle")  # fmt: skip
     other = ~(np.asarray(planar, bool) | np.asarray(toppling, bool))
     ax.pole(strike[other], dip[other], "o", color="0.55", markersize=4, label="poles")
-    ax.pole(strike[toppling], dip[toppling], "o", color="darkorange", markersize=5, label="flexural toppling")
+    ax.pole(strike[toppling], dip[toppling], "o", color=TOPPLING_COLOR, markersize=5, label="flexural toppling")
     ax.pole(strike[planar], dip[planar], "o", color="red", markersize=5, label="planar sliding")
     for lines, name, style in (
         (wedge_lines, "critical wedges (intersections)", dict(marker="x", color="purple", markersize=3, alpha=0.5)),

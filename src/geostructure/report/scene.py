@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeoStructureError
-from ..io.crs import unit_symbol
+from ..io.crs import metres_per_unit, unit_symbol
 from ..io.results import ply_field, read_planes, read_run, read_sets, read_spacings
 from ..orientation import Frame
 from ..planes import Planes
@@ -48,6 +48,7 @@ class ReportScene:
     spacings: dict = field(default_factory=dict)  # set -> normal spacings along the scanlines (m)
     rock_mass: dict = field(default_factory=dict)  # run.json's totals: Jv, block volume
     kinematics: dict = field(default_factory=dict)  # kinematics.json, when the tests were run
+    plane_kinematics: dict = field(default_factory=dict)  # region_id -> what it fails by (kinematics.csv)
     georeference: dict | None = None  # how a reconstruction was tied to the world
     north: dict | None = None  # run.json's north: the grid convergence the azimuths were turned by
     length_unit: dict | None = None  # run.json's unit ({"symbol", "metres"}), when it gives one
@@ -57,6 +58,38 @@ class ReportScene:
         """The symbol of the cloud's length unit (``"m"``, ``"ft"``): the plane table's sizes
         are in it, the rock mass's in metres."""
         return self.length_unit["symbol"] if self.length_unit else unit_symbol(self.crs)
+
+    @property
+    def metres_per_unit(self) -> float:
+        """Metres in the cloud's length unit: the page gives every area in square metres."""
+        return float(self.length_unit["metres"]) if self.length_unit else metres_per_unit(self.crs)
+
+
+#: kinematics.csv's per-plane tests, as the report's plane table words them.
+FAILURE_WORDS = (
+    ("planar_sliding", "planar sliding"),
+    ("flexural_toppling", "flexural toppling"),
+    ("toppling_base", "toppling base"),
+    ("oblique_toppling_base", "oblique toppling base"),
+)
+
+
+def plane_failures(path: Path) -> dict:
+    """Each plane's kinematic result from ``kinematics.csv`` (region id -> words: the modes
+    it is critical for, with the planar factor of safety, or "not critical"); {} without the file."""
+    import csv
+
+    if not path.is_file():
+        return {}
+    found = {}
+    with open(path, newline="", encoding="utf-8") as fh:
+        for row in csv.DictReader(fh):
+            modes = [words for key, words in FAILURE_WORDS if str(row.get(key, "")).lower() == "true"]
+            fs = row.get("planar_fs", "nan")
+            if "planar sliding" in modes and fs not in ("", "nan"):
+                modes[modes.index("planar sliding")] = f"planar sliding (FS {float(fs):.2f})"
+            found[int(float(row["region_id"]))] = ", ".join(modes) or "not critical"
+    return found
 
 
 def load_scene(
@@ -98,6 +131,7 @@ def load_scene(
         spacings=read_spacings(outdir) if "set" in planes.extra else {},
         rock_mass=(run.get("sets") or {}).get("rock_mass") or {},
         kinematics=_read_json(outdir / "kinematics.json"),
+        plane_kinematics=plane_failures(outdir / "kinematics.csv"),
         georeference=run.get("reconstruction", {}).get("georef"),
         north=run.get("north"),
     )

@@ -10,6 +10,10 @@ from ..io.atomic import write_figure
 from ..projection import quiet_mplstereonet, rose_counts, rose_title
 from .view3d import NO_SET_COLOR, set_color
 
+#: Kamb contours need this many poles (the interactive net's rule too): from three the
+#: "density" is three bumps, not a distribution.
+MIN_CONTOUR_POLES = 10
+
 
 def stereonet_figure(strike, dip, *, title: str = "", set_labels=None, sets=()):
     """Poles, great circles and pole density (Kamb contours) on an equal-area net.
@@ -25,8 +29,9 @@ def stereonet_figure(strike, dip, *, title: str = "", set_labels=None, sets=()):
     with quiet_mplstereonet():  # importing it registers the 'stereonet' projection
         ax = fig.add_subplot(111, projection="stereonet")
     strike, dip = np.asarray(strike, float), np.asarray(dip, float)
-    if len(strike) >= 3:
-        ax.density_contourf(strike, dip, measurement="poles", cmap="Blues", alpha=0.6)
+    if len(strike) >= MIN_CONTOUR_POLES:
+        contours = ax.density_contourf(strike, dip, measurement="poles", cmap="Blues", alpha=0.6)
+        fig.colorbar(contours, ax=ax, shrink=0.55, pad=0.08, label="pole density (Kamb, σ)")
     if sets and set_labels is not None:
         labels = np.asarray(set_labels)
         for row in sets:

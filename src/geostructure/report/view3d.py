@@ -22,6 +22,9 @@ def palette(n: int) -> list[str]:
 #: Joint sets' colours (colour-blind safe, Okabe & Ito 2008); planes in no set are grey.
 SET_COLORS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
 NO_SET_COLOR = "#9a9a9a"
+#: Flexural toppling's poles and envelope on the kinematic nets: a colour no set takes (it
+#: was dark orange, beside set 1's vermillion and set 4's orange).
+TOPPLING_COLOR = "#17becf"
 
 
 def set_color(label: int) -> str:
@@ -103,17 +106,33 @@ def figure_3d(scene: ReportScene) -> dict:
             line=dict(color="#111111", width=8),
         )
     )
-    for trace in _axes(scene):  # 6.. north and up
+    triad, (box_lo, box_hi) = _axes(scene)
+    for trace in triad:  # 6.. scale bar (east), north and up
         fig.add_trace(trace)
+    pad = 0.02 * float(np.max(box_hi - box_lo) or 1.0)
+    ranges = {f"{a}axis": dict(range=[box_lo[i] - pad, box_hi[i] + pad], title=f"{a} ({scene.unit})")
+              for i, a in enumerate("xyz")}  # fmt: skip
+    key = f"grey bar: {triad[0].name} (east) · red: north · blue: up · axes relative to the header's offset"
     fig.update_layout(
         margin=dict(l=0, r=0, t=0, b=0),
         showlegend=False,
         uirevision="keep",
+        annotations=[
+            dict(
+                text=key,
+                x=0.01,
+                y=0.01,
+                xref="paper",
+                yref="paper",
+                xanchor="left",
+                yanchor="bottom",
+                showarrow=False,
+                font=dict(size=11, color="#444"),
+            )
+        ],  # fmt: skip
         scene=dict(
             aspectmode="data",
-            xaxis_title="x",
-            yaxis_title="y",
-            zaxis_title="z",
+            **ranges,
             **face_camera(p, up, north=scene.frame.matrix[1]),
         ),  # fmt: skip
     )
@@ -260,7 +279,13 @@ def _plane_mesh(scene: ReportScene, colors):
     ).reshape(-1, 3)
     i, j, k = _quads(n)
     unit = scene.unit
-    text = np.repeat([hover_text(row, scene.truth.get(row["region_id"]), unit) for row in scene.planes.rows()], 4)
+    text = np.repeat(
+        [
+            hover_text(row, scene.truth.get(row["region_id"]), unit, scene.metres_per_unit)
+            for row in scene.planes.rows()
+        ],
+        4,
+    )
     face_colors = [colors[f % n] for f in range(n)] * 2 if n else []
     return go.Mesh3d(
         x=corners[:, 0] if n else [],
@@ -279,12 +304,13 @@ def _plane_mesh(scene: ReportScene, colors):
     )
 
 
-def hover_text(row: dict, truth: dict | None, unit: str = "m") -> str:
-    """A plane's hover label; its sizes in the cloud's length ``unit``."""
+def hover_text(row: dict, truth: dict | None, unit: str = "m", metres_per_unit: float = 1.0) -> str:
+    """A plane's hover label: its area in square metres, as every table of the page gives
+    it, and its roughness in the cloud's length ``unit`` (``metres_per_unit`` metres)."""
     text = (
         f"<b>Plane {row['region_id']}</b><br>strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, "
         f"dip direction {row['dip_direction']:.1f}° (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
-        f"<br>area {row['area_m2']:.2f} {escape(unit)}², {row['n_points']:,} points, "
+        f"<br>area {row['area_m2'] * metres_per_unit**2:.2f} m², {row['n_points']:,} points, "
         f"roughness {row['fit_residual']:.4f} {escape(unit)}"
     )
     if truth:
@@ -292,29 +318,52 @@ def hover_text(row: dict, truth: dict | None, unit: str = "m") -> str:
     return text
 
 
+def scale_length(size: float) -> float:
+    """A round length (1, 2 or 5 times a power of ten) near a fifth of ``size``.
+
+    Examples
+    --------
+    >>> scale_length(23.0), scale_length(0.9), scale_length(1200.0)
+    (2.0, 0.1, 200.0)
+    """
+    raw = 0.2 * size
+    power = 10.0 ** np.floor(np.log10(raw))
+    return float(next(m * power for m in (5.0, 2.0, 1.0) if m * power <= raw))
+
+
 def _axes(scene: ReportScene):
-    """North and up arrows from the cloud's lowest corner, a fifth of its size long."""
+    """A triad just outside the cloud's lowest corner: east (a scale bar, labelled with its
+    round length and the cloud's unit), north and up, all that long; and the corners of a
+    box that holds them, so that no label is cut at the view's edge."""
     import plotly.graph_objects as go
 
     p = scene.points if len(scene.points) else np.zeros((1, 3), np.float32)
-    lo, size = p.min(axis=0).astype(float), float(np.ptp(p, axis=0).max() or 1.0)
-    traces = []
-    for name, vector, color in (("N", scene.frame.matrix[1], "#d62728"), ("Up", scene.frame.matrix[2], "#1f77b4")):
-        tip = lo + 0.2 * size * vector
+    lo, hi = p.min(axis=0).astype(float), p.max(axis=0).astype(float)
+    size = float(np.max(hi - lo) or 1.0)
+    length = scale_length(size)
+    origin = lo - 0.05 * size  # outside the box: no point hides the triad from the usual views
+    east, north, up = scene.frame.matrix
+    triad = ((f"{length:g} {scene.unit}", east, "#555555"), ("N", north, "#d62728"), ("Up", up, "#1f77b4"))
+    traces, tips = [], [origin]
+    for name, vector, color in triad:
+        tip = origin + length * vector
+        tips.append(tip + 0.08 * size * vector)  # room for the label past the tip
         traces.append(
             go.Scatter3d(
-                x=[lo[0], tip[0]],
-                y=[lo[1], tip[1]],
-                z=[lo[2], tip[2]],
+                x=[origin[0], tip[0]],
+                y=[origin[1], tip[1]],
+                z=[origin[2], tip[2]],
                 mode="lines+text",
                 text=["", name],
+                textposition="middle right",
                 textfont=dict(color=color, size=14),
                 name=name,
                 line=dict(color=color, width=6),
                 hoverinfo="skip",
             )
         )
-    return traces
+    corners = np.vstack([lo, hi, *tips])
+    return traces, (corners.min(axis=0), corners.max(axis=0))
 
 
 #: Pixels at the top of a side panel kept for plotly's mode bar: the panel's title is drawn

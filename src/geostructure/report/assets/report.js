@@ -7,7 +7,7 @@
   const palette = P.scene.data[TRACE.planes].facecolor || [];
   const config = { responsive: true, displaylogo: false };
   const fmt = (v, d) => (v === null || v === undefined || Number.isNaN(v)) ? "" :
-    Number(v).toLocaleString("en-US", { minimumFractionDigits: d, maximumFractionDigits: d });
+    (d === null ? esc(v) : Number(v).toLocaleString("en-US", { minimumFractionDigits: d, maximumFractionDigits: d }));
   // Text that came from a user's file (a truth surface's name, a unit, a label) reaches
   // innerHTML only through esc(): as text, never as markup.
   const esc = v => String(v ?? "").replace(/[&<>"']/g, c =>
@@ -50,9 +50,9 @@
   function infoHtml(p) {
     let html = `<b>Plane ${p.region_id}</b>: strike <b>${fmt(p.strike, 1)}°</b>, dip <b>${fmt(p.dip, 1)}°</b>, ` +
       `dip direction <b>${fmt(p.dip_direction, 1)}°</b> (± ${fmt(p.normal_uncertainty_deg, 2)}°) · ` +
-      `area ${fmt(p.area_m2, 2)} ${esc(P.meta.unit)}² · ${fmt(p.n_points, 0)} points · roughness (RMS fit residual) ${fmt(p.fit_residual, 4)} ${esc(P.meta.unit)} · planarity ${fmt(p.planarity, 3)}`;
-    if (p.set !== undefined) html += ` · ${p.set < 0 ? "in no set" : `set ${p.set}`}`;
-    if (p.joint !== undefined && p.joint >= 0) html += `, a facet of joint ${p.joint} (joints.csv)`;
+      `area ${fmt(p.area_m2, 2)} m² · ${fmt(p.n_points, 0)} points · roughness (RMS fit residual) ${fmt(p.fit_residual, 4)} ${esc(P.meta.unit)} · planarity ${fmt(p.planarity, 3)}`;
+    if (p.set !== undefined) html += ` · ${p.set === null ? "in no set" : `set ${p.set}`}`;
+    if (p.joint !== undefined && p.joint !== null) html += `, a facet of joint ${p.joint} (joints.csv)`;
     if (p.truth) {
       const t = p.truth;
       html += `<br>Ground truth '${esc(t.surface)}': strike ${fmt(t.strike, 1)}°, dip ${fmt(t.dip, 1)}°, ` +
