@@ -87,7 +87,8 @@ def test_no_block_volume_from_fewer_than_three_sets(tmp_path, capsys):
     assert code == 0
     rock = json.loads((out / "run.json").read_text())["sets"]["rock_mass"]
     measured = [r for r in csv.DictReader(open(out / "sets.csv")) if np.isfinite(float(r["spacing_m"]))]
-    assert len(measured) < 3 and rock["block_volume_m3"] is None
+    assert len(measured) < 3 and rock["block_volume_m3"] is None and rock["jv_lower_bound"] is True
+    assert "Jv at least" in " ".join(stdout.split()) and "RQD at most" in " ".join(stdout.split())
     assert "no block volume" in " ".join(stdout.split()) and "m³ (large)" not in stdout
     assert "no block volume" in (out / "report.html").read_text()
 

@@ -326,6 +326,7 @@ class RockMass:
         return {
             "exposure_area_m2": self.exposure_area,
             "jv_per_m3": self.jv,
+            "jv_lower_bound": bool(np.isfinite(self.spacing).sum() < BLOCK_SETS),  # other sets unseen
             "block_volume_m3": self.block_volume,
             "block_volume_three_sets_m3": self.block_volume_three_sets(set_normals),
             "block_size_class": block_size_class(self.jv),

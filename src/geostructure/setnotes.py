@@ -138,7 +138,26 @@ def block_phrase(block_volume: float, size_class: str, rows: list[dict]) -> str:
     )
 
 
-def rqd_phrase(from_jv, least=None, greatest=None) -> str:
+def jv_phrase(jv: float, rows: list[dict]) -> str:
+    """The tables' words for the volumetric joint count: its value and the sets it leaves
+    out (:func:`jv_scope`); with fewer than :data:`~.rockmass.BLOCK_SETS` sets whose
+    spacing was measured, a lower bound (the rock's other sets, unseen, would add to it: a
+    room's floor and shelves gave Jv 1.5 from one "set").
+
+    Examples
+    --------
+    >>> jv_phrase(5.24, [{"spacing_m": 0.4}] * 3)
+    '; Jv 5.2/m³'
+    >>> jv_phrase(1.47, [{"spacing_m": 0.68}])
+    '; Jv at least 1.5/m³ (from 1 set)'
+    """
+    measured = sum(1 for row in rows if np.isfinite(row["spacing_m"]))
+    if measured >= BLOCK_SETS:
+        return f"; Jv {jv:.1f}/m³{jv_scope(rows)}"
+    return f"; Jv at least {jv:.1f}/m³ (from {measured} set{'' if measured == 1 else 's'})"
+
+
+def rqd_phrase(from_jv, least=None, greatest=None, *, bound: bool = False) -> str:
     """The tables' words for RQD: from Jv (Palmström 2005), and its range along a line
     (Priest & Hudson 1976) where measured; ``""`` without Jv.
 
@@ -157,7 +176,7 @@ def rqd_phrase(from_jv, least=None, greatest=None) -> str:
     if least is not None and greatest is not None and np.isfinite(least) and np.isfinite(greatest):
         low, high = f"{least:.0f}", f"{greatest:.0f}"
         along = f" ({low} in every direction)" if low == high else f" ({low} to {high} by direction)"
-    return f", RQD {from_jv:.0f}{along}"
+    return f", RQD {'at most ' if bound else ''}{from_jv:.0f}{along}"
 
 
 def censored_traces_note(set_id: int, row: dict) -> str | None:

@@ -9,7 +9,7 @@ from rich.table import Table
 from .io.results import in_square_metres
 from .orientation import whole_azimuth
 from .rqd import block_size_class, rqd_from_jv, rqd_range
-from .setnotes import block_phrase, jv_scope, off_face_scope, rqd_phrase, set_notes
+from .setnotes import block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes
 from .sets import MIN_SET_PLANES
 
 
@@ -106,9 +106,10 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
         title = title[:-1] + off_face_scope(*counts) + ")"
     rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
     if rock is not None and np.isfinite(rock.jv):
-        title += f"; Jv {rock.jv:.1f}/m³{jv_scope(rock_rows)}"
+        title += jv_phrase(rock.jv, rock_rows)
         title += block_phrase(rock.block_volume, block_size_class(rock.jv), rock_rows)
-        title += rqd_phrase(rqd_from_jv(rock.jv), *rqd_range(sets.mean_normal, rock.spacing))
+        title += rqd_phrase(rqd_from_jv(rock.jv), *rqd_range(sets.mean_normal, rock.spacing),
+                            bound=not np.isfinite(rock.block_volume))  # fmt: skip
     table = Table(title=title)
     columns = ["set", "planes", "area m²", "dip", "dip dir", "K", "α95°", "sph. var."]
     for column in columns + (["spacing m", "P32 1/m", "trace m", "persistence"] if rock is not None else []):

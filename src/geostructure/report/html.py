@@ -21,7 +21,7 @@ from ..io.tiles import describe
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..setnotes import bent_face, block_phrase, jv_scope, off_face_scope, rqd_phrase, set_notes
+from ..setnotes import bent_face, block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes
 from .kinematic_tables import kinematic_table, set_swatch
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -384,7 +384,7 @@ def set_table(scene: ReportScene) -> str:
     measured = "spacing_m" in scene.sets[0]
     jv = rock.get("jv_per_m3") if rock else None  # null in run.json when no set has a spacing
     if measured and jv is not None and np.isfinite(jv):
-        caption += f"; volumetric joint count Jv {rock['jv_per_m3']:.1f} per m³{jv_scope(scene.sets)}"
+        caption += jv_phrase(rock["jv_per_m3"], scene.sets).replace("; Jv", "; volumetric joint count Jv", 1)
         block = rock.get("block_volume_m3")
         if block is not None and np.isfinite(block):
             caption += f", block volume {block:.3g} m³ (Palmström, 36/Jv³)"
@@ -394,7 +394,10 @@ def set_table(scene: ReportScene) -> str:
             caption += block_phrase(float("nan"), "", scene.sets)
         if rock.get("rqd_from_jv") is not None:  # folders before 2026-12-05 have none
             caption += rqd_phrase(
-                rock["rqd_from_jv"], rock.get("rqd_min_by_direction"), rock.get("rqd_max_by_direction")
+                rock["rqd_from_jv"],
+                rock.get("rqd_min_by_direction"),
+                rock.get("rqd_max_by_direction"),
+                bound=block is None or not np.isfinite(block),
             )
     notes = [note for row in scene.sets for note in set_notes(int(row["set"]), row)] if measured else []
     notes = "".join(
