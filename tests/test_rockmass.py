@@ -74,8 +74,16 @@ def test_normal_spacing_and_p32_of_each_set_match_the_truth(outcrop):
     assert all(row["spacing_basis"] == "persistent" for row in rock.set_rows())
     # ... and their traces run on past the 12 m face: long, or every one out of sight
     # (10 to 80 m where any ends on the face)
+    # (10 to 80 m where any ends on the face), and a mean longer than the face is given as
+    # longer than the face (issue 45), never as a figure no face this size measures
     for row in rock.set_rows():
-        assert row["joint_trace_mean_m"] >= 8.0 or (row["joint_traces_censored"] == row["joint_traces"] > 0)
+        beyond = "trace_longer_than_exposure" in row["flags"].split(";")
+        assert (
+            row["joint_trace_mean_m"] >= 8.0
+            or (row["joint_traces_censored"] == row["joint_traces"] > 0)
+            or (beyond and row["joint_trace_estimate_m"] > row["exposure_span_m"] > 8.0)
+        )
+        assert np.isnan(row["joint_trace_mean_m"]) or row["joint_trace_mean_m"] <= row["exposure_span_m"]
         assert row["persistence"] not in ("very low", "low", "medium")
 
 
@@ -238,6 +246,9 @@ def test_spacing_of_parallel_joints_on_a_clean_face():
             assert np.isnan(row["joint_trace_mean_m"]) and note in set_notes(s, row)
             assert note.startswith(f"All {row['joint_traces']} of set {s}'s joint traces run out of sight")
             assert f"{row['joint_trace_median_m']:.2f} m median seen is a lower bound" in note
+        elif "trace_longer_than_exposure" in row["flags"].split(";"):  # a bound: the face's span
+            assert np.isnan(row["joint_trace_mean_m"]) and note is None
+            assert "so the mean is given as longer than" in " ".join(set_notes(s, row))
         else:
             assert np.isfinite(row["joint_trace_mean_m"])
             whole = row["joint_traces"] - row["joint_traces_censored"]
@@ -477,7 +488,8 @@ def test_a_cloud_in_millimetres_without_a_crs_is_given_its_unit(tmp_path, capsys
     )
     assert code == 2 and "--crs EPSG:32633: its CRS is in m, not ft" in err and not (tmp_path / "no").exists()
     assert main(["report", str(tmp_path / "mm"), "-q"]) == 0
-    assert "Area (mm" in (tmp_path / "mm" / "report.html").read_text()  # the plane table keeps the cloud's unit
+    page = (tmp_path / "mm" / "report.html").read_text()  # areas in m² on every table; sizes in the cloud's unit
+    assert "Area (m²)" in page and "Roughness (mm)" in page
     # planes.csv's area_m2 is square metres whatever the cloud's unit (it held mm^2 under
     # that name), and a command that reads the folder back and writes it again keeps it so
     planes_area = {name: np.array([float(r["area_m2"]) for r in csv.DictReader(open(tmp_path / name / "planes.csv"))])
@@ -523,7 +535,7 @@ def test_airborne_lidar_in_feet_its_level_roofs_and_the_metric_rock_mass(tmp_pat
         (row,) = list(csv.DictReader(fh))
     assert row["joint_trace_mean_m"] == "nan" and row["persistence"] == "" and row["joint_traces"] == "0"
     page = (out / "report.html").read_text()
-    assert "lies along the exposed face" in page and "Area (ft" in page and "Roughness (ft)" in page
+    assert "lies along the exposed face" in page and "Area (m²)" in page and "Roughness (ft)" in page
     # a terrain: the 3D view opens from the south and above, north up the screen as on a map
     eye = [float(v) for v in re.search(r'"eye":\{"x":([-\d.e]+),"y":([-\d.e]+),"z":([-\d.e]+)\}', page).groups()]
     assert eye[1] < 0 < eye[2] and abs(eye[0]) < 0.1 * abs(eye[1])

@@ -155,7 +155,6 @@ class RockMass:
     persistence: Persistence
     exposure_area: float
     set_labels: np.ndarray
-    exposure_span: float = float("inf")  # m: the longest line across the exposed face (its sections')
     scanlines: list = field(default_factory=list)
     trace_scanlines: list = field(default_factory=list)  # the joints met only where their traces show
     joint_trace_lengths: list = field(default_factory=list)  # per set, its joints' traces (TraceLengths)
@@ -167,6 +166,7 @@ class RockMass:
     correlated_tilt_n: int = 0  # facets it was read from
     tilt_facets_short: int = 0  # facets in joints when too few to read it (uncertainty.MIN_TILT_FACETS)
     tilt_facets_along: int = 0  # facets in joints of sets along the face, not read for it
+    exposure_span: float = float("inf")  # m: the longest line across the exposed face (its sections')
     face_bend: float = 0.0  # degrees the face turns along its strike (exposure.face_bend)
     face_sections: int = 1  # the sections it was measured in (sections.section_exposures)
     sections: FaceSections | None = None  # those sections, which a fitted slope takes too
@@ -312,9 +312,9 @@ class RockMass:
             row["joint_trace_estimate_m"] = lengths.mean
             if lengths.mean > self.exposure_span:
                 # The censored estimate reaches past anything this face can show: not a
-                # measurement. The traces seen are what is known, as a lower bound.
+                # measurement, but a bound: the traces are longer than the exposure spans.
                 row["joint_trace_mean_m"] = row["joint_trace_std_error_m"] = float("nan")
-                row["persistence"] = persistence_class(float(lengths.length.mean()), at_least=True)
+                row["persistence"] = persistence_class(self.exposure_span, at_least=True)
             row["flags"] = ";".join(set_flags(row))
             row["spacing_class"] = spacing_class(line.spacing)
             row["n_joints"] = int(n_joints[s])
@@ -413,7 +413,8 @@ def rock_mass(
         plane_section = face_sections_of(exposures, point_section, labels, len(normals))
     persistence = sectioned_persistence(points, labels, normals, exposures, plane_section, up)
     n_sets = len(set_normals)
-    result = RockMass(persistence, float(sum(f.area for f in exposures)), set_labels, exposure_span(exposures))
+    result = RockMass(persistence, float(sum(f.area for f in exposures)), set_labels)
+    result.exposure_span = exposure_span(exposures)
     result.face_bend, result.face_sections, result.sections = face.bend, len(exposures), sections
     if parts is not None:
         result.ground, result.clutter, result.point_part = parts.ground, parts.clutter, parts.point_part

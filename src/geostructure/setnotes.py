@@ -223,27 +223,42 @@ def censored_traces_note(set_id: int, row: dict) -> str | None:
     )
 
 
-def trace_beyond_exposure_note(set_id: int, row: dict) -> str | None:
-    """A sentence when set ``set_id``'s mean trace length, as the censored traces give it,
-    is longer than any line across the exposed face (:data:`~.rockmass.TRACE_BEYOND_EXPOSURE`
-    in its row's ``flags``): no face this size measures it, so it is not given; the traces
-    seen are a lower bound. None otherwise.
+def trace_cell(row: dict, digits: int = 1) -> str | None:
+    """The tables' trace cell for a set whose mean is longer than the exposure spans
+    (:data:`~.rockmass.TRACE_BEYOND_EXPOSURE`): "> span"; None for any other set (its
+    figure is shown as it is).
 
     Examples
     --------
-    >>> row = {"flags": "trace_longer_than_exposure", "joint_trace_estimate_m": 106.3, "exposure_span_m": 21.9,
-    ...        "joint_trace_median_m": 11.6, "persistence": "high or more"}
-    >>> trace_beyond_exposure_note(1, row)
-    "Set 1's joint traces, most of them running out of sight, give a mean length of 106.3 m, longer than any line across the exposed face (21.9 m): no face this size measures it, so it is not given; the 11.60 m median seen is a lower bound, and its persistence is high or more."
+    >>> trace_cell({"flags": "trace_longer_than_exposure", "exposure_span_m": 21.69}), trace_cell({"flags": ""})
+    ('> 21.7', None)
     """
     if TRACE_BEYOND_EXPOSURE not in str(row.get("flags", "")).split(";"):
         return None
+    return f"> {float(row['exposure_span_m']):.{digits}f}"
+
+
+def trace_beyond_exposure_note(set_id: int, row: dict) -> str | None:
+    """A sentence when set ``set_id``'s mean trace length, as the censored traces give it,
+    is longer than any line across the exposed face (:data:`~.rockmass.TRACE_BEYOND_EXPOSURE`
+    in its row's ``flags``): no face this size measures it, so it is given as a bound, the
+    exposure's span, and its persistence class "or more". None otherwise.
+
+    Examples
+    --------
+    >>> row = {"flags": "trace_longer_than_exposure", "joint_trace_estimate_m": 106.3, "exposure_span_m": 12.9,
+    ...        "persistence": "high or more"}
+    >>> trace_beyond_exposure_note(1, row)
+    "Set 1's joint traces, most of them running out of sight, give a mean length of 106.3 m, longer than any line across the exposed face (12.9 m): no face this size measures it, so the mean is given as longer than 12.9 m, and its persistence as high or more."
+    """
+    if TRACE_BEYOND_EXPOSURE not in str(row.get("flags", "")).split(";"):
+        return None
+    span = float(row["exposure_span_m"])
     return (
         f"Set {set_id}'s joint traces, most of them running out of sight, give a mean length of "
         f"{float(row['joint_trace_estimate_m']):.1f} m, longer than any line across the exposed face "
-        f"({float(row['exposure_span_m']):.1f} m): no face this size measures it, so it is not given; the "
-        f"{float(row['joint_trace_median_m']):.2f} m median seen is a lower bound, and its persistence is "
-        f"{row['persistence']}."
+        f"({span:.1f} m): no face this size measures it, so the mean is given as longer than {span:.1f} m, "
+        f"and its persistence as {row['persistence']}."
     )
 
 

@@ -9,7 +9,7 @@ from rich.table import Table
 from .io.results import in_square_metres
 from .orientation import whole_azimuth
 from .rqd import block_size_class, rqd_from_jv, rqd_range
-from .setnotes import block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes
+from .setnotes import block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes, trace_cell
 from .sets import MIN_SET_PLANES
 
 
@@ -119,7 +119,7 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
             [
                 shown(more["spacing_m"]),
                 shown(more["p32_per_m"]),
-                shown(more["joint_trace_mean_m"], 1),
+                trace_cell(more) or shown(more["joint_trace_mean_m"], 1),
                 more["persistence"] or "—",
             ]
             if more

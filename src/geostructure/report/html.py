@@ -21,7 +21,7 @@ from ..io.tiles import describe
 from ..orientation import whole_azimuth
 from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
 from ..reconstruct.georef import describe_georeference
-from ..setnotes import bent_face, block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes
+from ..setnotes import bent_face, block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes, trace_cell
 from .kinematic_tables import kinematic_table, set_swatch
 from .kinematics_net import kinematic_traces
 from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
@@ -374,7 +374,12 @@ def set_table(scene: ReportScene) -> str:
     rows = []
     for row in scene.sets:
         swatch = set_swatch(int(row["set"]))
-        cells = [_set_cell(row.get(key), digits) for key, _, digits in columns]
+        cells = [
+            _escape(trace_cell(row, digits))
+            if key == "joint_trace_mean_m" and trace_cell(row)
+            else _set_cell(row.get(key), digits)
+            for key, _, digits in columns
+        ]
         rows.append("<tr>" + "".join(f"<td>{swatch if i == 0 else ''}{c}</td>" for i, c in enumerate(cells)) + "</tr>")
     extra = scene.planes.extra
     unassigned = int((extra["set"] < 0).sum())
