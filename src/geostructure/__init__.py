@@ -48,6 +48,8 @@ _PUBLIC = {
     "add_report": "runs",
     "add_evaluation": "scoring",
     "measure_stream": "stream",
+    "measure_outcrop": "workflow",
+    "OutcropRun": "workflow",
 }
 
 __all__ = sorted(_PUBLIC) + ["__version__"]

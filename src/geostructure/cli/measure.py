@@ -4,16 +4,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import functools
+import sys
 import time
 import warnings
 from pathlib import Path
 
-from ..bounds import column_max, column_min
 from ..errors import GeoStructureError, GeoStructureNote
 from ..evaluate import evaluate, match_scene, scene_truth
-from ..face import FACE
-from ..io.crs import cloud_unit, given_crs, note_unstated_unit, true_north_frame
+from ..io.crs import cloud_unit
 from ..io.outdir import output_set
 from ..io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
 from ..io.tiles import describe, expand_inputs, read_tiles
@@ -22,10 +20,8 @@ from ..io.writers import write_table_csv
 from ..pipeline import measure
 from ..progress import StageProgress
 from ..rockmass import with_rock_mass
-from ..runs import add_report, detected_spacing, save_measurement, sets_and_rock_mass
+from ..runs import add_report, save_measurement
 from ..scoring import add_evaluation, add_validation
-from ..setnotes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
-from ..slope_stability import fit_face, stage_kinematics
 from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from ..sweep import run_sweep as sweep
 from ..synthetic import observatory_scene
@@ -40,6 +36,7 @@ from ..tables import (
     validation_lines,
 )
 from ..validation import MAX_ANGLE, MAX_DISTANCE
+from ..workflow import measure_outcrop
 from .engine import add_engine_options, chosen_engine, measures_in_memory, run_streamed
 from .options import (
     add_measure_options,
@@ -48,10 +45,10 @@ from .options import (
     check_outdir,
     check_unit_given,
     crs_from,
-    crs_record,
     finite_float,
     folder,
     frame_from,
+    given_factors,
     params_from,
     positive_float,
     say_what_was_left,
@@ -198,73 +195,29 @@ def measure_thinned(args, paths, frame, engine: str, extra: dict | None, *, trut
 def measure_cloud(
     cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=(), point_files=True
 ) -> int:
-    """Measure; write the outputs, the evaluation and the report as one set; print the planes.
-    ``point_files`` writes ``regions.ply`` and ``regions.laz`` (:func:`~.runs.save_measurement`)."""
-    crs = given_crs(crs_from(args), cloud.crs, cloud.source)
+    """Measure (:func:`~geostructure.workflow.measure_outcrop`); write the outputs, the
+    evaluation and the report as one set; print the planes. ``point_files`` writes
+    ``regions.ply`` and ``regions.laz`` (:func:`~.runs.save_measurement`)."""
     unit = getattr(args, "unit", None)  # checked against the CRS before reading (a reconstruction has none)
-    if crs != cloud.crs:
-        cloud = dataclasses.replace(cloud, crs=crs)
-    north = None
-    if cloud.crs is not None and not args.grid_north and len(cloud):
-        frame, north = true_north_frame(frame, cloud.crs, cloud.offset + column_min(cloud.local),
-                                        cloud.offset + column_max(cloud.local))  # fmt: skip
-    record, truth = crs_record(args, cloud.crs, north, frame, truth)
-    extra = {**(extra or {}), **record}
+
+    def say_choice(text: str) -> None:
+        if not args.quiet:
+            print(f"geostructure: {text}", file=sys.stderr)
+
+    t = time.perf_counter()
     with StageProgress(enabled=not args.quiet) as progress:
-        t = time.perf_counter()
-        progress("auto", 0, None)
-        params, auto, moments = params_from(args, cloud)
-        auto_seconds = time.perf_counter() - t
-        result = measure(cloud, params, frame, progress, moments=moments)
-        del moments
-        result.seconds = {**seconds, "auto": auto_seconds, **result.seconds}
+        run = measure_outcrop(cloud, frame=frame, params=base_params(args), auto=args.auto, given=given_factors(args),
+                              crs=crs_from(args), unit=unit, grid_north=args.grid_north, sets=wants_sets(args),
+                              n_sets=args.n_sets, kinematics=kinematic_settings(args), progress=progress,
+                              seconds=seconds, on_choice=say_choice)  # fmt: skip
+        result, sets, rock = run.result, run.sets, run.rock
+        if truth is not None and run.record.get("north"):  # a compass's azimuths are true: read in the turned frame
+            truth = read_truth(args.truth, result.frame)
         evaluation = evaluate(result.planes, truth) if truth is not None else None
-        sets = rock = None
-        if wants_sets(args):
-            if crs is None and unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
-                note_unstated_unit(detected_spacing(result.detection), cloud.source)
-            sets, rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
-                                            args.n_sets, lambda stage: progress(stage, 0, None),
-                                            errors=result.planes.standard_errors(),  # as measured: no tilt yet
-                                            spacing=detected_spacing(result.detection),
-                                            metres_per_unit=cloud_unit(crs, unit)["metres"],
-                                            vegetation=result.filtered.vegetation)  # fmt: skip
-            note_vegetation(result.filtered.vegetation, rock, cloud.source)
-            note_voxel_planes(params.detector, cloud.source)
-            note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
-            note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
-        kinematics = kinematic_settings(args)
-        if kinematics is not None and kinematics["slope"] is None and rock is not None:
-            # The face the sets' rock mass was read on, fitted here, where its points are:
-            # the folder's would be read back and told from their ground and clutter again.
-            members = None if rock.point_part is None else rock.point_part == FACE
-            kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=rock.face_bend,
-                                           offset=result.filtered.offset, sections=rock.sections)  # fmt: skip
-        kinematic_summary = {}
-
-        def stage_kinematics_too(outputs):
-            """The kinematics, in the measure's own set: one command, one commit."""
-            held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # the folder's points
-            summary, kinematic_paths = stage_kinematics(outputs, outputs.staging, **kinematics, progress=progress,
-                                                        points=(held, result.labels, result.filtered.vegetation))  # fmt: skip
-            kinematic_summary.update(summary)
-            return kinematic_paths
-
-        progress("write", 0, None)
-        if callable(point_files):  # a thinned survey's: a pass over all its points, with its own bar
-            point_files = functools.partial(point_files, progress=progress)
-        paths = save_measurement(
-            result,
-            args.outdir,
-            extra={"auto": auto, **(extra or {})},
-            evaluation=evaluation,
-            report=args.report,
-            inputs=inputs,
-            sets=sets,
-            rock=rock,
-            point_files=point_files,
-            then=stage_kinematics_too if kinematics is not None else None,
-        )
+        paths = run.save(args.outdir, extra=extra, evaluation=evaluation, report=args.report, inputs=inputs,
+                         point_files=point_files, progress=progress)  # fmt: skip
+    cloud, crs = result.cloud, result.cloud.crs
+    kinematics, kinematic_summary = run.kinematic_options, run.kinematics
     say_what_was_left(
         len(result),
         result.params.detector,
