@@ -118,9 +118,9 @@ def peer(path: str, min_points: int = 30) -> dict:
     (centroid, normal) of its clusters of ``min_points`` or more, and set poles."""
     from plyfile import PlyData
 
-    from geostructure.orientation import normal_from_orientation, orientation_from_normals
-    from geostructure.projection import pole_density
-    from geostructure.rectangle import fit_plane
+    from geostructure.core.orientation import normal_from_orientation, orientation_from_normals
+    from geostructure.core.projection import pole_density
+    from geostructure.detect.rectangle import fit_plane
 
     if str(path).endswith(".txt"):
         points = np.loadtxt(path, usecols=(0, 1, 2))
@@ -194,11 +194,11 @@ def run_geostructure(path: Path, outdir: Path) -> dict:
 
 
 def score(scene, found: dict) -> dict:
-    from geostructure.evaluate import match_facets
-    from geostructure.orientation import angle_between_normals
-    from geostructure.planes import Planes
+    from geostructure.core.orientation import angle_between_normals
+    from geostructure.core.planes import Planes
+    from geostructure.evaluation.groundtruth import match_facets
+    from geostructure.rockmass.traces import persistence_class
     from geostructure.synthetic.scanlines import exposed_trace_chords
-    from geostructure.traces import persistence_class
 
     planes = Planes(normal=found["normals"], local_centroid=found["centroids"], fit_residual=0.0)
     match = match_facets(planes, scene)

@@ -123,8 +123,8 @@ def floor_pass(path: Path, out: Path) -> None:
 def planes_found(method: str, out: Path, truth) -> tuple[int, float | None, int]:
     """Surfaces of the truth found (a plane's centre near the surface's), their mean normal
     error (degrees) and the number of planes reported."""
-    from geostructure.evaluate import match_by_location
-    from geostructure.orientation import angle_between_normals
+    from geostructure.core.orientation import angle_between_normals
+    from geostructure.evaluation.groundtruth import match_by_location
 
     if method == "geostructure":
         with open(out / "planes.csv", newline="") as fh:

@@ -10,7 +10,7 @@ its default options:
   clusters of 30 points or more (as that benchmark does) and of 10 or more (DSE's own
   minimum).
 
-Each is scored by the data's rule (``geostructure.validation``): mapped fractures matched
+Each is scored by the data's rule (``geostructure.evaluation.fieldmap``): mapped fractures matched
 (a plane's centroid within 0.6 m, its normal within 10 degrees), precision (the share of
 the planes that match one), and each published set's angle to the nearest set found. It
 prints seconds, points per second, peak memory and the ratio of the peer's time to ours.
@@ -34,9 +34,9 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "dice_lastoni_s
 
 def scores(found: dict) -> dict:
     """The data's rule on one method's planes and set normals."""
+    from geostructure.core.orientation import normal_from_orientation
+    from geostructure.evaluation.fieldmap import mapped_set_means, set_errors, validate
     from geostructure.io.fieldmap import read_field_map
-    from geostructure.orientation import normal_from_orientation
-    from geostructure.validation import mapped_set_means, set_errors, validate
 
     mapped = read_field_map(DATA / "fit_planes.csv")
     means = read_field_map(DATA / "set_means.csv", located=False)

@@ -95,9 +95,9 @@ def main() -> None:
     parser.add_argument("--points", type=int, default=5_000_000)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    from geostructure.core.params import Params
+    from geostructure.detect.pipeline import measure
     from geostructure.io.writers import write_outputs
-    from geostructure.params import Params
-    from geostructure.pipeline import measure
     from geostructure.synthetic import observatory_scene
 
     outdir = tempfile.mkdtemp(prefix="bench-report-")

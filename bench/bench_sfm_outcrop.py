@@ -45,7 +45,7 @@ def thinned(points: np.ndarray, cell: float) -> np.ndarray:
 def neighbour_plane_angle(points: np.ndarray, k: int = 30) -> float:
     """Median angle (degrees) between each point's plane (``k`` neighbours) and its nearest
     neighbour's: how rough the cloud reads at DSE's scale."""
-    from geostructure.roughfacets import point_normals
+    from geostructure.detect.roughfacets import point_normals
 
     normal, _, _, neighbours, _ = point_normals(points, k, k)
     cos = np.abs(np.einsum("ij,ij->i", normal, normal[neighbours[:, 1]]))
@@ -75,7 +75,7 @@ def describe(name: str, points: np.ndarray, run: dict, extra: dict) -> None:
 def facet_scores(scene, out: Path, points: np.ndarray) -> dict:
     from scipy.spatial import cKDTree
 
-    from geostructure.evaluate import match_facets
+    from geostructure.evaluation.groundtruth import match_facets
     from geostructure.io.results import read_planes
 
     planes = read_planes(out, offset=np.zeros(3))

@@ -20,11 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from geostructure.density import point_spacing
+from geostructure.core.density import point_spacing
+from geostructure.core.orientation import normal_from_orientation
+from geostructure.detect.roughfacets import FACE_CONE, MIN_FACET_POINTS, envelope_normals, point_normals
+from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE, axial_angle
 from geostructure.io.fieldmap import read_field_map
-from geostructure.orientation import normal_from_orientation
-from geostructure.roughfacets import FACE_CONE, MIN_FACET_POINTS, envelope_normals, point_normals
-from geostructure.validation import MAX_ANGLE, MAX_DISTANCE, axial_angle
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "dice_lastoni_sw"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from geostructure.__main__ import prefer_small_pages, reuse_freed_memory
-from geostructure.pipeline import measure
+from geostructure.detect.pipeline import measure
 from geostructure.synthetic import observatory_scene
 
 # The tests call the command in this process (cli.main) and in subprocesses: both with the

@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 
-from geostructure.auto import choose_params
+from geostructure.detect.auto import choose_params
 from geostructure.synthetic import observatory_scene
 from geostructure.testing.autocheck import check_variant
 
@@ -41,8 +41,8 @@ def test_auto_choice_does_not_depend_on_scale():
 def test_the_drawn_voxels_are_whole_voxels_of_the_cloud():
     """:func:`auto.noise_sample` draws whole voxels: their planes are exactly some of the
     whole cloud's, about the share asked for, and the same in any point order."""
-    from geostructure.auto import noise_sample
-    from geostructure.voxel import accumulate_moments, voxel_planes_from_moments
+    from geostructure.detect.auto import noise_sample
+    from geostructure.detect.voxel import accumulate_moments, voxel_planes_from_moments
 
     points = observatory_scene(200_000, seed=2).cloud.local
     lower, edge = points.min(axis=0), 0.01 * float(np.ptp(points, axis=0).max())

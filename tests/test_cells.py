@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from geostructure.cells import CENTRE, OFFSETS, cell_planes
-from geostructure.density import point_spacing
-from geostructure.eigen import smallest_eigenpair
-from geostructure.facets import detect_facets
+from geostructure.core.density import point_spacing
+from geostructure.core.eigen import smallest_eigenpair
+from geostructure.detect.cells import CENTRE, OFFSETS, cell_planes
+from geostructure.detect.facets import detect_facets
 
 
 def test_the_closed_form_eigenpair_agrees_with_lapack():
@@ -73,7 +73,7 @@ def test_a_facet_label_left_without_points_is_no_plane_and_no_nan():
     empty label made the covariances NaN and the measure died in eigh."""
     import warnings
 
-    from geostructure.facets import FacetThresholds, planar_components
+    from geostructure.detect.facets import FacetThresholds, planar_components
 
     rng = np.random.default_rng(0)
     points = np.c_[rng.uniform(0, 1, (200, 2)), rng.normal(0, 1e-3, 200)]
@@ -91,7 +91,7 @@ def test_the_sampled_edge_is_the_edge_the_whole_grids_choose(noise, doublings):
     """Above a million points the grid's edge is chosen on sampled blocks, its scatter read on
     20,000 cells first and on 200,000 only near the limit (facets.sampled_edge). At 0.3M
     points every block is drawn: it must choose what fitting every grid whole chooses."""
-    from geostructure.facets import CELL_EDGE, coarsened_planes, sampled_edge
+    from geostructure.detect.facets import CELL_EDGE, coarsened_planes, sampled_edge
     from geostructure.synthetic import observatory_scene
 
     points = observatory_scene(300_000, seed=1, noise=noise).cloud.local

@@ -8,7 +8,7 @@ import pytest
 from test_io import write_ply
 
 from geostructure.cli import main
-from geostructure.planes import PLANE_COLUMNS
+from geostructure.core.planes import PLANE_COLUMNS
 
 
 def digest(path):

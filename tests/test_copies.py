@@ -1,10 +1,10 @@
-"""Points written more than once (geostructure.copies): found exactly, the first of each kept."""
+"""Points written more than once (geostructure.core.duplicates): found exactly, the first of each kept."""
 
 import numpy as np
 import pytest
 
 from geostructure import Cloud
-from geostructure.copies import first_of_each, has_copies, without_copies
+from geostructure.core.duplicates import first_of_each, has_copies, without_copies
 from geostructure.errors import GeoStructureError, GeoStructureNote
 
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from pyproj import CRS, Proj, Transformer
 
+from geostructure.core.orientation import Frame, orientation_from_normals
 from geostructure.errors import InputError
 from geostructure.io.crs import check_cloud_crs, grid_convergence, metres_per_unit, true_north_frame, unit_symbol
-from geostructure.orientation import Frame, orientation_from_normals
 
 
 @pytest.mark.parametrize(

@@ -3,11 +3,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from geostructure.core.orientation import Frame, normal_from_orientation, orientation_from_normals
+from geostructure.core.planes import Planes
 from geostructure.errors import GeoStructureError
-from geostructure.evaluate import evaluate, run_score, z_score
+from geostructure.evaluation.groundtruth import evaluate, run_score, z_score
 from geostructure.io.truth import GroundTruth, TruthWarning, dip_direction_from_strike, read_truth
-from geostructure.orientation import Frame, normal_from_orientation, orientation_from_normals
-from geostructure.planes import Planes
 
 PAPER_TRUTH = Path(__file__).parent / "data" / "paper_truth.csv"
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from geostructure import measure
-from geostructure.auto import choose_params
-from geostructure.face import CLUTTER, FACE, clutter_points, face_parts
-from geostructure.runs import detected_spacing
+from geostructure.detect.auto import choose_params
+from geostructure.rockmass.face import CLUTTER, FACE, clutter_points, face_parts
+from geostructure.workflows.saving import detected_spacing
 
 
 def slab(rng, n, size, z=0.0, noise=0.002):

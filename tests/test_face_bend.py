@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from helpers import run_cli, write_xyz
 
-from geostructure.exposure import BENT_FACE, face_bend
+from geostructure.rockmass.exposure import BENT_FACE, face_bend
 from geostructure.synthetic import outcrop_scene
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 from conftest import plane_points
 
-from geostructure.filter import global_filter, local_filter, mahalanobis_distance
+from geostructure.detect.filter import global_filter, local_filter, mahalanobis_distance
 
 
 def test_mahalanobis_distance_by_hand():
@@ -35,9 +35,9 @@ def test_local_filter_removes_off_surface_noise_that_the_global_one_keeps():
 def test_a_dense_floating_cluster_passes_the_local_filter_but_makes_no_plane():
     """The documented limit: a cluster denser and bigger than the neighbourhood is its own
     distribution; it yields no reported plane all the same."""
-    from geostructure.cloud import Cloud
-    from geostructure.params import Params
-    from geostructure.pipeline import measure
+    from geostructure.core.cloud import Cloud
+    from geostructure.core.params import Params
+    from geostructure.detect.pipeline import measure
 
     rng = np.random.default_rng(1)
     floor = plane_points([0, 0, 1], n=30000, size=20, noise=0.01, seed=2)

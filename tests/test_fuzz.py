@@ -25,9 +25,9 @@ from hypothesis import strategies as st
 from geostructure.cli import main
 from geostructure.errors import GeoStructureError, GeoStructureWarning
 from geostructure.io.outdir import verified_record
+from geostructure.io.planetable import read_planes_csv
 from geostructure.io.readers import read_cloud
 from geostructure.io.truth import read_truth
-from geostructure.planes import Planes
 from geostructure.reconstruct.georef import read_gcp_csv
 
 pytestmark = pytest.mark.slow
@@ -235,7 +235,7 @@ def test_truth_gcp_and_planes_tables_read_or_refuse_random_content(tmp_path_fact
         b"dip_direction,rect_center_x,rect_center_y,rect_center_z,rect_u_x,rect_u_y,rect_u_z,"
         b"rect_width,rect_height\n0,100,1,2,3,0,0,1,0,0,0,1,2,3,1,0,0,2,1\n",
     }
-    readers = {"truth.csv": read_truth, "gcp.csv": read_gcp_csv, "planes.csv": Planes.from_csv}
+    readers = {"truth.csv": read_truth, "gcp.csv": read_gcp_csv, "planes.csv": read_planes_csv}
 
     @settings(FUZZ, max_examples=300 * SCALE)
     @given(

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from conftest import random_rotation, shared_file
 
+from geostructure.core.geodesy import enu_to_geodetic, geodetic_to_enu
+from geostructure.core.orientation import angle_between_vectors
 from geostructure.errors import GeoStructureError
-from geostructure.geodesy import enu_to_geodetic, geodetic_to_enu
-from geostructure.orientation import angle_between_vectors
 from geostructure.reconstruct.georef import gps_from_exif, manual, read_gcp, read_gcp_csv, solve_gcp, umeyama
 
 

@@ -180,7 +180,7 @@ def test_a_late_refusal_commits_nothing(outcrop_file, tmp_path, capsys):
 
 
 def test_an_interrupt_during_the_kinematics_commits_nothing(outcrop_file, tmp_path, capsys, monkeypatch):
-    import geostructure.slope_stability as stability
+    import geostructure.workflows.kinematics as stability
 
     out = tmp_path / "o"
     assert run_cli(capsys, "measure", outcrop_file, "-o", out, "-q")[0] == 0

@@ -10,7 +10,9 @@ from helpers import run_cli
 
 from geostructure import measure
 from geostructure.cli import main
-from geostructure.kinematics import (
+from geostructure.core.orientation import normal_from_orientation, orientation_from_normals
+from geostructure.core.projection import enu_vectors
+from geostructure.kinematics.modes import (
     Slope,
     direct_toppling,
     flexural_toppling,
@@ -19,12 +21,10 @@ from geostructure.kinematics import (
     planar_sliding,
     wedges,
 )
-from geostructure.orientation import normal_from_orientation, orientation_from_normals
-from geostructure.projection import enu_vectors
-from geostructure.runs import plane_sets, save_measurement
-from geostructure.slope_stability import add_kinematics
+from geostructure.kinematics.wedge import wedge_blocks, wedge_factor_of_safety
 from geostructure.synthetic import outcrop_scene
-from geostructure.wedge import wedge_blocks, wedge_factor_of_safety
+from geostructure.workflows.kinematics import add_kinematics
+from geostructure.workflows.saving import plane_sets, save_measurement
 
 SLOPE = Slope(dip=60.0, dip_direction=135.0)
 
@@ -422,7 +422,7 @@ def test_the_figure_draws_a_sample_of_a_million_intersections_and_says_so():
     """An outcrop's 1,500 planes make a million pairs; a quarter of a million crosses drew a
     solid band over the envelopes. The figure draws a seeded sample and its legend says how
     many of how many; a few are all drawn."""
-    from geostructure.kinematics import Slope
+    from geostructure.kinematics.modes import Slope
     from geostructure.report.kinematics_plot import MAX_DRAWN_LINES, kinematics_figure
 
     rng = np.random.default_rng(0)
@@ -442,7 +442,7 @@ def test_the_figure_draws_a_sample_of_a_million_intersections_and_says_so():
 def test_kinematics_and_sets_on_a_folder_tell_their_stages(outcrop_folder):
     """``geostructure kinematics`` and ``sets`` took seconds with nothing on screen: both say
     each stage as it starts, as ``measure`` does (the command draws them as progress)."""
-    from geostructure.runs import add_sets
+    from geostructure.workflows.saving import add_sets
 
     _, out = outcrop_folder
     stages = []
@@ -469,12 +469,12 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
     import mplstereonet
     from rich.console import Console
 
+    from geostructure.cli.tables import print_kinematics
+    from geostructure.core.projection import great_circle_xy
     from geostructure.io.results import read_planes, read_sets
-    from geostructure.kinematic_summary import kinematics_of
-    from geostructure.kinematics import Slope
-    from geostructure.projection import great_circle_xy
+    from geostructure.kinematics.modes import Slope
+    from geostructure.kinematics.summary import kinematics_of
     from geostructure.report.kinematics_net import kinematic_traces
-    from geostructure.tables import print_kinematics
 
     _, out = outcrop_folder
     sets, planes = read_sets(out), read_planes(out)

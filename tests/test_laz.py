@@ -171,8 +171,8 @@ def test_point_sets_are_added_chunk_by_chunk_on_the_same_integers(tmp_path):
     """`sets OUTDIR` writes regions.laz again with set, joint and face_part, a chunk at a time:
     any chunk size gives the same file's points, and a short list of values is an error, not
     a file cut short."""
+    from geostructure.core.planes import Planes
     from geostructure.io.laz import add_point_sets, rewrite_point_sets, write_laz
-    from geostructure.planes import Planes
 
     rng = np.random.default_rng(3)
     points = rng.uniform(0.0, 10.0, (1_003, 3))

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from geostructure.cloud import Cloud
-from geostructure.merge import merge_coplanar, summarise_regions
-from geostructure.orientation import angle_between_normals
-from geostructure.params import Params
-from geostructure.pipeline import measure
+from geostructure.core.cloud import Cloud
+from geostructure.core.orientation import angle_between_normals
+from geostructure.core.params import Params
+from geostructure.detect.merge import merge_coplanar, summarise_regions
+from geostructure.detect.pipeline import measure
 from geostructure.synthetic import Surface, sample_rectangle
 
 SOUTH = np.array([0.0, -1.0, 0.0])
@@ -61,7 +61,7 @@ def test_the_two_halves_of_a_wall_are_one_plane_only_when_merging(scene, merge):
 
 def test_merge_leaves_parallel_offset_planes_and_small_regions_alone():
     rng = np.random.default_rng(3)
-    from geostructure.voxel import fit_voxels
+    from geostructure.detect.voxel import fit_voxels
 
     step = [
         Surface("a", np.array([0.0, 0.0, 0.0]), SOUTH, 3.0, 3.0),

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from conftest import shared_file
 
-from geostructure.framefit import fit_frame_to_truth
+from geostructure.core.orientation import Frame, angle_between_normals
+from geostructure.core.params import Params
+from geostructure.detect.pipeline import measure
+from geostructure.evaluation.framefit import fit_frame_to_truth
 from geostructure.io.readers import read_cloud
-from geostructure.orientation import Frame, angle_between_normals
-from geostructure.params import Params
-from geostructure.pipeline import measure
 from geostructure.synthetic import PAPER_NORMALS
 
 pytestmark = pytest.mark.real_data  # every test here reads the paper's cloud

@@ -1,14 +1,14 @@
 import numpy as np
 import pytest
 
-from geostructure.errors import GeoStructureError
-from geostructure.orientation import (
+from geostructure.core.orientation import (
     Frame,
     angle_between_normals,
     azimuth_difference,
     normal_from_orientation,
     orientation_from_normals,
 )
+from geostructure.errors import GeoStructureError
 from geostructure.synthetic import PAPER_NORMALS, PAPER_TABLE
 
 PAPER = Frame.named("paper")
@@ -118,7 +118,7 @@ def test_dip_is_never_over_90_and_agrees_with_mplstereonet():
     its dip is still in [0, 90]. Checked against mplstereonet's vector2pole (x east, y north)."""
     from mplstereonet.stereonet_math import vector2pole
 
-    from geostructure.orientation import VERTICAL_TOLERANCE
+    from geostructure.core.orientation import VERTICAL_TOLERANCE
 
     rng = np.random.default_rng(0)
     n = rng.normal(size=(20_000, 3))
@@ -139,7 +139,7 @@ def test_the_face_side_is_its_own_column_and_the_dip_stays_in_range():
     ``facing``/``overhang``, never into the dip: a wall seen from the west and the underside
     of a slab dipping 30 deg east, seen from below."""
     from geostructure import Cloud, measure
-    from geostructure.orientation import face_side
+    from geostructure.core.orientation import face_side
 
     rng = np.random.default_rng(3)
     u, v = rng.uniform(0, 4, size=(2, 40_000))

@@ -5,12 +5,12 @@ import pytest
 from helpers import lidar_outcrop
 
 from geostructure import Params, measure
-from geostructure.auto import choose_params
-from geostructure.cloud import Cloud
+from geostructure.core.cloud import Cloud
+from geostructure.core.orientation import angle_between_normals
+from geostructure.detect.auto import choose_params
 from geostructure.errors import ParameterError
-from geostructure.evaluate import match_facets
-from geostructure.orientation import angle_between_normals
-from geostructure.slope_stability import fit_slope
+from geostructure.evaluation.groundtruth import match_facets
+from geostructure.kinematics.slope import fit_slope
 from geostructure.synthetic import bushes_on, outcrop_scene, road_before
 from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
 

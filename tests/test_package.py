@@ -159,3 +159,82 @@ def test_the_command_has_malloc_reuse_freed_memory_unless_the_user_chose(chosen)
     else:
         assert done.stdout.split()[0] == "False", done.stderr
         assert done.stdout.split()[1:] == ["None", "2" if chosen == "MALLOC_ARENA_MAX" else "None"]
+
+
+#: The parts of the package (its folders; the package's own ``__init__`` is "root") and the
+#: parts each may import: the layers of docs/architecture.md, bottom up. No part imports one
+#: above it, nothing but ``__main__`` imports the command line, and ``io`` imports no
+#: measuring part.
+ALLOWED = {
+    "root": set(),
+    "errors": set(),
+    "core": {"errors"},
+    "io": {"core", "errors", "root"},
+    "detect": {"core", "errors"},
+    "rockmass": {"core", "detect", "errors"},
+    "kinematics": {"core", "detect", "rockmass", "errors", "report"},  # report: its nets, drawn lazily
+    "synthetic": {"core", "rockmass", "errors"},
+    "reconstruct": {"core", "io", "errors"},
+    "evaluation": {"core", "detect", "io", "errors"},
+    "stream": {"core", "detect", "io", "errors"},
+    "report": {"core", "io", "rockmass", "reconstruct", "errors"},
+    "workflows": {
+        "core",
+        "detect",
+        "rockmass",
+        "kinematics",
+        "evaluation",
+        "io",
+        "stream",
+        "report",
+        "reconstruct",
+        "errors",
+    },  # fmt: skip
+    "testing": {"core", "detect", "evaluation", "synthetic", "io", "errors"},
+    "cli": {
+        "core",
+        "detect",
+        "rockmass",
+        "kinematics",
+        "evaluation",
+        "io",
+        "stream",
+        "report",
+        "reconstruct",
+        "synthetic",
+        "workflows",
+        "errors",
+        "root",
+    },  # fmt: skip
+    "__main__": {"cli", "errors", "root"},
+}
+
+
+def part_of(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "root"
+
+
+def part_edges(edges: dict[str, set[str]]) -> dict[tuple[str, str], list[str]]:
+    found: dict[tuple[str, str], list[str]] = {}
+    for module, targets in edges.items():
+        for target in targets:
+            if part_of(module) != part_of(target):
+                found.setdefault((part_of(module), part_of(target)), []).append(f"{module} -> {target}")
+    return found
+
+
+def test_every_part_imports_only_the_parts_below_it():
+    found = part_edges(graph())
+    assert set(part_of(m) for m in MODULES) == set(ALLOWED)
+    assert [lines for (a, b), lines in sorted(found.items()) if b not in ALLOWED[a]] == []
+
+
+def test_the_layer_checker_finds_a_forbidden_import():
+    found = part_edges({"geostructure.io.writers": {"geostructure.rockmass.mass"}, "geostructure.rockmass.mass": set()})
+    assert [b not in ALLOWED[a] for a, b in found] == [True]
+
+
+def test_at_most_eight_modules_lie_flat_in_the_package():
+    flat = sorted(p.name for p in PACKAGE.glob("*.py"))
+    assert len(flat) <= 8, flat

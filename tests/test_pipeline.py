@@ -2,12 +2,12 @@ import numpy as np
 import pytest
 from conftest import random_rotation
 
-from geostructure.cloud import Cloud
+from geostructure.core.cloud import Cloud
+from geostructure.core.orientation import Frame, azimuth_difference
+from geostructure.core.params import ParameterWarning, Params
+from geostructure.detect.pipeline import measure
 from geostructure.errors import GeoStructureError
-from geostructure.evaluate import match_scene
-from geostructure.orientation import Frame, azimuth_difference
-from geostructure.params import ParameterWarning, Params
-from geostructure.pipeline import measure
+from geostructure.evaluation.groundtruth import match_scene
 from geostructure.synthetic import observatory_scene
 
 
@@ -120,7 +120,7 @@ def test_real_outcrop_gives_planes_at_a_zeta_its_density_supports():
 def test_the_terminal_table_shows_the_planes_with_most_points_and_says_where_the_rest_are(scene_result):
     from rich.console import Console
 
-    from geostructure.tables import print_planes
+    from geostructure.cli.tables import print_planes
 
     console = Console(width=120, record=True)
     print_planes(scene_result, console=console, max_rows=3)
@@ -138,9 +138,9 @@ def test_benches_give_their_faces_and_berms_and_no_ribbons_along_the_edges():
     """Two quarry benches (faces dipping 70 degrees meeting level berms, 1 cm noise, 2.4 cm
     spacing): the four surfaces, and no strip of the cells that straddle an edge where a
     face meets a berm (they fit planes between the two: 2 such strips without the rule)."""
-    from geostructure.auto import choose_params
-    from geostructure.cloud import Cloud
-    from geostructure.orientation import angle_between_normals
+    from geostructure.core.cloud import Cloud
+    from geostructure.core.orientation import angle_between_normals
+    from geostructure.detect.auto import choose_params
 
     rng = np.random.default_rng(0)
     n, height, berm, dip = 200_000, 10.0, 6.0, np.radians(70.0)
@@ -164,7 +164,7 @@ def test_the_sparse_ground_round_the_observatory_is_one_plane():
     """The observatory's ground is sampled at an eighth of its walls' density; its sparse
     stretches broke into six small flat facets (33 to 108 points) beside the ground's large
     plane. Sampled that sparsely and lying on it, they are part of it: one ground plane."""
-    from geostructure.auto import choose_params
+    from geostructure.detect.auto import choose_params
 
     cloud = observatory_scene(300_000, seed=0).cloud
     result = measure(cloud, choose_params(cloud.local).params)

@@ -8,10 +8,10 @@ import pytest
 from conftest import shared_file
 from helpers import assert_one_sentence, run_cli
 
-from geostructure.exposure import face_plane
+from geostructure.core.orientation import normal_from_orientation
+from geostructure.evaluation.fieldmap import axial_angle
 from geostructure.io.fieldmap import read_field_map
-from geostructure.orientation import normal_from_orientation
-from geostructure.validation import axial_angle
+from geostructure.rockmass.exposure import face_plane
 
 pytestmark = pytest.mark.real_data
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from geostructure.cli import main
-from geostructure.orientation import angle_between_normals
+from geostructure.core.orientation import angle_between_normals
 from geostructure.reconstruct.frames import FrameOptions, decode, extract_frames
 from geostructure.testing.render import faces, write_scene_video, write_video
 

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geostructure.hulls import segment_hulls
-from geostructure.rectangle import (
+from geostructure.core.hulls import segment_hulls
+from geostructure.detect.rectangle import (
     bounding_perimeter,
     exact_angle,
     golden_angle,
@@ -60,7 +60,7 @@ def test_region_plane_recovers_a_rotated_tilted_rectangle(method):
 def test_the_octagon_prefilter_keeps_every_hull_vertex(shape):
     from scipy.spatial import ConvexHull
 
-    from geostructure.rectangle import OCTAGON_POINTS, hull_2d
+    from geostructure.detect.rectangle import OCTAGON_POINTS, hull_2d
 
     rng = np.random.default_rng(7)
     p = rng.uniform(-1, 1, (20 * OCTAGON_POINTS, 2))

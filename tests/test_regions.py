@@ -1,8 +1,8 @@
 import numpy as np
 from conftest import plane_points
 
-from geostructure.regions import grow_regions
-from geostructure.voxel import fit_voxels
+from geostructure.detect.regions import grow_regions
+from geostructure.detect.voxel import fit_voxels
 
 
 def labels_of(points, zeta=0.02, **kw):

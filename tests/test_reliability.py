@@ -19,7 +19,7 @@ from geostructure import Cloud, Frame, GeoStructureError, measure
 from geostructure.errors import InputError, OutputError, ParameterError
 from geostructure.io.atomic import json_text
 from geostructure.io.outdir import output_set, verified_record
-from geostructure.planes import Planes
+from geostructure.io.planetable import read_planes_csv
 
 FIXED = ["--no-auto", "--zeta", "0.02", "-q"]
 
@@ -371,7 +371,7 @@ def test_a_damaged_planes_csv(measured, capsys, content):
         assert code == 2
         assert_one_sentence(err, "planes.csv")
     with pytest.raises(GeoStructureError, match="not a GeoStructure planes.csv"):
-        Planes.from_csv(measured / "planes.csv")
+        read_planes_csv(measured / "planes.csv")
 
 
 @pytest.mark.parametrize("name", ["planes.csv", "regions.laz"])

@@ -3,9 +3,9 @@ import csv
 import numpy as np
 
 from geostructure.cli import main
+from geostructure.core.params import Params
+from geostructure.detect.pipeline import measure
 from geostructure.io.gis import geojson
-from geostructure.params import Params
-from geostructure.pipeline import measure
 from geostructure.report.stereonet import stereonet_figure
 
 
@@ -45,7 +45,7 @@ def test_exports_written_by_measure(tmp_path, scene, capsys):
 def test_geojson_of_a_gps_referenced_cloud_is_in_longitude_and_latitude(scene):
     from dataclasses import replace
 
-    from geostructure.geodesy import geodetic_to_enu
+    from geostructure.core.geodesy import geodetic_to_enu
 
     origin = (55.7, 13.19, 40.0)
     cloud = replace(scene.cloud, enu_origin=origin)

@@ -4,7 +4,7 @@ import time
 
 import pytest
 
-from geostructure.evaluate import match_scene
+from geostructure.evaluation.groundtruth import match_scene
 from geostructure.io.writers import write_evaluation, write_outputs
 from geostructure.report.html import build_report
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from geostructure.cli import main
-from geostructure.evaluate import match_scene
+from geostructure.core.projection import great_circle_xy, pole_density, pole_xy
+from geostructure.evaluation.groundtruth import match_scene
 from geostructure.io.writers import write_evaluation, write_outputs
-from geostructure.projection import great_circle_xy, pole_density, pole_xy
 from geostructure.report.html import build_report
 from geostructure.report.scene import load_scene
 

@@ -10,18 +10,17 @@ from conftest import shared_file
 from helpers import lidar_outcrop, run_cli
 
 from geostructure import measure
-from geostructure.auto import choose_params
 from geostructure.cli import main
-from geostructure.cloud import Cloud
-from geostructure.evaluate import match_facets
-from geostructure.exposure import exposure, plane_persistence
-from geostructure.face import clutter_points, face_members
+from geostructure.core.cloud import Cloud
+from geostructure.detect.auto import choose_params
+from geostructure.evaluation.groundtruth import match_facets
 from geostructure.io.crs import metres_per_unit
 from geostructure.io.results import TEXT_SET_COLUMNS
-from geostructure.rockmass import RockMass
-from geostructure.rqd import block_size_class, rqd_from_jv, rqd_range
-from geostructure.runs import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
-from geostructure.setnotes import (
+from geostructure.kinematics.slope import fit_slope
+from geostructure.rockmass.exposure import exposure, plane_persistence
+from geostructure.rockmass.face import clutter_points, face_members
+from geostructure.rockmass.mass import RockMass
+from geostructure.rockmass.notes import (
     FEW_WHOLE_TRACES,
     censored_traces_note,
     jv_scope,
@@ -29,12 +28,13 @@ from geostructure.setnotes import (
     set_notes,
     unmeasured_spacing,
 )
-from geostructure.slope_stability import fit_slope
-from geostructure.spacing import Scanlines, spacing_class, spacing_statistics
+from geostructure.rockmass.rqd import block_size_class, rqd_from_jv, rqd_range
+from geostructure.rockmass.spacing import Scanlines, spacing_class, spacing_statistics
+from geostructure.rockmass.traces import persistence_class
 from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
 from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
 from geostructure.synthetic.scanlines import exposed_trace_chords
-from geostructure.traces import persistence_class
+from geostructure.workflows.saving import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 
 
 def measured(scene):

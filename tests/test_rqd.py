@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from geostructure.rqd import block_size_class, rqd_from_frequency, rqd_from_jv, rqd_range
-from geostructure.setnotes import rqd_phrase
-from geostructure.spacing import spacing_class
+from geostructure.rockmass.notes import rqd_phrase
+from geostructure.rockmass.rqd import block_size_class, rqd_from_frequency, rqd_from_jv, rqd_range
+from geostructure.rockmass.spacing import spacing_class
 
 
 def core_rqd(frequency: float, length: float = 20_000.0, seed: int = 0) -> float:

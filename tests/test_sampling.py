@@ -1,10 +1,10 @@
-"""Samples drawn by the points' coordinates (`geostructure.sampling`)."""
+"""Samples drawn by the points' coordinates (`geostructure.core.sampling`)."""
 
 import warnings
 
 import numpy as np
 
-from geostructure.sampling import order_free_sample
+from geostructure.core.sampling import order_free_sample
 
 
 def test_any_seed_draws_the_same_points_whatever_their_order_and_without_a_warning():

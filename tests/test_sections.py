@@ -1,4 +1,4 @@
-"""A face that turns, cut into sections (`geostructure.sections`): a quarry's corner in two,
+"""A face that turns, cut into sections (`geostructure.rockmass.sections`): a quarry's corner in two,
 a curved road cut in stretches that each turn less than a face that turns, a flat face and a
 terrain left whole."""
 
@@ -11,12 +11,12 @@ import pytest
 from helpers import run_cli, write_xyz
 from test_face_bend import turned_faces
 
-from geostructure.exposure import BENT_FACE, face_bend, trace_turn
+from geostructure.core.orientation import normal_from_orientation
 from geostructure.io.results import read_planes
-from geostructure.kinematics import Slope, flexural_toppling, planar_sliding
-from geostructure.orientation import normal_from_orientation
-from geostructure.sections import face_sections
-from geostructure.slope_stability import fit_face
+from geostructure.kinematics.modes import Slope, flexural_toppling, planar_sliding
+from geostructure.kinematics.slope import fit_face
+from geostructure.rockmass.exposure import BENT_FACE, face_bend, trace_turn
+from geostructure.rockmass.sections import face_sections
 from geostructure.synthetic import outcrop_scene
 from geostructure.synthetic.outcrop import DEFAULT_SETS
 

@@ -9,11 +9,11 @@ from helpers import run_cli
 
 from geostructure import measure
 from geostructure.cli import main
+from geostructure.core.orientation import angle_between_normals, normal_from_orientation
 from geostructure.errors import GeoStructureWarning
-from geostructure.orientation import angle_between_normals, normal_from_orientation
-from geostructure.runs import plane_sets
-from geostructure.sets import find_sets, fisher_statistics
+from geostructure.rockmass.sets import find_sets, fisher_statistics
 from geostructure.synthetic import fisher_directions, outcrop_scene
+from geostructure.workflows.saving import plane_sets
 
 
 def test_steep_planes_whose_poles_straddle_the_horizon():
@@ -125,9 +125,9 @@ def test_sets_among_voxel_planes_say_they_see_only_the_larger_joints(tmp_path):
     """The voxel detector (``--detector voxel``, the stream engine's) finds few of a rough
     face's joint faces: on the 40 x 16 m face of 3 m joints 253 planes to the facets' 1,871,
     and the sets' spacing 2.0 to 2.7 times the facets'. Its sets say so; the default's do not."""
-    from geostructure.auto import choose_params
+    from geostructure.detect.auto import choose_params
     from geostructure.errors import GeoStructureNote
-    from geostructure.runs import add_sets, save_measurement
+    from geostructure.workflows.saving import add_sets, save_measurement
 
     cloud = outcrop_scene(width=8.0, height=4.0, seed=1).cloud
     choice = choose_params(cloud.local)

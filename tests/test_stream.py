@@ -14,10 +14,11 @@ import pytest
 from helpers import assert_one_sentence, run_cli, write_classified_las
 from test_tiles import UTM, planes_of, tile_index, write_laz
 
-from geostructure import auto, measure
-from geostructure.auto import choose_params
+from geostructure import measure
+from geostructure.core.params import Params
+from geostructure.detect import auto
+from geostructure.detect.auto import choose_params
 from geostructure.io.tiles import read_tiles
-from geostructure.params import Params
 from geostructure.stream import DaskExecutor, measure_stream
 from geostructure.synthetic import observatory_scene
 

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from geostructure.cli import main
+from geostructure.core.orientation import Frame
 from geostructure.errors import GeoStructureError
-from geostructure.evaluate import scene_truth
-from geostructure.orientation import Frame
-from geostructure.sweep import factor_values, plot_sweep, run_sweep
+from geostructure.evaluation.groundtruth import scene_truth
+from geostructure.evaluation.sweep import factor_values, plot_sweep, run_sweep
 from geostructure.synthetic import observatory_scene
 
 

@@ -14,8 +14,8 @@ from helpers import run_cli
 from plyfile import PlyData
 from test_tiles import UTM, tile_index, write_laz
 
-from geostructure.evaluate import match_facets
-from geostructure.planes import Planes
+from geostructure.core.planes import Planes
+from geostructure.evaluation.groundtruth import match_facets
 from geostructure.stream import spill_inputs
 from geostructure.stream.thin import ThinGrid, thin_spill
 from geostructure.synthetic import outcrop_scene

@@ -1,11 +1,11 @@
-"""Row-split work in threads (geostructure.threads): the same bits whatever the number of
+"""Row-split work in threads (geostructure.core.threads): the same bits whatever the number of
 threads, and a block's error raised in the caller."""
 
 import numpy as np
 import pytest
 
-from geostructure import threads
-from geostructure.cells import CellGrid, grid_planes
+from geostructure.core import threads
+from geostructure.detect.cells import CellGrid, grid_planes
 from geostructure.synthetic import outcrop_scene
 
 
@@ -42,7 +42,7 @@ def test_an_error_in_one_block_reaches_the_caller_after_the_others_finish():
 
 
 def test_the_outlier_filter_is_the_same_bits_on_one_thread_and_on_four(monkeypatch):
-    from geostructure.filter import local_filter
+    from geostructure.detect.filter import local_filter
 
     points = outcrop_scene(width=8.0, height=5.0, point_spacing=0.02, seed=2).cloud.local
     judged = {}

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from geostructure.exposure import exposure
-from geostructure.joints import PlaneMoments
-from geostructure.traces import TRACE_MARGIN, Traces, joint_traces, persistence_class, trace_lengths
+from geostructure.rockmass.exposure import exposure
+from geostructure.rockmass.joints import PlaneMoments
+from geostructure.rockmass.traces import TRACE_MARGIN, Traces, joint_traces, persistence_class, trace_lengths
 
 
 def face_with_a_hole():

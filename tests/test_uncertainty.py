@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 from geostructure import measure
-from geostructure.evaluate import match_facets
-from geostructure.joints import PlaneMoments
-from geostructure.orientation import angle_between_normals, normal_from_orientation, orientation_from_normals
-from geostructure.runs import plane_rock_mass, plane_sets, with_rock_mass
+from geostructure.core.orientation import angle_between_normals, normal_from_orientation, orientation_from_normals
+from geostructure.detect.uncertainty import MIN_TILT_FACETS, correlated_tilt, normal_standard_errors
+from geostructure.evaluation.groundtruth import match_facets
+from geostructure.rockmass.joints import PlaneMoments
 from geostructure.synthetic import outcrop_scene
 from geostructure.synthetic.outcrop import DEFAULT_SETS
 from geostructure.synthetic.surface import smooth_field
-from geostructure.uncertainty import MIN_TILT_FACETS, correlated_tilt, normal_standard_errors
+from geostructure.workflows.saving import plane_rock_mass, plane_sets, with_rock_mass
 
 
 def noisy_planes(rng, *, size, spacing, white, correlated=0.0, wavelength=0.0, normal=(0.0, 0.0, 1.0), n=150):
@@ -108,7 +108,7 @@ def test_on_an_sfm_like_outcrop_with_the_correlated_tilt_the_joints_show(seed, c
 def test_the_block_sums_of_parts_add_up_to_the_whole():
     """The standard errors come from sums that add over parts of a cloud (tiles, chunks), given
     each plane's extent: the ground a streaming run stands on."""
-    from geostructure.uncertainty import (
+    from geostructure.detect.uncertainty import (
         block_sums,
         coordinate_ranges,
         errors_from_sums,

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from conftest import plane_points
 
-from geostructure.orientation import angle_between_normals, normal_from_orientation
-from geostructure.voxel import accumulate_moments, add_moments, fit_planes, fit_voxels
+from geostructure.core.orientation import angle_between_normals, normal_from_orientation
+from geostructure.detect.voxel import accumulate_moments, add_moments, fit_planes, fit_voxels
 
 
 @pytest.mark.parametrize("dd,dip", [(0, 0), (45, 30), (123, 60), (270, 89.9), (10, 90), (200, 75)])
@@ -42,7 +42,7 @@ def test_sparse_and_linear_voxels_give_no_plane():
 
 
 def test_large_coordinates_keep_precision():
-    from geostructure.cloud import Cloud
+    from geostructure.core.cloud import Cloud
 
     normal = normal_from_orientation(77, 33)
     pts = plane_points(normal, n=20000, size=10, noise=0.002, seed=2)
@@ -57,7 +57,7 @@ def test_codes_grouped_by_their_columns_are_numpys_unique(seed):
     """group_codes with a minor part (a grid key's z under its x-y column) must give
     np.unique's sorted codes and inverse exactly, whichever of its ways it takes: one table,
     the columns' ranges in a second table, or a sort of those when they are sparse too."""
-    from geostructure.gridkeys import group_codes
+    from geostructure.core.gridkeys import group_codes
 
     rng = np.random.default_rng(seed)
     minor = int(rng.choice([7, 1000, 100_000]))

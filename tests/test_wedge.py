@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from geostructure.kinematics import Slope, wedges
-from geostructure.orientation import normal_from_orientation
-from geostructure.wedge import wedge_blocks, wedge_factor_of_safety
+from geostructure.core.orientation import normal_from_orientation
+from geostructure.kinematics.modes import Slope, wedges
+from geostructure.kinematics.wedge import wedge_blocks, wedge_factor_of_safety
 
 # Hoek & Bray (1981), Rock Slope Engineering, chapter 8 (and Wyllie & Mah 2004, chapter 7):
 # joints A 45/105 (friction 20, cohesion 500 lb/ft2) and B 70/235 (friction 30, 1000 lb/ft2)

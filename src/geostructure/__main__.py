@@ -75,7 +75,7 @@ def run(argv=None) -> int:
     reuse_freed_memory()
     stacks_on_request()
     try:
-        from .cli import build_parser, main  # lazy on purpose: the import itself may be interrupted
+        from geostructure.cli import build_parser, main  # lazy on purpose: the import itself may be interrupted
 
         parser = build_parser()  # and so may the building of the options
     except KeyboardInterrupt:

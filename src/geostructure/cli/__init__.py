@@ -14,11 +14,11 @@ import sys
 import warnings
 from pathlib import Path
 
-from .. import __version__
-from ..errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
-from .measure import add_measure_commands
-from .reconstruct import add_reconstruct_commands
-from .rockmass import add_rockmass_commands
+from geostructure import __version__
+from geostructure.cli.measure import add_measure_commands
+from geostructure.cli.reconstruct import add_reconstruct_commands
+from geostructure.cli.rockmass import add_rockmass_commands
+from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
 
 EXIT_USER_ERROR = 2
 

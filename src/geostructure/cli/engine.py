@@ -8,21 +8,21 @@ import os
 import re
 import time
 
-from ..errors import GeoStructureError
-from ..evaluate import evaluate
-from ..io.crs import recorded_unit
-from ..io.outdir import output_set
-from ..io.writers import write_result
-from ..progress import StageProgress
-from ..runs import stage_report
-from ..scoring import stage_evaluation
-from ..stream import DaskExecutor, SerialExecutor, measure_stream
-from ..stream.engine import DEFAULT_CHUNK_POINTS
-from ..stream.output import RegionsLaz, RegionsPly
-from ..stream.source import estimate_points
-from ..tables import counted, print_evaluation, print_planes
-from .options import base_params, crs_from, crs_record, given_factors, say_what_was_left
-from .rockmass import wants_sets
+from geostructure.cli.options import base_params, crs_from, crs_record, given_factors, say_what_was_left
+from geostructure.cli.progress import StageProgress
+from geostructure.cli.rockmass import wants_sets
+from geostructure.cli.tables import counted, print_evaluation, print_planes
+from geostructure.errors import GeoStructureError
+from geostructure.evaluation.groundtruth import evaluate
+from geostructure.evaluation.scoring import stage_evaluation
+from geostructure.io.crs import recorded_unit
+from geostructure.io.outdir import output_set
+from geostructure.io.writers import write_result
+from geostructure.stream import DaskExecutor, SerialExecutor, measure_stream
+from geostructure.stream.engine import DEFAULT_CHUNK_POINTS
+from geostructure.stream.output import RegionsLaz, RegionsPly
+from geostructure.stream.source import estimate_points
+from geostructure.workflows.saving import stage_report
 
 ENGINES = ("auto", "memory", "stream", "dask")
 #: A run in memory with the default options peaked at 1.10 GB for a 1M-point LAZ and 1.12 GB

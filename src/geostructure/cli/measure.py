@@ -9,36 +9,8 @@ import time
 import warnings
 from pathlib import Path
 
-from ..errors import GeoStructureError, GeoStructureNote
-from ..evaluate import evaluate, match_scene, scene_truth
-from ..io.crs import cloud_unit
-from ..io.outdir import output_set
-from ..io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
-from ..io.tiles import describe, expand_inputs, read_tiles
-from ..io.truth import read_truth
-from ..io.writers import write_table_csv
-from ..pipeline import measure
-from ..progress import StageProgress
-from ..rockmass import with_rock_mass
-from ..runs import add_report, save_measurement
-from ..scoring import add_evaluation, add_validation
-from ..sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
-from ..sweep import run_sweep as sweep
-from ..synthetic import observatory_scene
-from ..tables import (
-    counted,
-    print_evaluation,
-    print_kinematics,
-    print_match,
-    print_planes,
-    print_sets,
-    print_sweep,
-    validation_lines,
-)
-from ..validation import MAX_ANGLE, MAX_DISTANCE
-from ..workflow import measure_outcrop
-from .engine import add_engine_options, chosen_engine, measures_in_memory, run_streamed
-from .options import (
+from geostructure.cli.engine import add_engine_options, chosen_engine, measures_in_memory, run_streamed
+from geostructure.cli.options import (
     add_measure_options,
     base_params,
     check_before_work,
@@ -54,8 +26,36 @@ from .options import (
     say_what_was_left,
     whole,
 )
-from .rockmass import add_kinematic_options, add_set_options, kinematic_settings, wants_sets
-from .thinned import thinned_survey
+from geostructure.cli.progress import StageProgress
+from geostructure.cli.rockmass import add_kinematic_options, add_set_options, kinematic_settings, wants_sets
+from geostructure.cli.tables import (
+    counted,
+    print_evaluation,
+    print_kinematics,
+    print_match,
+    print_planes,
+    print_sets,
+    print_sweep,
+    validation_lines,
+)
+from geostructure.cli.thinned import thinned_survey
+from geostructure.detect.pipeline import measure
+from geostructure.errors import GeoStructureError, GeoStructureNote
+from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE
+from geostructure.evaluation.groundtruth import evaluate, match_scene, scene_truth
+from geostructure.evaluation.scoring import add_evaluation, add_validation
+from geostructure.evaluation.sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
+from geostructure.evaluation.sweep import run_sweep as sweep
+from geostructure.io.crs import cloud_unit
+from geostructure.io.outdir import output_set
+from geostructure.io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
+from geostructure.io.tiles import describe, expand_inputs, read_tiles
+from geostructure.io.truth import read_truth
+from geostructure.io.writers import write_table_csv
+from geostructure.rockmass.mass import with_rock_mass
+from geostructure.synthetic import observatory_scene
+from geostructure.workflows.outcrop import measure_outcrop
+from geostructure.workflows.saving import add_report, save_measurement
 
 
 def add_measure_commands(sub) -> None:
@@ -195,9 +195,9 @@ def measure_thinned(args, paths, frame, engine: str, extra: dict | None, *, trut
 def measure_cloud(
     cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=(), point_files=True
 ) -> int:
-    """Measure (:func:`~geostructure.workflow.measure_outcrop`); write the outputs, the
+    """Measure (:func:`~geostructure.workflows.outcrop.measure_outcrop`); write the outputs, the
     evaluation and the report as one set; print the planes. ``point_files`` writes
-    ``regions.ply`` and ``regions.laz`` (:func:`~.runs.save_measurement`)."""
+    ``regions.ply`` and ``regions.laz`` (:func:`~geostructure.workflows.saving.save_measurement`)."""
     unit = getattr(args, "unit", None)  # checked against the CRS before reading (a reconstruction has none)
 
     def say_choice(text: str) -> None:

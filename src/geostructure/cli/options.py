@@ -10,17 +10,17 @@ import sys
 import warnings
 from pathlib import Path
 
-from ..auto import choose_params
-from ..errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
-from ..facets import DETECTORS
-from ..io.crs import UNITS, check_cloud_crs, check_unit, cloud_unit, describe_north, parse_crs
-from ..io.gis import NO_CRS_NOTE
-from ..io.outdir import check_inputs_not_outputs, check_outdir
-from ..io.tiles import check_headers
-from ..io.truth import read_truth
-from ..orientation import Frame
-from ..params import Params
-from ..pipeline import check_measurable
+from geostructure.core.orientation import Frame
+from geostructure.core.params import Params
+from geostructure.detect.auto import choose_params
+from geostructure.detect.facets import DETECTORS
+from geostructure.detect.pipeline import check_measurable
+from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
+from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, cloud_unit, describe_north, parse_crs
+from geostructure.io.gis import NO_CRS_NOTE
+from geostructure.io.outdir import check_inputs_not_outputs, check_outdir
+from geostructure.io.tiles import check_headers
+from geostructure.io.truth import read_truth
 
 
 def finite_float(text: str) -> float:
@@ -201,7 +201,7 @@ def params_from(args, cloud=None) -> tuple[Params, dict | None, object]:
     """Parameters from the options; with --auto (and a cloud), chosen from the cloud first.
 
     Returns the parameters, for --auto a record of the choice for run.json, and the cloud's
-    voxel moments the choice summed (:class:`~geostructure.voxel.CloudMoments`, for
+    voxel moments the choice summed (:class:`~geostructure.detect.voxel.CloudMoments`, for
     ``measure(..., moments=)``; None without --auto).
     """
     given = given_factors(args)

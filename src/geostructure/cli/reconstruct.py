@@ -8,19 +8,8 @@ import shutil
 import time
 from pathlib import Path
 
-from ..cloud import Cloud
-from ..errors import GeoStructureError
-from ..io.truth import read_truth
-from ..orientation import Frame
-from ..progress import StageProgress
-from ..reconstruct.dense import DenseOptions
-from ..reconstruct.frames import FrameOptions, extract_frames
-from ..reconstruct.georef import read_gcp, read_gcp_csv
-from ..reconstruct.pipeline import ReconstructOptions, reconstruct
-from ..reconstruct.sfm import SfmOptions, list_images
-from ..reconstruct.surface import SurfaceOptions
-from .measure import measure_cloud
-from .options import (
+from geostructure.cli.measure import measure_cloud
+from geostructure.cli.options import (
     add_measure_options,
     base_params,
     check_before_work,
@@ -31,6 +20,17 @@ from .options import (
     positive_float,
     whole,
 )
+from geostructure.cli.progress import StageProgress
+from geostructure.core.cloud import Cloud
+from geostructure.core.orientation import Frame
+from geostructure.errors import GeoStructureError
+from geostructure.io.truth import read_truth
+from geostructure.reconstruct.dense import DenseOptions
+from geostructure.reconstruct.frames import FrameOptions, extract_frames
+from geostructure.reconstruct.georef import read_gcp, read_gcp_csv
+from geostructure.reconstruct.pipeline import ReconstructOptions, reconstruct
+from geostructure.reconstruct.sfm import SfmOptions, list_images
+from geostructure.reconstruct.surface import SurfaceOptions
 
 
 def add_reconstruct_commands(sub) -> None:

@@ -8,13 +8,13 @@ import argparse
 import math
 from pathlib import Path
 
-from ..errors import ParameterError
-from ..kinematics import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
-from ..progress import StageProgress
-from ..runs import add_sets
-from ..slope_stability import add_kinematics
-from ..tables import print_kinematics, print_sets
-from .options import whole
+from geostructure.cli.options import whole
+from geostructure.cli.progress import StageProgress
+from geostructure.cli.tables import print_kinematics, print_sets
+from geostructure.errors import ParameterError
+from geostructure.kinematics.modes import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
+from geostructure.workflows.kinematics import add_kinematics
+from geostructure.workflows.saving import add_sets
 
 
 def add_rockmass_commands(sub) -> None:

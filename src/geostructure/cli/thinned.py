@@ -11,17 +11,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cloud import Cloud
-from ..errors import GeoStructureError, GeoStructureNote
-from ..io.crs import cloud_unit
-from ..io.laz import POINT_SET_DIMENSIONS, point_joints, point_sets
-from ..progress import StageProgress
-from ..stream import DaskExecutor, SerialExecutor, spill_inputs
-from ..stream.output import RegionsLaz, RegionsPly
-from ..stream.passes import DROPPED
-from ..stream.source import Spill
-from ..stream.thin import Thinned, label_survey, thin_spill
-from .engine import MEMORY_BASE_BYTES, chunk_points, default_max_memory, memory_bytes_per_point
+from geostructure.cli.engine import MEMORY_BASE_BYTES, chunk_points, default_max_memory, memory_bytes_per_point
+from geostructure.cli.progress import StageProgress
+from geostructure.core.cloud import Cloud
+from geostructure.errors import GeoStructureError, GeoStructureNote
+from geostructure.io.crs import cloud_unit
+from geostructure.io.laz import POINT_SET_DIMENSIONS, point_joints, point_sets
+from geostructure.stream import DaskExecutor, SerialExecutor, spill_inputs
+from geostructure.stream.output import RegionsLaz, RegionsPly
+from geostructure.stream.passes import DROPPED
+from geostructure.stream.source import Spill
+from geostructure.stream.thin import Thinned, label_survey, thin_spill
 
 #: The fewest points a rock mass is measured on: fewer cannot show joints of a metre.
 MIN_THINNED_POINTS = 20_000

@@ -10,9 +10,9 @@ import warnings
 
 import numpy as np
 
-from ..bounds import column_max, column_min, first_bad_coordinates
-from ..cloud import MAX_COORDINATE
-from ..errors import GeoStructureError, GeoStructureWarning
+from geostructure.core.bounds import column_max, column_min, first_bad_coordinates
+from geostructure.core.cloud import MAX_COORDINATE
+from geostructure.errors import GeoStructureError, GeoStructureWarning
 
 
 def check_points(points: np.ndarray, path, offset=None) -> None:
@@ -87,7 +87,7 @@ def check_coordinate_step(points: np.ndarray, stored_step: tuple[float, str] | N
         extent = float(np.max(column_max(points) - column_min(points)))
     if not step > STEP_CHECK_SHARE * extent:
         return
-    from ..density import point_spacing  # lazy: only for a coarsely stored cloud
+    from geostructure.core.density import point_spacing  # lazy: only for a coarsely stored cloud
 
     local = points - points.mean(axis=0)
     spacing = point_spacing(local, distinct=False)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError, GeoStructureNote, GeoStructureWarning, InputError
+from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning, InputError
 
 
 @lru_cache(maxsize=16)
@@ -154,7 +154,7 @@ def true_north_frame(frame, crs: str | None, lower, upper):
 
     Examples
     --------
-    >>> from geostructure.orientation import Frame
+    >>> from geostructure.core.orientation import Frame
     >>> frame, north = true_north_frame(Frame(), "EPSG:32633", [657000.0, 4983000, 0], [658000.0, 4985000, 50])
     >>> frame.name, round(north["grid_convergence_deg"], 2), north["reference"]
     ('enu, true north', 1.41, 'true north')

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_table_csv
+from geostructure.io.atomic import write_table_csv
 
 #: The columns of ``planes_dips.csv`` always written; ``Set`` follows the orientation pair
 #: when the planes have sets.
@@ -24,7 +24,7 @@ def write_dips_csv(planes, path, rotation=None) -> Path:
 
     The location columns hold east, north and elevation: the centroid turned by
     ``rotation`` (3 x 3, rows the frame's unit east, north and up in the cloud's axes, as
-    :class:`~geostructure.orientation.Frame` holds them), or the centroid as it is when
+    :class:`~geostructure.core.orientation.Frame` holds them), or the centroid as it is when
     ``rotation`` is None (a cloud in a coordinate system, whose x and y are its eastings
     and northings). In the ``paper`` frame (x north, y west) Dips would otherwise place
     every plane a quarter turn away.
@@ -32,7 +32,7 @@ def write_dips_csv(planes, path, rotation=None) -> Path:
     Examples
     --------
     >>> import tempfile, pathlib
-    >>> from geostructure.planes import Planes
+    >>> from geostructure.core.planes import Planes
     >>> planes = Planes(normal=[[0, 0.5, 0.866], [1.0, 0, 0.01]]).with_columns(set=[0, -1])
     >>> path = write_dips_csv(planes, pathlib.Path(tempfile.mkdtemp()) / "planes_dips.csv")
     >>> print(path.read_text().splitlines()[0])

@@ -20,7 +20,7 @@ import struct
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import GeoStructureError
+from geostructure.errors import GeoStructureError
 
 #: The most bytes one LAZ chunk may decompress to: a chunk is 50,000 points (some 1.7 MB)
 #: in the files LAStools, PDAL and laspy write; above this the number is damaged.

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from .usercsv import read_rows
+from geostructure.errors import InputError
+from geostructure.io.usercsv import read_rows
 
 #: Each field's accepted column names (lower case).
 NAMES = {

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geodesy import enu_to_geodetic
-from .atomic import atomic_path, json_text
-from .crs import metres_per_unit, parse_crs
+from geostructure.core.geodesy import enu_to_geodetic
+from geostructure.io.atomic import atomic_path, json_text
+from geostructure.io.crs import metres_per_unit, parse_crs
 
 #: The line a run prints when its cloud has no CRS.
 NO_CRS_NOTE = (

@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import column_max, column_min
-from ..planes import plane_rows
-from .atomic import atomic_path
-from .crs import parse_crs
-from .failures import laz_readers
+from geostructure.core.bounds import column_max, column_min
+from geostructure.core.planes import plane_rows
+from geostructure.io.atomic import atomic_path
+from geostructure.io.crs import parse_crs
+from geostructure.io.failures import laz_readers
 
 #: The step of the coordinate grid for a cloud that was not read from LAS/LAZ.
 LAS_QUANTUM = 1e-4
@@ -73,7 +73,7 @@ def point_sets(region, planes) -> np.ndarray:
 
     Examples
     --------
-    >>> from geostructure.planes import Planes
+    >>> from geostructure.core.planes import Planes
     >>> planes = Planes(normal=[[0, 0, 1.0], [1.0, 0, 0]], region_id=[4, 7]).with_columns(set=[1, -1])
     >>> point_sets(np.array([7, 4, -1, 4]), planes).tolist()
     [-1, 1, -1, 1]
@@ -96,7 +96,7 @@ def per_point(region, planes, column: str, dtype) -> np.ndarray:
 
 
 #: The dimensions a run with sets adds to ``regions.laz``: each point's set, its part of the
-#: face (:data:`~geostructure.face.FACE`, ``GROUND`` or ``CLUTTER``) and its joint.
+#: face (:data:`~geostructure.rockmass.face.FACE`, ``GROUND`` or ``CLUTTER``) and its joint.
 POINT_SET_DIMENSIONS = (("set", np.int16), ("face_part", np.uint8), ("joint", np.int32))
 
 
@@ -167,7 +167,7 @@ def _write(las, path) -> Path:
 def write_regions_laz(result, path, point_set=None, face_part=None, point_joint=None) -> Path:
     """``regions.laz``: the filtered points with ``region_id`` and, given each point's set
     (``point_set``), ``set``, ``face_part``, each point's part of the face
-    (:data:`~geostructure.face.FACE`, ``GROUND`` or ``CLUTTER``; all ``FACE`` when
+    (:data:`~geostructure.rockmass.face.FACE`, ``GROUND`` or ``CLUTTER``; all ``FACE`` when
     ``face_part`` is None) and ``joint`` (``point_joint``; -1 for all when None)."""
     fields = {"region_id": np.asarray(result.labels, dtype=np.int32)}
     if point_set is not None:

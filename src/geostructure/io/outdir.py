@@ -30,8 +30,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import OutputError
-from .atomic import TEMP_PATTERN, plain, write_json
+from geostructure.errors import OutputError
+from geostructure.io.atomic import TEMP_PATTERN, plain, write_json
 
 STAGING = ".geostructure-staging"
 JOURNAL = "COMMIT.json"

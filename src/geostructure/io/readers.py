@@ -1,4 +1,4 @@
-"""Readers: one function per format, each returning a :class:`~geostructure.cloud.Cloud`.
+"""Readers: one function per format, each returning a :class:`~geostructure.core.cloud.Cloud`.
 
 Every reader turns a library's exception into a :class:`GeoStructureError` that names the
 file and what is wrong, and checks the points are finite and numerous enough to measure.
@@ -13,13 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import Cloud
-from ..copies import without_copies
-from ..errors import GeoStructureError, GeoStructureNote, ParameterError
-from .checks import check_coordinate_step, check_points, las_step, ply_step
-from .crs import check_cloud_crs
-from .failures import check_laz_chunks, laz_readers, translated_read_errors
-from .text import read_text
+from geostructure.core.cloud import Cloud
+from geostructure.core.duplicates import without_copies
+from geostructure.errors import GeoStructureError, GeoStructureNote, ParameterError
+from geostructure.io.checks import check_coordinate_step, check_points, las_step, ply_step
+from geostructure.io.crs import check_cloud_crs
+from geostructure.io.failures import check_laz_chunks, laz_readers, translated_read_errors
+from geostructure.io.text import read_text
 
 TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
 SUFFIXES = (".ply", ".las", ".laz", ".e57") + TEXT_SUFFIXES
@@ -253,7 +253,7 @@ def las_chunk_points(chunk) -> tuple[np.ndarray, np.ndarray]:
 
 
 #: LAS classes of vegetation (ASPRS: low, medium and high vegetation): clutter before a rock
-#: face, kept and labelled as every point is, but no part of the face (:mod:`~geostructure.face`).
+#: face, kept and labelled as every point is, but no part of the face (:mod:`~geostructure.rockmass.face`).
 VEGETATION_CLASSES = (3, 4, 5)
 
 

@@ -10,10 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
-from ..planes import Planes
-from .crs import recorded_unit
-from .outdir import read_record
+from geostructure.core.planes import Planes
+from geostructure.errors import OutputError
+from geostructure.io.crs import recorded_unit
+from geostructure.io.outdir import read_record
+from geostructure.io.planetable import read_planes_csv
 
 #: The prefix of a PLY property that CloudCompare's command line loads as a scalar field.
 SCALAR = "scalar_"
@@ -74,7 +75,7 @@ def read_planes(folder, offset=None) -> Planes:
     """The plane table in ``planes.csv`` of a measured folder, positions relative to
     ``offset``, its ``area`` back in the cloud's unit squared (as the measure's own table
     holds it) when ``run.json`` says the file holds square metres (:data:`PLANE_AREA`)."""
-    planes = Planes.from_csv(Path(folder) / "planes.csv", offset)
+    planes = read_planes_csv(Path(folder) / "planes.csv", offset)
     record = read_record(Path(folder) / "run.json") or {}
     if record.get("plane_area") != PLANE_AREA["plane_area"]:
         return planes

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import Cloud
-from ..errors import GeoStructureError
+from geostructure.core.cloud import Cloud
+from geostructure.errors import GeoStructureError
 
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.I)
 

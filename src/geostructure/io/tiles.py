@@ -16,13 +16,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import column_max, column_min
-from ..cloud import Cloud
-from ..copies import without_copies
-from ..errors import GeoStructureError, GeoStructureNote
-from .crs import check_cloud_crs, parse_crs
-from .readers import DEFAULT_MESH_SAMPLES, SUFFIXES, TEXT_SUFFIXES, las_crs, merged_left_out, open_las, read_cloud
-from .text import holds_rows_of_numbers
+from geostructure.core.bounds import column_max, column_min
+from geostructure.core.cloud import Cloud
+from geostructure.core.duplicates import without_copies
+from geostructure.errors import GeoStructureError, GeoStructureNote
+from geostructure.io.crs import check_cloud_crs, parse_crs
+from geostructure.io.readers import (
+    DEFAULT_MESH_SAMPLES,
+    SUFFIXES,
+    TEXT_SUFFIXES,
+    las_crs,
+    merged_left_out,
+    open_las,
+    read_cloud,
+)
+from geostructure.io.text import holds_rows_of_numbers
 
 #: Files named in a message before it says how many more there are.
 NAMED_FILES = 3

@@ -21,15 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError, GeoStructureWarning, InputError
-from ..orientation import (
+from geostructure.core.orientation import (
     Frame,
     angle_between_normals,
     azimuth_difference,
     normal_from_orientation,
     orientation_from_normals,
 )
-from .usercsv import read_rows
+from geostructure.errors import GeoStructureError, GeoStructureWarning, InputError
+from geostructure.io.usercsv import read_rows
 
 QUADRANTS = {
     "N": 0,

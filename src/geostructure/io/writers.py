@@ -1,4 +1,4 @@
-"""Writers: planes.csv (through :class:`~geostructure.planes.Planes`), regions.ply/.laz,
+"""Writers: planes.csv (through :class:`~geostructure.core.planes.Planes`), regions.ply/.laz,
 voxel_planes.ply/.laz and run.json.
 
 Each writer writes one file atomically (:mod:`.atomic`); :func:`write_outputs` writes the
@@ -13,17 +13,22 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from ..jointtable import JOINT_COLUMNS, joint_rows
-from ..rockmass import ROCK_SET_COLUMNS, with_rock_mass
-from ..threads import preload
-from .atomic import atomic_path, write_json, write_table_csv
-from .crs import recorded_unit
-from .exports import write_dips_csv
-from .gis import write_geojson, write_gpkg
-from .laz import POINT_SET_DIMENSIONS, point_joints, point_sets, write_regions_laz, write_voxel_planes_laz
-from .outdir import EVALUATION_FILES, OutputSet, output_set
-from .results import PLANE_AREA, SCALAR, in_square_metres
+from geostructure import __version__
+from geostructure.core.threads import preload
+from geostructure.io.atomic import atomic_path, write_json, write_table_csv
+from geostructure.io.crs import recorded_unit
+from geostructure.io.exports import write_dips_csv
+from geostructure.io.gis import write_geojson, write_gpkg
+from geostructure.io.laz import (
+    POINT_SET_DIMENSIONS,
+    point_joints,
+    point_sets,
+    write_regions_laz,
+    write_voxel_planes_laz,
+)
+from geostructure.io.outdir import EVALUATION_FILES, OutputSet, output_set
+from geostructure.io.planetable import write_planes_csv
+from geostructure.io.results import PLANE_AREA, SCALAR, in_square_metres
 
 
 def ply_comment(text: str) -> str:
@@ -178,61 +183,6 @@ def run_record(result, extra: dict | None = None) -> dict:
     return record
 
 
-#: The columns of ``sets.csv``.
-SET_COLUMNS = (
-    "set",
-    "n_planes",
-    "area_m2",
-    "dip",
-    "dip_direction",
-    "strike",
-    "fisher_k",
-    "alpha95_deg",
-    "spherical_variance",
-    "normal_x",
-    "normal_y",
-    "normal_z",
-)
-
-
-def write_sets_csv(sets, path, rock=None) -> Path:
-    """``sets.csv``: one row per joint set (:class:`~geostructure.sets.JointSets`), with its
-    spacing, persistence and intensity when ``rock`` (:class:`~geostructure.rockmass.RockMass`) is given."""
-    if rock is None:
-        return write_table_csv(sets.rows(), path, columns=SET_COLUMNS)
-    rows = [{**a, **b} for a, b in zip(sets.rows(), rock.set_rows())]
-    return write_table_csv(rows, path, columns=SET_COLUMNS + ROCK_SET_COLUMNS)
-
-
-def write_joints_csv(planes, rock, frame, path, metres_per_unit: float = 1.0) -> Path:
-    """``joints.csv``: every discontinuity once, a row per joint of the sets' facets
-    (:func:`~geostructure.jointtable.joint_rows`), from the plane table in the cloud's unit."""
-    return write_table_csv(joint_rows(planes, rock.joints, frame, metres_per_unit), path, columns=JOINT_COLUMNS)
-
-
-def write_spacing_csv(rock, path) -> Path:
-    """``spacing.csv``: every spacing measured, one row each: set, method (``scanline``, along
-    the virtual scanlines, or ``nearest``, to the nearest overlapping plane of the set), metres.
-    The scanlines' gaps are those the set's spacing is read from (``spacing_basis``)."""
-    lines = rock.lines
-    rows = [
-        {"set": s, "method": method, "spacing_m": float(v)}
-        for s in range(len(lines))
-        for method, values in (("scanline", lines[s].gaps), ("nearest", rock.nearest_gaps[s]))
-        for v in values
-    ]
-    return write_table_csv(rows, path, columns=("set", "method", "spacing_m"))
-
-
-def sets_record(sets, rock=None) -> dict:
-    """What ``run.json`` says of the sets: how many, how they were chosen, the BIC per number,
-    and the rock mass's totals (Jv, block volume) when measured."""
-    record = {"n_sets": len(sets), "criterion": sets.criterion, "bic": {str(k): v for k, v in sets.bic.items()}}
-    if rock is not None:
-        record["rock_mass"] = rock.summary(sets.mean_normal)
-    return record
-
-
 def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> list[str]:
     """Stage ``planes.csv`` and ``planes_dips.csv`` of a plane table and, for a cloud with a
     coordinate system, ``planes.geojson`` and ``planes.gpkg``; returns the names staged.
@@ -240,7 +190,7 @@ def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) ->
     (:func:`~.crs.recorded_unit`), and the record says so (:data:`~.results.PLANE_AREA`)."""
     planes = in_square_metres(planes, recorded_unit(outputs.record)["metres"])
     outputs.record.update(PLANE_AREA)
-    planes.to_csv(outputs.path("planes.csv"))
+    write_planes_csv(planes, outputs.path("planes.csv"))
     # East, north and elevation for Dips: a CRS's own eastings and northings as they are;
     # otherwise the centroids turned into the measuring frame (identity for ENU clouds).
     frame = outputs.record.get("frame") or {}
@@ -254,14 +204,25 @@ def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) ->
 
 
 def write_result(
-    result, outputs: OutputSet, extra: dict | None = None, sets=None, rock=None, *, point_files=True
+    result,
+    outputs: OutputSet,
+    extra: dict | None = None,
+    *,
+    planes=None,
+    rock=None,
+    tables=(),
+    sets_record: dict | None = None,
+    point_files=True,
 ) -> dict[str, Path]:
-    """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`;
-    with ``sets``, the plane tables carry a ``set`` column and ``sets.csv`` is written; with
-    ``rock``, the planes' traces and the sets' spacing and intensity too. Without
-    ``point_files``, ``regions.ply`` and ``regions.laz`` are taken as staged already (a
-    streamed run writes them chunk by chunk); a callable ``point_files(outputs, result,
-    planes, rock)`` stages them itself (a thinned survey's, every point of the survey)."""
+    """Stage the measure's files and its run record in an open :class:`~.outdir.OutputSet`.
+    ``planes``: the plane table as written, with its sets' and rock mass's columns when
+    measured (``result.planes`` when None); its ``set`` and ``joint`` columns label the
+    points, and ``rock.point_part`` their part of the face. ``tables``: the rock mass's
+    tables, (kind, file name, rows, columns) each (:func:`~geostructure.rockmass.tables.rock_mass_tables`),
+    and ``sets_record`` what ``run.json`` says of the sets. Without ``point_files``,
+    ``regions.ply`` and ``regions.laz`` are taken as staged already (a streamed run writes
+    them chunk by chunk); a callable ``point_files(outputs, result, planes, rock)`` stages
+    them itself (a thinned survey's, every point of the survey)."""
     files = {
         "planes": "planes.csv",
         "dips": "planes_dips.csv",
@@ -270,10 +231,8 @@ def write_result(
         "voxels": "voxel_planes.ply",
         "voxels_laz": "voxel_planes.laz",
     }
-    if sets is None:
-        planes = result.planes
-    else:
-        planes = with_rock_mass(result.planes, sets, rock)
+    labelled_sets = planes is not None and "set" in planes.extra
+    planes = result.planes if planes is None else planes
     # The two point files in threads while the tables are written here: the PLY is mostly
     # the kernel's copy into the page cache, the LAZ lazrs's compression, the tables Python's.
     # Leaving the pool waits for both, so an error or an interrupt finds them finished. The
@@ -281,15 +240,15 @@ def write_result(
     outputs.record = run_record(result, extra)  # write_plane_tables reads the unit there, adds the area's
     preload("plyfile", "laspy", "lazrs")
     if callable(point_files):
-        point_files(outputs, result, planes if sets is not None else None, rock)
+        point_files(outputs, result, planes if labelled_sets else None, rock)
     with ThreadPoolExecutor(2) as pool:
         point_writes = []
         if point_files is True:
-            labelled = None if sets is None else point_sets(result.labels, planes)
-            joint = None if sets is None else point_joints(result.labels, planes)
+            labelled = point_sets(result.labels, planes) if labelled_sets else None
+            joint = point_joints(result.labels, planes) if labelled_sets else None
             part = None if rock is None else rock.point_part
             point_fields = None
-            if sets is not None:
+            if labelled_sets:
                 point_fields = {"set": labelled, "joint": joint,
                                 "face_part": np.zeros(len(labelled), np.uint8) if part is None else part}  # fmt: skip
 
@@ -307,16 +266,11 @@ def write_result(
         write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))
     for write in point_writes:
         write.result()
-    if sets is not None:
-        write_sets_csv(sets, outputs.path("sets.csv"), rock)
-        outputs.record["sets"] = sets_record(sets, rock)
-        files["sets"] = "sets.csv"
-        if rock is not None:
-            write_spacing_csv(rock, outputs.path("spacing.csv"))
-            files["spacing"] = "spacing.csv"
-            metres = recorded_unit(outputs.record)["metres"]
-            write_joints_csv(planes, rock, result.frame, outputs.path("joints.csv"), metres)
-            files["joints"] = "joints.csv"
+    for kind, name, rows, columns in tables:
+        write_table_csv(rows, outputs.path(name), columns=columns)
+        files[kind] = name
+        if kind == "sets" and sets_record is not None:  # run.json's order: right after the sets
+            outputs.record["sets"] = sets_record
     outputs.write_record()
     return {key: outputs.final(name) for key, name in {**files, "run": "run.json"}.items()}
 

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError
-from .planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
-from .sfm import pair_angle, quiet_colmap
+from geostructure.errors import GeoStructureError
+from geostructure.reconstruct.planesweep import SweepOptions, depth_map, seen_depths, sweep_partners
+from geostructure.reconstruct.sfm import pair_angle, quiet_colmap
 
 SWEEP_MIN_ANGLE = 2.0  # degrees; forward steps give small angles on the shared points
 

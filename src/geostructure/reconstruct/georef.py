@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..alignment import similarity as umeyama  # the name control-point code and its tests know
-from ..errors import GeoStructureError
-from ..geodesy import geodetic_to_enu
-from ..io.usercsv import read_rows
-from ..orientation import Frame
+from geostructure.core.alignment import similarity as umeyama  # the name control-point code and its tests know
+from geostructure.core.geodesy import geodetic_to_enu
+from geostructure.core.orientation import Frame
+from geostructure.errors import GeoStructureError
+from geostructure.io.usercsv import read_rows
 
 
 @dataclass

@@ -15,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError
-from ..io.atomic import write_json
-from ..io.outdir import prepare_outdir
-from ..io.writers import write_vertex_ply
-from .dense import DenseOptions, dense_cloud
-from .frames import VIDEO_SUFFIXES, FrameOptions, extract_frames
-from .georef import (
+from geostructure.errors import GeoStructureError
+from geostructure.io.atomic import write_json
+from geostructure.io.outdir import prepare_outdir
+from geostructure.io.writers import write_vertex_ply
+from geostructure.reconstruct.dense import DenseOptions, dense_cloud
+from geostructure.reconstruct.frames import VIDEO_SUFFIXES, FrameOptions, extract_frames
+from geostructure.reconstruct.georef import (
     camera_up,
     describe_georeference,
     manual,
@@ -30,8 +30,8 @@ from .georef import (
     solve_gcp,
     triangulate_observations,
 )
-from .sfm import SfmOptions, list_images, run_sfm, sparse_points
-from .surface import SurfaceOptions, poisson_points
+from geostructure.reconstruct.sfm import SfmOptions, list_images, run_sfm, sparse_points
+from geostructure.reconstruct.surface import SurfaceOptions, poisson_points
 
 STAGES = ("frames", "sfm", "dense", "surface", "georef")
 

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError
-from .sfm import pair_angle
+from geostructure.errors import GeoStructureError
+from geostructure.reconstruct.sfm import pair_angle
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import GeoStructureError
+from geostructure.errors import GeoStructureError
 
 
 @dataclass(frozen=True)

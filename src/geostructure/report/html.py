@@ -16,18 +16,33 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import atomic_path, plain
-from ..io.tiles import describe
-from ..orientation import whole_azimuth
-from ..projection import great_circle_xy, pole_density, pole_xy, rose_counts, rose_title_lines, small_circle_xy
-from ..reconstruct.georef import describe_georeference
-from ..setnotes import bent_face, block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes, trace_cell
-from .kinematic_tables import kinematic_table, set_swatch
-from .kinematics_net import kinematic_traces
-from .scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
-from .spacing_plot import figure_spacing
-from .stereonet import MIN_CONTOUR_POLES
-from .view3d import figure_3d, figure_json, hover_text, panel_title, plane_colors, set_color
+from geostructure.core.orientation import whole_azimuth
+from geostructure.core.projection import (
+    great_circle_xy,
+    pole_density,
+    pole_xy,
+    rose_counts,
+    rose_title_lines,
+    small_circle_xy,
+)
+from geostructure.io.atomic import atomic_path, plain
+from geostructure.io.tiles import describe
+from geostructure.reconstruct.georef import describe_georeference
+from geostructure.report.kinematic_tables import kinematic_table, set_swatch
+from geostructure.report.kinematics_net import kinematic_traces
+from geostructure.report.scene import MAX_DISPLAY_POINTS, ReportScene, load_scene
+from geostructure.report.spacing_plot import figure_spacing
+from geostructure.report.stereonet import MIN_CONTOUR_POLES
+from geostructure.report.view3d import figure_3d, figure_json, hover_text, panel_title, plane_colors, set_color
+from geostructure.rockmass.notes import (
+    bent_face,
+    block_phrase,
+    jv_phrase,
+    off_face_scope,
+    rqd_phrase,
+    set_notes,
+    trace_cell,
+)
 
 #: Great circles drawn for this many of the largest planes only; all poles are drawn.
 MAX_GREAT_CIRCLES = 30

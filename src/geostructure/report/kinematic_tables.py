@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from html import escape
 
-from ..setnotes import bent_slope, sectioned_slope
-from ..tables import (
+from geostructure.report.view3d import set_color
+from geostructure.report.words import (
     FAILURE_MODES,
     SECTION_COLUMNS,
     SET_KINEMATIC_COLUMNS,
@@ -16,7 +16,7 @@ from ..tables import (
     set_kinematic_cells,
     slope_text,
 )
-from .view3d import set_color
+from geostructure.rockmass.notes import bent_slope, sectioned_slope
 
 
 def kinematic_table(scene) -> str:

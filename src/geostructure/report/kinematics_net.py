@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..orientation import whole_azimuth
-from ..projection import enu_vectors, equal_area_xy, great_circle_xy, pole_xy, small_circle_xy
-from .view3d import TOPPLING_COLOR
+from geostructure.core.orientation import whole_azimuth
+from geostructure.core.projection import enu_vectors, equal_area_xy, great_circle_xy, pole_xy, small_circle_xy
+from geostructure.report.view3d import TOPPLING_COLOR
 
 
 def _line_xy(trend, plunge):

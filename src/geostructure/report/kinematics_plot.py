@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..orientation import whole_azimuth
-from ..projection import quiet_mplstereonet
-from .view3d import TOPPLING_COLOR, set_color
+from geostructure.core.orientation import whole_azimuth
+from geostructure.core.projection import quiet_mplstereonet
+from geostructure.report.view3d import TOPPLING_COLOR, set_color
 
 #: Intersection lines drawn at most per kind: an outcrop's 1,500 planes make a million pairs,
 #: and a quarter of a million crosses drew a solid band over the envelopes. A random draw of

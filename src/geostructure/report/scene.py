@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GeoStructureError
-from ..io.crs import metres_per_unit, unit_symbol
-from ..io.results import ply_field, read_planes, read_run, read_sets, read_spacings
-from ..orientation import Frame
-from ..planes import Planes
+from geostructure.core.orientation import Frame
+from geostructure.core.planes import Planes
+from geostructure.errors import GeoStructureError
+from geostructure.io.crs import metres_per_unit, unit_symbol
+from geostructure.io.results import ply_field, read_planes, read_run, read_sets, read_spacings
 
 #: Points drawn in 3D at most: enough to read the outcrop's shape, few enough for WebGL
 #: to turn it fluently and for the file to stay small whatever the input's size.

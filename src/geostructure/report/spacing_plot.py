@@ -1,5 +1,5 @@
 """The report's spacing histograms: each set's normal spacings along the scanlines, with
-the fitted exponential and lognormal densities (:func:`~geostructure.rockmass.spacing_statistics`),
+the fitted exponential and lognormal densities (:func:`~geostructure.rockmass.mass.spacing_statistics`),
 and the set's spacing as its table gives it (``sets.csv``'s ``spacing_m``: the lines' length
 over the joints they meet) as a dotted line, so that the one headline number is on the
 plot too. Where the joints show only over short stretches, the gaps between neighbouring
@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
-from ..spacing import spacing_statistics
-from .scene import ReportScene
-from .view3d import figure_json, panel_title, set_color
+from geostructure.report.scene import ReportScene
+from geostructure.report.view3d import figure_json, panel_title, set_color
+from geostructure.rockmass.spacing import spacing_statistics
 
 
 def figure_spacing(scene: ReportScene) -> dict | None:

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import write_figure
-from ..projection import quiet_mplstereonet, rose_counts, rose_title
-from .view3d import NO_SET_COLOR, set_color
+from geostructure.core.projection import quiet_mplstereonet, rose_counts, rose_title
+from geostructure.io.atomic import write_figure
+from geostructure.report.view3d import NO_SET_COLOR, set_color
 
 #: Kamb contours need this many poles (the interactive net's rule too): from three the
 #: "density" is three bumps, not a distribution.
@@ -53,7 +53,7 @@ def stereonet_figure(strike, dip, *, title: str = "", set_labels=None, sets=()):
 
 def rose_figure(strike, dip, *, bin_width: float = 10.0):
     """Rose diagram of the strikes of the planes steep enough to have one
-    (:func:`~geostructure.projection.rose_counts`), drawn both ways."""
+    (:func:`~geostructure.core.projection.rose_counts`), drawn both ways."""
     from matplotlib.figure import Figure
 
     edges, counts, n_used = rose_counts(strike, dip, bin_width)

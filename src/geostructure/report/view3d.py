@@ -8,8 +8,8 @@ from html import escape
 
 import numpy as np
 
-from ..orientation import orientation_from_normals
-from .scene import ReportScene
+from geostructure.core.orientation import orientation_from_normals
+from geostructure.report.scene import ReportScene
 
 
 def palette(n: int) -> list[str]:
@@ -256,7 +256,7 @@ def rough_planes(planes) -> np.ndarray:
 
     Examples
     --------
-    >>> from geostructure.planes import Planes
+    >>> from geostructure.core.planes import Planes
     >>> residual = [0.12, 0.01, 0.012, 0.009, 0.011, 0.01]
     >>> rough_planes(Planes(normal=[[0, 0, 1.0]] * 6, fit_residual=residual)).tolist()
     [True, False, False, False, False, False]

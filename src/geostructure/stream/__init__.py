@@ -4,13 +4,13 @@
 
 from __future__ import annotations
 
-from ..io.crs import given_crs, true_north_frame
-from ..io.readers import DEFAULT_MESH_SAMPLES
-from ..orientation import Frame
-from ..params import Params
-from .engine import DEFAULT_CHUNK_POINTS, StreamResult, measure_spill
-from .executor import DaskExecutor, SerialExecutor
-from .source import Spill, spill_inputs
+from geostructure.core.orientation import Frame
+from geostructure.core.params import Params
+from geostructure.io.crs import given_crs, true_north_frame
+from geostructure.io.readers import DEFAULT_MESH_SAMPLES
+from geostructure.stream.engine import DEFAULT_CHUNK_POINTS, StreamResult, measure_spill
+from geostructure.stream.executor import DaskExecutor, SerialExecutor
+from geostructure.stream.source import Spill, spill_inputs
 
 __all__ = ["DaskExecutor", "SerialExecutor", "Spill", "StreamResult", "measure_spill", "measure_stream", "spill_inputs"]
 

@@ -5,7 +5,7 @@ parts (``docs/architecture.md``, "Streaming larger than memory"), so the survey 
 into a spill file and then swept in chunks, each pass a map over the chunks and a sum:
 
 1. (``--auto``) an order-free sample and the voxel moments at one or two zetas: the same
-   choice :func:`~geostructure.auto.choose_params` makes in memory;
+   choice :func:`~geostructure.detect.auto.choose_params` makes in memory;
 2. the filter's voxel moments, then each chunk's kept points (their count and bounds);
 3. the fit's voxel moments of the kept points, then region growing and the coplanar merge
    on the voxel planes (far fewer than the points), in memory;
@@ -26,21 +26,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..auto import SAMPLE_POINTS, Occupancy, choose_from, samples_noise
-from ..errors import GeoStructureError
-from ..filter import neighbourhoods
-from ..merge import merge_coplanar
-from ..orientation import Frame
-from ..params import ParameterWarning, Params
-from ..pipeline import default_min_points, plane_table
-from ..planes import Planes
-from ..rectangle import bound_plane, plane_from_scatter
-from ..regions import grow_regions
-from ..uncertainty import errors_from_sums, plane_axes
-from ..voxel import VoxelPlanes, voxel_planes_from_moments
-from . import passes
-from .executor import SerialExecutor
-from .source import Spill
+from geostructure.core.orientation import Frame
+from geostructure.core.params import ParameterWarning, Params
+from geostructure.core.planes import Planes
+from geostructure.detect.auto import SAMPLE_POINTS, Occupancy, choose_from, samples_noise
+from geostructure.detect.filter import neighbourhoods
+from geostructure.detect.merge import merge_coplanar
+from geostructure.detect.pipeline import default_min_points, plane_table
+from geostructure.detect.rectangle import bound_plane, plane_from_scatter
+from geostructure.detect.regions import grow_regions
+from geostructure.detect.uncertainty import errors_from_sums, plane_axes
+from geostructure.detect.voxel import VoxelPlanes, voxel_planes_from_moments
+from geostructure.errors import GeoStructureError
+from geostructure.stream import passes
+from geostructure.stream.executor import SerialExecutor
+from geostructure.stream.source import Spill
 
 #: Points a chunk holds when no memory bound says otherwise.
 DEFAULT_CHUNK_POINTS = 2_000_000
@@ -48,7 +48,7 @@ DEFAULT_CHUNK_POINTS = 2_000_000
 
 @dataclass
 class StreamResult:
-    """What a streamed run found: :class:`~geostructure.pipeline.Result` less its per-point
+    """What a streamed run found: :class:`~geostructure.detect.pipeline.Result` less its per-point
     arrays (the point outputs hold them). ``cloud`` holds no points: its offset, CRS and grid."""
 
     cloud: object
@@ -309,7 +309,7 @@ class _Run:
 
 def _grow(voxels: VoxelPlanes, params: Params):
     """Region growing and the coplanar merge over the voxel planes, as
-    :func:`~geostructure.pipeline.measure` runs them for the voxel detector."""
+    :func:`~geostructure.detect.pipeline.measure` runs them for the voxel detector."""
     growth = grow_regions(
         voxels, params.theta, params.psi, params.k, reference=params.reference, max_gap=params.max_gap
     )

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from ..errors import GeoStructureError
+from geostructure.errors import GeoStructureError
 
 #: Chunks in flight at once on a cluster, per worker: enough to keep each busy, few enough
 #: that results waiting to be added stay small.

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.crs import parse_crs
-from ..io.laz import KeptWriteErrors, las_grid, rewrite_point_sets
-from ..io.results import SCALAR
-from ..io.writers import ply_header, regions_comments, regions_dtype
+from geostructure.io.crs import parse_crs
+from geostructure.io.laz import KeptWriteErrors, las_grid, rewrite_point_sets
+from geostructure.io.results import SCALAR
+from geostructure.io.writers import ply_header, regions_comments, regions_dtype
 
 
 class RegionsPly:

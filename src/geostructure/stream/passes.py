@@ -2,7 +2,7 @@
 
 Each function here reads its chunk from the spill file, works in the cloud's local
 coordinates (the spill's absolute ones less the survey's offset, the same subtraction the
-in-memory :class:`~geostructure.cloud.Cloud` makes) and returns a partial result that the
+in-memory :class:`~geostructure.core.cloud.Cloud` makes) and returns a partial result that the
 engine adds to the others: voxel moments, counts and bounds, each point's plane, hull
 vertices, the standard errors' block sums. Nothing in them depends on the chunk's place in
 the survey, so the same function runs in a loop or as a Dask task.
@@ -15,15 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..auto import noise_sample
-from ..bounds import column_max, column_min
-from ..filter import Neighbourhoods, mahalanobis_distance
-from ..gridkeys import label_order
-from ..rectangle import hull_2d
-from ..sampling import coordinate_hash
-from ..uncertainty import BlockSums, block_sums, plane_coordinates
-from ..voxel import VoxelMoments, accumulate_moments, add_moments, voxel_keys
-from .source import Chunk
+from geostructure.core.bounds import column_max, column_min
+from geostructure.core.gridkeys import label_order
+from geostructure.core.sampling import coordinate_hash
+from geostructure.detect.auto import noise_sample
+from geostructure.detect.filter import Neighbourhoods, mahalanobis_distance
+from geostructure.detect.rectangle import hull_2d
+from geostructure.detect.uncertainty import BlockSums, block_sums, plane_coordinates
+from geostructure.detect.voxel import VoxelMoments, accumulate_moments, add_moments, voxel_keys
+from geostructure.stream.source import Chunk
 
 #: Bits of one voxel index in a lookup code (three pack into an int64).
 _BITS = 21
@@ -262,7 +262,7 @@ def read_labels(path: str, chunk: Chunk) -> np.ndarray:
 
 
 def chunk_block_sums(chunk: Chunk, context) -> BlockSums:
-    """The standard errors' block sums (:func:`~geostructure.uncertainty.block_sums`) of the
+    """The standard errors' block sums (:func:`~geostructure.detect.uncertainty.block_sums`) of the
     chunk's labelled points, whose planes the label spill holds."""
     offset, labels_path, centroids, axes, ranges = context
     coords = plane_coordinates(local_points(chunk, offset), read_labels(labels_path, chunk), centroids, axes)

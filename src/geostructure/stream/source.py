@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import column_max, column_min
-from ..cloud import Cloud
-from ..errors import GeoStructureError
-from ..io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
-from ..io.failures import translated_read_errors
-from ..io.readers import (
+from geostructure.core.bounds import column_max, column_min
+from geostructure.core.cloud import Cloud
+from geostructure.errors import GeoStructureError
+from geostructure.io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
+from geostructure.io.failures import translated_read_errors
+from geostructure.io.readers import (
     DEFAULT_MESH_SAMPLES,
     LasTally,
     las_chunk_points,
@@ -34,7 +34,7 @@ from ..io.readers import (
     ply_vertices,
     read_cloud,
 )
-from ..io.tiles import check_headers, check_same_crs, describe
+from geostructure.io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
 POINT_BYTES = 24
@@ -68,7 +68,7 @@ def _read_rows(path: str, start: int, stop: int) -> np.ndarray:
 @dataclass
 class Spill:
     """The survey spilled to disk: its point count, bounds, offset (the bounding box's rounded
-    centre, as :meth:`~.cloud.Cloud.from_points` takes it) and what its files declared."""
+    centre, as :meth:`~geostructure.core.cloud.Cloud.from_points` takes it) and what its files declared."""
 
     folder: Path
     n_points: int

@@ -19,13 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import GeoStructureError
-from ..io.laz import point_joints, point_sets
-from ..io.results import open_regions, ply_field, read_regions
-from ..voxel import MAX_CELLS_PER_AXIS, voxel_keys
-from .executor import SerialExecutor
-from .passes import VoxelTable
-from .source import Chunk, Spill
+from geostructure.detect.voxel import MAX_CELLS_PER_AXIS, voxel_keys
+from geostructure.errors import GeoStructureError
+from geostructure.io.laz import point_joints, point_sets
+from geostructure.io.results import open_regions, ply_field, read_regions
+from geostructure.stream.executor import SerialExecutor
+from geostructure.stream.passes import VoxelTable
+from geostructure.stream.source import Chunk, Spill
 
 #: Points the grid's edge is first judged on, spread evenly through the spill.
 EDGE_SAMPLE = 1_000_000

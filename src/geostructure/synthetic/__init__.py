@@ -7,8 +7,8 @@
   a survey of a rock cut holds besides its rock.
 """
 
-from .joints import fisher_directions
-from .observatory import (
+from geostructure.synthetic.joints import fisher_directions
+from geostructure.synthetic.observatory import (
     PAPER_NORMALS,
     PAPER_TABLE,
     Scene,
@@ -18,8 +18,8 @@ from .observatory import (
     paper_to_enu,
     sample_rectangle,
 )
-from .outcrop import JointSet, OutcropScene, outcrop_scene
-from .surroundings import bushes_on, crest_above, road_before
+from geostructure.synthetic.outcrop import JointSet, OutcropScene, outcrop_scene
+from geostructure.synthetic.surroundings import bushes_on, crest_above, road_before
 
 __all__ = [
     "PAPER_NORMALS",

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cloud import Cloud
-from ..orientation import Frame, orientation_from_normals
+from geostructure.core.cloud import Cloud
+from geostructure.core.orientation import Frame, orientation_from_normals
 
 #: The paper's ground-truth normals (x=North, y=West, z=Up), surfaces 1..6.
 PAPER_NORMALS = np.array(

@@ -41,12 +41,12 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..cloud import Cloud
-from ..errors import ParameterError
-from ..orientation import normal_from_orientation
-from .joints import joint_discs, nearest_joint, persistent_planes
-from .scanlines import scanline_crossings
-from .surface import facet_seeds, jittered_grid, smooth_field, visible_points
+from geostructure.core.cloud import Cloud
+from geostructure.core.orientation import normal_from_orientation
+from geostructure.errors import ParameterError
+from geostructure.synthetic.joints import joint_discs, nearest_joint, persistent_planes
+from geostructure.synthetic.scanlines import scanline_crossings
+from geostructure.synthetic.surface import facet_seeds, jittered_grid, smooth_field, visible_points
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,7 @@ class OutcropScene:
     def exposed_set_statistics(self, min_diameter: float = 0.0) -> list[dict]:
         """Fisher statistics of each set's exposed facets (at least ``min_diameter`` across),
         each facet counted once: the truth a measurement of the exposure can reach."""
-        from ..sets import fisher_statistics  # lazy: the generator does not need the statistics
+        from geostructure.rockmass.sets import fisher_statistics  # lazy: the generator does not need the statistics
 
         big = self.facet_diameter >= min_diameter
         return [fisher_statistics(self.facet_normal[(self.facet_set == s) & big]) for s in range(len(self.sets))]

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..auto import choose_params
-from ..evaluate import evaluate, scene_truth
-from ..orientation import Frame
-from ..params import Params
-from ..pipeline import measure
-from ..sweep import FACTORS, run_sweep
-from ..synthetic import observatory_scene
+from geostructure.core.orientation import Frame
+from geostructure.core.params import Params
+from geostructure.detect.auto import choose_params
+from geostructure.detect.pipeline import measure
+from geostructure.evaluation.groundtruth import evaluate, scene_truth
+from geostructure.evaluation.sweep import FACTORS, run_sweep
+from geostructure.synthetic import observatory_scene
 
 TOLERANCE = 0.001
 

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..synthetic import outcrop_scene
-from .render import Camera, look_at
+from geostructure.synthetic import outcrop_scene
+from geostructure.testing.render import Camera, look_at
 
 #: Value noise: wavelengths (m) and weights of its octaves.
 TEXTURE_OCTAVES = ((0.012, 0.5), (0.04, 1.0), (0.13, 1.3), (0.5, 1.0))

@@ -1,0 +1,306 @@
+"""Terminal tables (rich) for the planes, evaluations and sweeps the CLI prints."""
+
+from __future__ import annotations
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from geostructure.io.results import in_square_metres
+from geostructure.report.words import (
+    FAILURE_MODES,
+    SECTION_COLUMNS,
+    SET_KINEMATIC_COLUMNS,
+    SET_KINEMATIC_TITLES,
+    azimuth,
+    counted,
+    failure_mode_cells,
+    section_cells,
+    set_kinematic_cells,
+    set_mean_wedge_line,
+    shown,
+    slope_text,
+)
+from geostructure.rockmass.notes import block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes, trace_cell
+from geostructure.rockmass.rqd import block_size_class, rqd_from_jv, rqd_range
+from geostructure.rockmass.sets import MIN_SET_PLANES
+
+
+def stdout_console() -> Console:
+    """stdout console; wide enough for the tables when stdout is a file or pipe."""
+    console = Console()
+    return console if console.is_terminal else Console(width=120)
+
+
+def print_sweep(rows, console: Console | None = None) -> None:
+    console = console or stdout_console()
+    table = Table(title="Sweep")
+    for column in (
+        "factor",
+        "value",
+        "region growing s",
+        "total s",
+        "z(R)",
+        "z wrapped",
+        "mean error",
+        "found",
+        "planes",
+    ):
+        table.add_column(column, justify="right")
+    for r in rows:
+        table.add_row(
+            r.factor,
+            f"{r.value:g}",
+            f"{r.regions_s:.2f}",
+            f"{r.total_s:.2f}",
+            f"{r.z:.3g}",
+            f"{r.z_wrapped:.3g}",
+            f"{r.mean_error_deg:.2f}",
+            f"{r.found}/{r.found + r.missed}",
+            str(r.planes),
+        )
+    console.print(table)
+
+
+# A rough outcrop gives over a thousand planes: a terminal of them is unreadable, and rich
+# takes 1.5 s to lay out 1,500 rows (a third of a 0.7M-point measure). planes.csv has them all.
+MAX_TABLE_ROWS = 40
+
+
+def print_planes(
+    result, console: Console | None = None, max_rows: int = MAX_TABLE_ROWS, planes=None, metres_per_unit: float = 1.0
+) -> None:
+    """The planes with the most points first, at most ``max_rows`` of them, and a line saying
+    where the rest are. ``planes``: the table as written, where it differs from
+    ``result.planes`` (with the sets, the standard errors carry the joints' correlated tilt).
+    Their area in square metres, as ``planes.csv`` holds it (``metres_per_unit``: of the
+    cloud's unit)."""
+    console = console or stdout_console()
+    planes = in_square_metres(result.planes if planes is None else planes, metres_per_unit)
+    shown = planes.subset(np.argsort(-planes.n_points, kind="stable")[:max_rows])
+    caption = f"the {len(shown)} of {len(planes)} planes with the most points; all in planes.csv"
+    caption = caption if len(shown) < len(planes) else None
+    table = Table(title=f"Planes in {result.cloud.name} (frame: {result.frame.name})", caption=caption)
+    for column in ("id", "points", "area m²", "strike", "dip", "dip dir", "± deg", "centroid"):
+        table.add_column(column, justify="right")
+    for row in shown.rows():
+        table.add_row(
+            str(row["region_id"]),
+            f"{row['n_points']:,}",
+            f"{row['area_m2']:.4g}",
+            azimuth(row["strike"], row["dip"], row["normal_uncertainty_deg"]),
+            f"{row['dip']:04.1f}",
+            azimuth(row["dip_direction"], row["dip"], row["normal_uncertainty_deg"]),
+            f"{row['normal_uncertainty_deg']:.2f}",
+            f"{row['centroid_x']:.2f}, {row['centroid_y']:.2f}, {row['centroid_z']:.2f}",
+        )
+    console.print(table)
+
+
+def print_sets(sets, console: Console | None = None, rock=None) -> None:
+    """The joint sets (:class:`~geostructure.rockmass.sets.JointSets`), one row each; with ``rock``
+    (:class:`~geostructure.rockmass.mass.RockMass`), their spacing and intensity too."""
+    console = console or stdout_console()
+    if not len(sets):
+        n = len(sets.labels)
+        console.print(
+            (
+                f"No joint set: the {n} planes do not share an orientation."
+                if n == MIN_SET_PLANES
+                else f"No joint set: no {MIN_SET_PLANES} of the {n} planes share an orientation."
+            )  # fmt: skip
+            if n >= MIN_SET_PLANES
+            else f"No joint set: {n} plane{'' if n == 1 else 's'}, and a set needs {MIN_SET_PLANES}."
+        )
+        return
+    title = f"Joint sets ({sets.criterion}; {int((sets.labels < 0).sum())} planes in no set)"
+    if rock is not None:
+        counts = [0 if flags is None else int(flags.sum()) for flags in (rock.ground, rock.clutter)]
+        title = title[:-1] + off_face_scope(*counts) + ")"
+    rock_rows = rock.set_rows() if rock is not None else [{}] * len(sets)
+    if rock is not None and np.isfinite(rock.jv):
+        title += jv_phrase(rock.jv, rock_rows)
+        title += block_phrase(rock.block_volume, block_size_class(rock.jv), rock_rows)
+        title += rqd_phrase(rqd_from_jv(rock.jv), *rqd_range(sets.mean_normal, rock.spacing),
+                            bound=not np.isfinite(rock.block_volume))  # fmt: skip
+    table = Table(title=title)
+    columns = ["set", "planes", "area m²", "dip", "dip dir", "K", "α95°", "sph. var."]
+    for column in columns + (["spacing m", "P32 1/m", "trace m", "persistence"] if rock is not None else []):
+        table.add_column(column, justify="right")
+    for row, more in zip(sets.rows(), rock_rows):
+        extra = (
+            [
+                shown(more["spacing_m"]),
+                shown(more["p32_per_m"]),
+                trace_cell(more) or shown(more["joint_trace_mean_m"], 1),
+                more["persistence"] or "—",
+            ]
+            if more
+            else []
+        )
+        table.add_row(
+            str(row["set"]),
+            str(row["n_planes"]),
+            f"{row['area_m2']:.4g}",
+            f"{row['dip']:04.1f}",
+            azimuth(row["dip_direction"], row["dip"], row["alpha95_deg"]),
+            f"{row['fisher_k']:.0f}",
+            f"{row['alpha95_deg']:.1f}",
+            f"{row['spherical_variance']:.3f}",
+            *extra,
+        )
+    console.print(table)
+    for s, more in enumerate(rock_rows):
+        for note in set_notes(s, more) if more else ():
+            console.print(note)
+
+
+def print_kinematics(summary: dict, console: Console | None = None) -> None:
+    """The kinematic tests' summary (``kinematics.json``), one row per failure mode."""
+    console = console or stdout_console()
+    title = (
+        f"Kinematics: {slope_text(summary)}, friction {summary['friction_deg']:g}°, "
+        f"lateral limits {summary['lateral_limit_deg']:g}°"
+    )
+    table = Table(title=title)
+    for column in ("failure mode", "planes", "% by count", "% by area", "joints"):
+        table.add_column(column, justify="right")
+    for key, name in FAILURE_MODES:
+        table.add_row(name, *failure_mode_cells(summary, key))
+    console.print(table)
+    planar, strength = summary["planar_sliding"], summary.get("strength", {})
+    if planar["planes"]:
+        basis = (
+            f"cohesion {strength['cohesion_kpa']:g} kPa, unit weight {strength['unit_weight_kn_m3']:g} kN/m³, "
+            f"height {strength['height_m']:.1f} m ({strength['height_source']})"
+            if strength.get("cohesion_kpa")
+            else "dry, frictional"
+        )
+        console.print(f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median.")
+    wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
+    of_joints = (
+        f"; of the joints' planes, {wedge['critical_joint_pairs']:,} of {wedge['joint_pairs_tested']:,}"
+        if wedge.get("joint_pairs_tested")  # none without joints: nothing to say of them
+        else ""
+    )
+    console.print(
+        f"Wedges: {counted(wedge['critical_pairs'], 'critical pair')} of {wedge['pairs_tested']:,} tested{of_joints}."
+    )
+    console.print(
+        f"Direct toppling: {counted(direct['intersections_in_zone'], 'intersection')} in the zone, "
+        f"{counted(direct['base_planes'], 'base plane')} ({direct['sliding_base_planes']:,} steeper than friction): "
+        + ("critical." if direct["critical"] else "not critical.")
+    )
+    oblique = direct.get("oblique")
+    if oblique and oblique["intersections_in_zone"]:
+        console.print(
+            f"Oblique toppling (Dips' secondary zone): {counted(oblique['intersections_in_zone'], 'intersection')}, "
+            f"{counted(oblique['base_planes'], 'oblique base plane')}: "
+            + ("critical." if oblique["critical"] else "not critical.")
+        )
+    if summary.get("sections"):
+        table = Table(title="Sections, from left to right as one faces the rock: each plane against its own")
+        for column in SECTION_COLUMNS:
+            table.add_column(column, justify="right")
+        for section in summary["sections"]:
+            table.add_row(*section_cells(section))
+        console.print(table)
+    if summary.get("sets"):
+        print_set_kinematics(summary["sets"], console, sectioned=bool(summary.get("sections")))
+    for wedge in summary.get("set_mean_wedges", []):
+        console.print(set_mean_wedge_line(wedge))
+
+
+#: The failure modes of a kinematics summary (``kinematics.json``), in table order.
+def print_set_kinematics(sets: list[dict], console: Console, sectioned: bool = False) -> None:
+    """Per set: what its mean plane does, alone and with the other sets' means, and the share
+    of its planes critical in each mode."""
+    table = Table(title=SET_KINEMATIC_TITLES[sectioned])
+    for column in SET_KINEMATIC_COLUMNS:
+        table.add_column(column, justify="right")
+    for row in sets:
+        table.add_row(*set_kinematic_cells(row))
+    console.print(table)
+
+
+def print_evaluation(evaluation, console: Console | None = None) -> None:
+    console = console or stdout_console()
+    table = Table(title="Against the ground truth")
+    for column in (
+        "surface",
+        "region",
+        "true strike/dip/dd",
+        "measured strike/dip/dd",
+        "z(R_i)",
+        "z wrapped",
+        "normal error",
+    ):
+        table.add_column(column, justify="right")
+    for s in evaluation.surfaces:
+        measured = f"{s.strike:05.1f}/{s.dip:04.1f}/{s.dip_direction:05.1f}" if s.found else "missed"
+        table.add_row(
+            s.surface,
+            str(s.region) if s.found else "-",
+            f"{s.true_strike:05.1f}/{s.true_dip:04.1f}/{s.true_dip_direction:05.1f}",
+            measured,
+            f"{s.z_region:.4f}",
+            f"{s.z_region_wrapped:.4f}",
+            f"{s.normal_error_deg:.2f} deg" if s.found else "-",
+        )
+    console.print(table)
+    console.print(
+        f"z(R) = {evaluation.z:.4f} as printed in the paper, {evaluation.z_wrapped:.4f} wrap-aware; "
+        f"normal error mean {evaluation.mean_error:.2f} deg, max {evaluation.max_error:.2f} deg; "
+        f"{evaluation.n_found} of {len(evaluation.surfaces)} surfaces found"
+    )
+
+
+def print_match(match, console: Console | None = None) -> None:
+    console = console or stdout_console()
+    table = Table(title="Against the scene's ground truth")
+    for column in ("surface", "region", "true dd/dip", "measured dd/dip", "normal error (deg)"):
+        table.add_column(column, justify="right")
+    for row in match.surfaces:
+        found = row.found
+        table.add_row(
+            row.surface,
+            str(row.region) if found else "missed",
+            f"{row.true_dip_direction:05.1f}/{row.true_dip:04.1f}",
+            f"{row.dip_direction:05.1f}/{row.dip:04.1f}" if found else "-",
+            f"{row.normal_error_deg:.3f}" if found else "-",
+        )
+    console.print(table)
+    console.print(
+        f"mean normal error {match.mean_error:.3f} deg, max {match.max_error:.3f} deg, "
+        f"{match.n_found} of {len(match.surfaces)} surfaces found"
+    )
+
+
+def validation_lines(summary: dict) -> str:
+    """The scores against a field map (``validation.json``'s) as sentences.
+
+    Examples
+    --------
+    >>> print(validation_lines({"mapped": 4, "matched": 1, "planes": 2, "planes_matching": 1, "precision": 0.5,
+    ...     "max_distance": 0.6, "max_angle_deg": 10.0, "set_errors_deg": {"1": 3.04}, "set_means_from": "field map"}))
+    1 of 4 mapped planes matched (25%): a measured plane's centroid within 0.6 and its normal within 10 degrees.
+    1 of the 2 measured planes (50%) match a mapped one.
+    Set 1 (field map): 3.0 degrees from the nearest measured set.
+    """
+    mapped, matched = summary["mapped"], summary["matched"]
+    lines = [
+        f"{matched} of {mapped} mapped planes matched ({matched / max(mapped, 1):.0%}): a measured plane's "
+        f"centroid within {summary['max_distance']:g} and its normal within {summary['max_angle_deg']:g} degrees.",
+        f"{summary['planes_matching']} of the {summary['planes']} measured planes "
+        f"({summary['precision']:.0%}) match a mapped one."
+        if summary["planes"]
+        else "No plane was measured.",
+    ]
+    errors = summary.get("set_errors_deg")
+    if errors is None:
+        lines.append("No sets to score: run 'geostructure sets OUTDIR' (or measure --sets) first.")
+    for label, error in (errors or {}).items():
+        source = summary["set_means_from"]
+        lines.append(f"Set {label} ({source}): " + (f"{error:.1f} degrees from the nearest measured set."
+                     if error == error else "no measured set."))  # fmt: skip
+    return "\n".join(lines)

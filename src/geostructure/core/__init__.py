@@ -1,0 +1,1 @@
+"""Values and numeric kernels: clouds, planes, parameters, orientations, grids. No files."""

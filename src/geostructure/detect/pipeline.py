@@ -1,0 +1,450 @@
+"""The measuring pipeline: filter -> voxel fit -> region growing (and coplanar merge) -> region
+planes -> orientation."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from geostructure.core.bounds import column_max, column_min, first_bad_coordinates
+from geostructure.core.cloud import MAX_COORDINATE, Cloud
+from geostructure.core.orientation import Frame, Orientation, face_side, orientation_from_normals, upward
+from geostructure.core.params import Params
+from geostructure.core.planes import Planes
+from geostructure.detect.facets import MAX_CELL_SCATTER, detect_facets, voxel_majority
+from geostructure.detect.filter import FilterResult, filter_outliers
+from geostructure.detect.merge import MERGE_MIN_POINTS, merge_coplanar
+from geostructure.detect.regionplanes import absorb_sparse_facets, region_planes, without_ribbons
+from geostructure.detect.regions import grow_regions
+from geostructure.detect.roughfacets import FACE_CONE, MIN_FACET_POINTS, mean_directions, numbered_by_size
+from geostructure.detect.uncertainty import normal_standard_errors
+from geostructure.detect.voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
+from geostructure.errors import GeoStructureError, InputError, ParameterError
+
+STAGES = ("filter", "voxel", "regions", "planes", "orientation")
+#: A voxel more than this share of whose points no facet took goes to the voxel growing with
+#: the curved facets' voxels (see :func:`_grow_facets_then_voxels`).
+UNCLAIMED_SHARE = 0.5
+
+
+@dataclass
+class Result:
+    """What a run found.
+
+    ``planes`` is the plane table (:class:`~geostructure.core.planes.Planes`), largest first and numbered
+    0, 1, ... in that order, with normals pointing upward in ``frame`` and centroids in the
+    input's own coordinates; ``labels`` gives each filtered point its plane's number or -1,
+    and ``voxel_labels`` each voxel plane's.
+
+    Parameters
+    ----------
+    cloud, filtered : Cloud
+        The input, and the points the outlier filter kept.
+    params : Params
+    frame : Frame
+    filter_result : FilterResult
+    voxels : VoxelPlanes
+    voxel_labels : (V,) int array
+    planes : Planes
+    labels : (N,) int array
+        Per filtered point.
+    seconds, counts : dict
+        Seconds per stage; points, voxels, regions and planes counted after each.
+    detection : dict
+        What the facet detector read from the cloud (its thresholds), for ``run.json``.
+
+    Examples
+    --------
+    >>> from geostructure.synthetic import observatory_scene
+    >>> result = measure(observatory_scene(30_000, seed=2).cloud)
+    >>> bool(result.labels.max() == len(result) - 1), result.planes.centroid.shape[1]
+    (True, 3)
+    """
+
+    cloud: Cloud
+    params: Params
+    frame: Frame
+    filtered: Cloud
+    filter_result: FilterResult
+    voxels: VoxelPlanes
+    voxel_labels: np.ndarray
+    planes: Planes
+    labels: np.ndarray
+    seconds: dict = field(default_factory=dict)
+    counts: dict = field(default_factory=dict)
+    detection: dict = field(default_factory=dict)  # what the detector read from the cloud
+
+    # Shorthands for the plane table's columns, which the API's users reach for most.
+    @property
+    def normals(self) -> np.ndarray:
+        return self.planes.normal
+
+    @property
+    def centroids(self) -> np.ndarray:
+        return self.planes.centroid
+
+    @property
+    def orientation(self) -> Orientation:
+        return self.planes.orientation
+
+    def __len__(self) -> int:
+        return len(self.planes)
+
+
+def default_min_points(n_points: int, detector: str = "voxel") -> int:
+    """Smallest region reported when the user gives none: for the voxel detector 0.1% of the
+    points, at least 30; for facets grown on the points, 30 (a facet some 6 point spacings
+    across, so joints down to 10 spacings are found whatever the cloud's size)."""
+    return 30 if detector == "facets" else max(30, int(0.001 * n_points))
+
+
+def check_measurable(cloud: Cloud) -> None:
+    """Refuse clouds no plane can be measured in: not a Cloud, NaN, too few points, one spot, one line."""
+    if not isinstance(cloud, Cloud):
+        raise ParameterError(
+            f"measure needs a Cloud (Cloud.from_points(array) for an (N, 3) array, or "
+            f"read_cloud(path)), not {type(cloud).__name__}."
+        )
+    if len(cloud) == 0:
+        raise GeoStructureError(f"{cloud.source}: holds 0 point(s); a plane needs at least 3.")
+    problem = first_bad_coordinates(cloud.local, MAX_COORDINATE)
+    if problem is not None and problem[0] == "not finite":
+        raise InputError(
+            f"{cloud.source}: {problem[1]:,} point(s) have NaN or infinite coordinates (the first is point number "
+            f"{problem[2] + 1:,}, counting from 1)."
+        )
+    if len(cloud) < 3:
+        raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
+    if problem is not None:
+        raise InputError(
+            f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
+            f"no survey uses; the data may be damaged."
+        )
+    extent = column_max(cloud.local) - column_min(cloud.local)
+    if extent.max() <= 0:
+        raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
+    if (
+        np.linalg.matrix_rank(
+            np.cov(cloud.local[:: max(1, len(cloud) // 100_000)], rowvar=False), tol=1e-12 * extent.max() ** 2
+        )
+        < 2
+    ):
+        raise GeoStructureError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
+
+
+def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None, *, moments=None) -> Result:
+    """Find the planar regions of a cloud and measure their strike, dip and dip direction.
+
+    Parameters
+    ----------
+    cloud : Cloud
+    params : Params
+    frame : Frame
+        Which way east, north and up point in the cloud.
+    progress : callable, optional
+        ``progress(stage, done, total)``, called as the work goes on.
+    moments : :class:`~geostructure.detect.voxel.CloudMoments`, optional
+        The cloud's voxel moments at ``params.zeta``, as :func:`~geostructure.detect.auto.choose_params`
+        keeps them (``AutoChoice.moments``): the local filter then does not sum them again.
+
+    Examples
+    --------
+    >>> from geostructure.synthetic import observatory_scene
+    >>> scene = observatory_scene(n_points=60_000, seed=1)
+    >>> result = measure(scene.cloud)
+    >>> len(result) >= 6
+    True
+    """
+    report = progress or (lambda stage, done, total: None)
+    seconds, counts = {}, {"input": len(cloud)}
+    check_measurable(cloud)
+
+    with _stage(seconds, "filter", report):
+        edge = voxel_edge(cloud.local, params.zeta)
+        filt = filter_outliers(cloud.local, params.filter, edge=edge, threshold=params.filter_sigma, moments=moments)
+        filtered = cloud.subset(filt.keep)
+        counts["filtered"] = len(filtered)
+    if len(filtered) < 3:
+        raise GeoStructureError(
+            f"{cloud.source}: the outlier filter left {len(filtered)} point(s); try `filter='none'`."
+        )
+
+    with _stage(seconds, "voxel", report):
+        voxels = fit_voxels(
+            filtered.local, params.zeta, min_points=params.min_voxel_points, max_curvature=params.max_curvature
+        )
+        counts["voxel_planes"] = len(voxels)
+
+    facet_record, facet_region, envelope = {}, np.zeros(0, dtype=bool), None
+    if params.detector == "facets":
+        with _stage(seconds, "regions", report):
+            point_region, region_of_voxel, facet_record, facet_region, envelope = _grow_facets_then_voxels(
+                filtered, voxels, params, report, counts
+            )
+    else:
+        with _stage(seconds, "regions"):  # region growing reports its own progress
+            point_region, region_of_voxel = _grow_voxel_regions(filtered, voxels, params, report, counts)
+
+    with _stage(seconds, "planes"):
+        # Facets grown on the points need min_points only; regions grown over voxel planes
+        # (all of them with the voxel detector) also need 3 voxels and the voxel rule's size.
+        n_facets = facet_record.get("planar_facets", 0)
+        n_regions = max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 1
+        is_facet = np.zeros(n_regions, dtype=bool)
+        is_facet[: len(facet_region)] = facet_region[:n_regions]
+        rough = envelope is not None  # the facets were grown on rough rock's own points
+        min_points = np.where(
+            is_facet,
+            params.min_points or (MIN_FACET_POINTS if rough else default_min_points(len(filtered), "facets")),
+            params.min_points or default_min_points(len(filtered), "voxel"),
+        )
+        regions, kept = region_planes(
+            filtered.local,
+            point_region,
+            region_of_voxel,
+            min_points,
+            params.rectangle,
+            report,
+            min_voxels=np.where(is_facet, 0, 3),
+        )
+        alias = {}
+        if facet_record:
+            # Every region, facet or grown over voxels, where the grid was trusted: a strip
+            # one cell wide is no plane (points along a line, a pole, gave four when the
+            # voxels no facet took were grown). Where it was not, its cells are no measure.
+            trusted = facet_record["far_scatter_deg"] <= MAX_CELL_SCATTER
+            # Rough rock's facets are steps a few points wide, never a grid's cells.
+            narrow_checked = np.ones(n_regions, dtype=bool) if trusted else is_facet & ~rough
+            regions, kept, counts["ribbons"] = without_ribbons(regions, kept, narrow_checked, facet_record["cell_edge"])
+            if n_facets and params.merge and not rough:  # rough rock's facets are steps, not sparse pieces of a plane
+                regions, kept, alias = absorb_sparse_facets(
+                    filtered.local, point_region, regions, kept, params.theta, params.psi * voxels.edge,
+                    facet_record["facet_thresholds"]["spacing"], params.rectangle,
+                )  # fmt: skip
+                counts["absorbed"] = len(alias)
+        # Old region id -> plane number (largest first); -1 (the table's last entry) stays -1.
+        renumber = np.full(max(int(region_of_voxel.max(initial=-1)), int(point_region.max(initial=-1))) + 2, -1)
+        renumber[kept] = np.arange(len(kept))
+        for piece, taker in alias.items():
+            renumber[piece] = renumber[taker]
+        labels, voxel_labels = renumber[point_region], renumber[region_of_voxel]
+        counts["planes"] = len(regions)
+        counts["labelled_points"] = int((labels >= 0).sum())
+
+    with _stage(seconds, "orientation", report):
+        outward = _outward(filtered, labels, len(regions))
+        planes = plane_table(
+            regions,
+            frame,
+            outward,
+            (voxels.normal, voxel_labels),
+            cloud.offset,
+            lambda normals: normal_standard_errors(
+                filtered.local,
+                labels,
+                normals,
+                np.array([r.centroid for r in regions]).reshape(-1, 3),
+                np.array([r.u for r in regions]).reshape(-1, 3),
+                up=frame.matrix[2],
+            ),
+        )
+        if envelope is not None:
+            planes = planes.with_columns(face_surface=face_surface(labels, planes.normal, envelope))
+    return Result(
+        cloud=cloud,
+        params=params,
+        frame=frame,
+        filtered=filtered,
+        filter_result=filt,
+        voxels=voxels,
+        voxel_labels=voxel_labels,
+        planes=planes,
+        labels=labels,
+        seconds=seconds,
+        counts=counts,
+        detection=facet_record,
+    )
+
+
+@contextmanager
+def _stage(seconds: dict, name: str, report=None):
+    """Time one stage into ``seconds[name]``; with ``report``, announce it first."""
+    if report is not None:
+        report(name, 0, None)
+    start = time.perf_counter()
+    try:
+        yield
+    finally:
+        seconds[name] = time.perf_counter() - start
+
+
+def _grow_voxel_regions(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict):
+    """The paper's region growing over voxel planes (then the coplanar merge): each point's
+    and each voxel's region."""
+    growth = grow_regions(
+        voxels,
+        params.theta,
+        params.psi,
+        params.k,
+        reference=params.reference,
+        max_gap=params.max_gap,
+        progress=lambda done: report("regions", done, len(voxels)),
+    )
+    region_of_voxel = growth.labels
+    if params.merge:
+        region_of_voxel, counts["merges"] = merge_coplanar(
+            voxels, growth.labels, params.theta, params.psi * voxels.edge
+        )
+    counts["regions"] = growth.n_regions
+    point_region = np.full(len(filtered), -1, dtype=np.int64)
+    fitted = voxels.point_voxel >= 0
+    point_region[fitted] = region_of_voxel[voxels.point_voxel[fitted]]
+    return point_region, region_of_voxel
+
+
+def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict):
+    """Facets grown on a fine grid's local planes (:func:`~geostructure.detect.facets.detect_facets`); where a grown group
+    is not planar (it drifted round a curved surface), or where most points of a voxel are in
+    no facet (a surface noisier than the grid was chosen for), the paper's voxel region
+    growing over those voxels. Also returns which of the regions are facets."""
+    found = detect_facets(filtered.local)
+    sub_counts: dict = {}
+    if found.rough is not None:
+        # Rough rock: the paper's voxel growing over the whole cloud, as before the rough
+        # facets; they take their points out of its regions, except out of large ones.
+        every = subset_voxels(voxels, np.ones(len(voxels), dtype=bool))  # as the regrowing below
+        whole = _grow_voxel_regions(filtered, every, params, report, sub_counts)
+        found = _outside_large_surfaces(found, whole[0])
+    point_region = found.labels.copy()
+    n_facets = int(point_region.max(initial=-1)) + 1
+    # The voxels to grow: those of curved facets, and those most of whose points no facet
+    # took (a surface rougher or noisier than the face the grid was chosen for: a road
+    # before a rock cut, the far end of an SfM cloud).
+    unclaimed = (point_region < 0) | found.curved
+    on = voxels.point_voxel >= 0
+    total = np.bincount(voxels.point_voxel[on], minlength=len(voxels))
+    free = np.bincount(voxels.point_voxel[on & unclaimed], minlength=len(voxels))
+    regrow = free > UNCLAIMED_SHARE * total
+    regrow[voxels.point_voxel[found.curved & on]] = True
+    if found.rough is not None:
+        regrow[:] = True  # grown above, whole
+    regrown = unclaimed & on
+    regrown[on] &= regrow[voxels.point_voxel[on]]
+    region_of_voxel = voxel_majority(voxels.point_voxel, point_region, len(voxels))
+    if regrow.any():
+        if found.rough is not None:
+            sub_points, sub_region = whole
+        else:
+            sub_points, sub_region = _grow_voxel_regions(
+                filtered, subset_voxels(voxels, regrow), params, report, sub_counts
+            )
+        take = regrown & (sub_points >= 0)
+        point_region[take] = n_facets + sub_points[take]
+        region_of_voxel[regrow] = np.where(sub_region >= 0, n_facets + sub_region, -1)
+    counts["regions"] = n_facets + sub_counts.get("regions", 0)
+    is_facet = np.arange(max(int(point_region.max(initial=-1)), int(region_of_voxel.max(initial=-1))) + 1) < n_facets
+    if params.merge:  # large regions of one plane split by a small gap: one plane, as with the voxel growing
+        # At least one bin: voxels that all lie in no region (a cloud along a line) index it.
+        size = np.bincount(point_region[point_region >= 0], minlength=max(int(region_of_voxel.max(initial=-1)) + 1, 1))
+        large = np.where(region_of_voxel >= 0, size[np.maximum(region_of_voxel, 0)] >= MERGE_MIN_POINTS, False)
+        merged, merges = merge_coplanar(
+            voxels, np.where(large, region_of_voxel, -1), params.theta, params.psi * voxels.edge
+        )
+        counts["merges"] = sub_counts.get("merges", 0) + merges
+        point_region, region_of_voxel, new = _relabel(point_region, region_of_voxel, merged)
+        # The merge numbers the regions afresh, so a facet's new number may be past the
+        # facets' (it was then held to the voxel regions' size: on a rock cut with a road,
+        # the road's one voxel region cost 270 of 440 facets).
+        renumbered = np.zeros(int(new.max(initial=-1)) + 1, dtype=bool)
+        renumbered[new[:-1][is_facet]] = True
+        is_facet = renumbered
+    return (
+        point_region,
+        region_of_voxel,
+        found.record(),
+        is_facet,
+        None if found.rough is None else found.rough.envelope,
+    )
+
+
+def _outside_large_surfaces(found, point_region: np.ndarray):
+    """Rough rock's facets (:mod:`.roughfacets`) only where the paper's voxel growing, over
+    the whole cloud (each point's region ``point_region``), grew no large surface
+    (:data:`~geostructure.detect.merge.MERGE_MIN_POINTS` points or more: a wall, a roof, a road): on the Sceaux
+    Castle's noisy facade they had cut its walls apart; on the real outcrop no voxel region
+    is that large, and nothing changes."""
+    size = np.bincount(point_region[point_region >= 0], minlength=1)
+    large = (point_region >= 0) & (size[np.maximum(point_region, 0)] >= MERGE_MIN_POINTS)
+    if not large.any():
+        return found
+    labels = np.where(large, -1, found.labels)
+    count = np.bincount(labels[labels >= 0], minlength=int(found.labels.max(initial=-1)) + 1)
+    kept = np.flatnonzero(count >= MIN_FACET_POINTS)
+    return dataclasses.replace(found, labels=numbered_by_size(labels, kept, count))
+
+
+def face_surface(labels: np.ndarray, normals: np.ndarray, envelope: np.ndarray) -> np.ndarray:
+    """Per plane, 1 where it lies along the face's own surface (its normal within
+    :data:`~geostructure.detect.roughfacets.FACE_CONE` of the face's over its points, ``envelope`` (N, 3) in the
+    cloud's coordinates) and 0 elsewhere: on rough rock those are pieces of the exposure,
+    measured, but no discontinuity, and they join no set."""
+    face = mean_directions(labels, envelope, len(normals))
+    along = np.abs(np.einsum("ij,ij->i", normals, face))
+    return (along >= np.cos(np.radians(FACE_CONE))).astype(np.int64)
+
+
+def _relabel(point_region: np.ndarray, voxel_region: np.ndarray, merged_voxels: np.ndarray):
+    """Carry a merge of the voxels' regions over to the points; regions without a voxel keep
+    a number of their own. Also returns the map, old number -> new (its last entry: -1)."""
+    n = max(int(point_region.max(initial=-1)), int(voxel_region.max(initial=-1))) + 1
+    new = np.full(n + 1, -1, dtype=np.int64)  # the last entry maps -1 to -1
+    has = voxel_region >= 0
+    new[voxel_region[has]] = merged_voxels[has]
+    lonely = np.flatnonzero(new[:n] < 0)
+    new[lonely] = int(merged_voxels.max(initial=-1)) + 1 + np.arange(len(lonely))
+    return new[point_region], new[voxel_region], new
+
+
+def plane_table(regions, frame: Frame, outward, voxels, offset, standard_errors) -> Planes:
+    """The plane table of region planes: normals turned upward (``outward``, the planes'
+    summed stored normals or None, settles vertical ones) in ``frame``, their orientation,
+    their voxels' spread (``voxels``: the voxel normals and each voxel's plane) and
+    ``standard_errors(normals)`` (:func:`~geostructure.detect.uncertainty.normal_standard_errors`'s dict)."""
+    raw = np.array([r.normal for r in regions]).reshape(-1, 3)
+    normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
+    n_voxels, scatter = normal_spread(*voxels, normals)
+    return Planes.from_regions(
+        regions,
+        normals,
+        orientation_from_normals(normals, frame, outward),
+        offset=offset,
+        n_voxels=n_voxels,
+        scatter=scatter,
+        uncertainty=standard_errors(normals),
+        face=(None, None) if outward is None else face_side(outward, frame),
+    )
+
+
+def normal_spread(voxel_normals, voxel_labels, plane_normals):
+    """Voxel count and RMS angle (deg) of voxel normals about each plane's normal: the plane's scatter."""
+    n = len(plane_normals)
+    mask = voxel_labels >= 0
+    lab = voxel_labels[mask]
+    cos = np.abs(np.einsum("ij,ij->i", voxel_normals[mask], plane_normals[lab])) if n else np.zeros(0)
+    angle2 = np.degrees(np.arccos(np.clip(cos, 0.0, 1.0))) ** 2
+    count = np.bincount(lab, minlength=n)
+    scatter = np.sqrt(np.bincount(lab, angle2, minlength=n) / np.maximum(count, 1))
+    return count, scatter
+
+
+def _outward(cloud: Cloud, labels: np.ndarray, n_planes: int) -> np.ndarray | None:
+    """Mean stored normal of each plane's points: the side its face is seen from."""
+    if cloud.normals is None or n_planes == 0:
+        return None
+    mask = labels >= 0
+    out = np.stack([np.bincount(labels[mask], cloud.normals[mask, a], n_planes) for a in range(3)], axis=1)
+    return out

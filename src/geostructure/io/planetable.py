@@ -1,0 +1,70 @@
+"""``planes.csv``: the plane table (:class:`~geostructure.core.planes.Planes`) written and
+read back, every float to its last bit, every text cell safe from a spreadsheet."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from geostructure.core.planes import COLUMNS, LATER_COLUMNS, Planes
+from geostructure.errors import InputError
+from geostructure.io.atomic import write_table_csv
+
+
+def write_planes_csv(planes: Planes, path) -> Path:
+    """Write ``planes.csv`` (atomically), floats to the last bit.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "planes.csv")
+    >>> planes = Planes(normal=[[0.0, 0.6, 0.8]], local_centroid=[[662000.125, 5103000.5, 400.0]])
+    >>> read_planes_csv(write_planes_csv(planes, path)).centroid.tolist()
+    [[662000.125, 5103000.5, 400.0]]
+    """
+    return write_table_csv(planes.rows(), path, columns=COLUMNS + tuple(planes.extra))
+
+
+def read_planes_csv(path, offset=None) -> Planes:
+    """Read a ``planes.csv`` that :func:`write_planes_csv` wrote, positions taken relative to
+    ``offset`` (the run's, from ``run.json``); columns after the standard ones come back
+    in ``extra``. A file that is not one, or whose centroids or normals are not finite unit
+    vectors (a table edited by hand), is refused naming it.
+
+    Raises
+    ------
+    InputError
+        No such file, or not a GeoStructure plane table.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file; run 'geostructure measure' first.")
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            reader = csv.reader(fh)
+            header = next(reader, [])
+            cells = [row for row in reader if row]
+    except (UnicodeDecodeError, csv.Error):
+        raise InputError(f"{path}: not a GeoStructure planes.csv (not a text table).") from None
+    if any(name not in header for name in COLUMNS if name not in LATER_COLUMNS) or len(set(header)) != len(header):
+        raise InputError(f"{path}: not a GeoStructure planes.csv (its header lacks the plane columns).")
+    try:
+        if any(len(row) != len(header) for row in cells):
+            raise ValueError
+        table = np.array(cells, dtype=np.float64).reshape(len(cells), len(header))
+    except ValueError:
+        raise InputError(
+            f"{path}: not a GeoStructure planes.csv (a row is short, or a cell is not a number)."
+        ) from None
+    column = {name: table[:, i] for i, name in enumerate(header)}
+    normal = np.c_[column["normal_x"], column["normal_y"], column["normal_z"]]
+    centroid = np.c_[column["centroid_x"], column["centroid_y"], column["centroid_z"]]
+    with np.errstate(all="ignore"):
+        unit = np.abs(np.linalg.norm(normal, axis=1) - 1.0) < 1e-3
+    if not (np.isfinite(centroid).all() and unit.all()):
+        raise InputError(
+            f"{path}: not a GeoStructure planes.csv (a centroid is not finite, or a normal is not a unit vector)."
+        )
+    return Planes.from_columns(column, header, offset)

@@ -1,0 +1,435 @@
+"""The kinematic tests of a plane table and its sets against a slope, as ``kinematics.json``,
+``kinematics.csv`` and ``wedges.csv`` hold them, and ``kinematics.png``.
+
+A face that turns (:mod:`.sections`) is tested section by section: each plane against the
+slope of the section it lies in, pairs of planes within a section, the sets' means against
+every section's slope. The summary's modes count the planes critical in their own section;
+``sections`` holds each section's own summary.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from geostructure.core.orientation import Frame, normal_from_orientation, orientation_from_normals
+from geostructure.kinematics.modes import (
+    LATERAL_LIMIT,
+    UNIT_WEIGHT,
+    DirectToppling,
+    Slope,
+    Wedges,
+    direct_toppling,
+    flexural_toppling,
+    percent_critical,
+    planar_factor_of_safety,
+    planar_sliding,
+    wedges,
+)
+
+#: Pairs are tested among this many of the largest planes at most (of each section).
+MAX_WEDGE_PLANES = 2000
+
+
+@dataclass
+class _Tests:
+    """One slope's tests on a plane table: per plane (``planar``, ``toppling``, ``fs``,
+    ``base``, ``oblique_base``, ``in_wedge``), the critical pairs among the largest planes
+    (``wedges``, ``direct``, their indices into the table) and the set means' wedges."""
+
+    planar: np.ndarray
+    toppling: np.ndarray
+    fs: np.ndarray
+    base: np.ndarray
+    oblique_base: np.ndarray
+    in_wedge: np.ndarray
+    wedges: Wedges
+    direct: DirectToppling
+    mean_wedges: Wedges
+    planes_in_pairs: int
+    joint_wedges: Wedges | None = None  # among the joints' planes (joint_orientations), with the rock mass
+
+
+def slope_dict(slope: Slope) -> dict:
+    """A slope as ``kinematics.json`` writes it."""
+    return {
+        "dip": slope.dip,
+        "dip_direction": slope.dip_direction,
+        "dip_uncertainty_deg": slope.dip_uncertainty,
+        "dip_direction_uncertainty_deg": slope.dip_direction_uncertainty,
+        "source": slope.source,
+        **({"face_bend_deg": slope.face_bend} if slope.source == "fitted" else {}),
+    }
+
+
+def kinematics_of(
+    planes, sets: list, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT, strength=None,
+    sections=None,
+):  # fmt: skip
+    """The tests on a plane table and its sets' rows: (summary, plane rows, wedge columns,
+    figure); ``strength`` holds the cohesion (kPa), unit weight and height for the planar
+    and wedge factors of safety (frictional without it). ``sections``: (each plane's
+    section, each section's slope) for a face that turns, tested section by section (see
+    the module); ``slope`` is then the whole face's."""
+    from geostructure.report.kinematics_plot import kinematics_figure  # lazy: matplotlib
+
+    strength = strength or {"cohesion_kpa": 0.0, "unit_weight_kn_m3": UNIT_WEIGHT}
+    label, slopes = sections if sections is not None else (np.zeros(len(planes), dtype=np.int64), [slope])
+    label = np.asarray(label, dtype=np.int64)
+    n = len(planes)
+    planar, toppling, base, oblique_base, in_wedge = (np.zeros(n, dtype=bool) for _ in range(5))
+    fs = np.full(n, np.nan)
+    wedge_parts, parts = [], []
+    fig = None
+    for k, part_slope in enumerate(slopes):
+        members = np.flatnonzero(label == k)
+        part = planes.subset(members)
+        tests = _tests(part, sets, part_slope, friction, lateral_limit, strength)
+        for full, mine in ((planar, tests.planar), (toppling, tests.toppling), (fs, tests.fs), (base, tests.base),
+                           (oblique_base, tests.oblique_base), (in_wedge, tests.in_wedge)):  # fmt: skip
+            full[members] = mine
+        ids = np.asarray(part.region_id).astype(np.int64)
+        wedge_parts.append(_wedge_columns(tests.wedges, ids, k))
+        parts.append({"section": k, "slope": slope_dict(part_slope), "planes": len(members),
+                      **_summary(part, sets, tests, part_slope, friction, lateral_limit)})  # fmt: skip
+        fig = kinematics_figure(
+            part.dip, part.dip_direction, slope=part_slope, friction=friction, lateral_limit=lateral_limit,
+            planar=tests.planar, toppling=tests.toppling, wedge_lines=(tests.wedges.trend, tests.wedges.plunge),
+            toppling_lines=(tests.direct.trend, tests.direct.plunge),
+            oblique_lines=(tests.direct.oblique_trend, tests.direct.oblique_plunge),
+            set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
+            set_wedges=[(*w["sets"], w["trend"], w["plunge"]) for w in parts[-1]["set_mean_wedges"]],
+            fig=fig, panel=(k, len(slopes)),
+        )  # fmt: skip
+    set_labels = planes.extra.get("set", np.full(n, -1))
+    joints = planes.extra.get("joint", np.full(n, -1))  # -1: no joint, or a folder from before them
+    rows = [
+        {
+            "region_id": int(planes.region_id[i]),
+            "set": int(set_labels[i]),
+            "joint": int(joints[i]),
+            "section": int(label[i]),
+            "dip": float(planes.dip[i]),
+            "dip_direction": float(planes.dip_direction[i]),
+            "planar_sliding": bool(planar[i]),
+            "flexural_toppling": bool(toppling[i]),
+            "planar_fs": float(fs[i]) if planar[i] else float("nan"),
+            "toppling_base": bool(base[i]),
+            "oblique_toppling_base": bool(oblique_base[i]),
+        }
+        for i in range(n)
+    ]
+    wedge_columns = {key: np.concatenate([w[key] for w in wedge_parts]) for key in wedge_parts[0]}
+    if len(parts) == 1:
+        common = {key: value for key, value in parts[0].items() if key not in ("section", "slope", "planes")}
+    else:
+        common = _merged(parts, planes, set_labels, planar, toppling, fs, in_wedge)
+    summary = {
+        "slope": {**slope_dict(slope), **({"sections": len(parts)} if len(parts) > 1 else {})},
+        "friction_deg": friction,
+        "lateral_limit_deg": lateral_limit,
+        "strength": {
+            **strength,
+            "wedge_fs": "with cohesion: the tetrahedral block under the face, "
+            + ("its top the upper slope" if "upper_slope_dip" in strength else "level top")
+            + " (Hoek & Bray 1981)"
+            if strength["cohesion_kpa"]
+            else "frictional",
+        },
+        **common,
+        **({"sections": parts} if len(parts) > 1 else {}),
+    }
+    return summary, rows, wedge_columns, fig
+
+
+def _tests(planes, sets, slope: Slope, friction, lateral_limit, strength) -> _Tests:
+    dip, dd = planes.dip, planes.dip_direction
+    fs = planar_factor_of_safety(dip, friction, cohesion=strength["cohesion_kpa"], height=strength.get("height_m"),
+                                 slope_dip=slope.dip, unit_weight=strength["unit_weight_kn_m3"])  # fmt: skip
+    tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
+    block = {  # the wedges' strength and the block under the face, for their factors of safety
+        "cohesion": strength["cohesion_kpa"],
+        "height": strength.get("height_m"),
+        "unit_weight": strength["unit_weight_kn_m3"],
+        "upper_normal": normal_from_orientation(strength["upper_slope_dip_direction"], strength["upper_slope_dip"])
+        if "upper_slope_dip" in strength
+        else (0.0, 0.0, 1.0),
+    }
+    w = wedges(dip[tested], dd[tested], slope, friction, max_planes=MAX_WEDGE_PLANES, **block)
+    direct = direct_toppling(dip[tested], dd[tested], slope, friction, lateral_limit, max_planes=MAX_WEDGE_PLANES)
+    base = np.zeros(len(planes), dtype=bool)
+    base[tested] = direct.base
+    oblique_base = np.zeros(len(planes), dtype=bool)
+    oblique_base[tested] = direct.oblique_base
+    in_wedge = np.zeros(len(planes), dtype=bool)
+    in_wedge[w.a], in_wedge[w.b] = True, True
+    # The sets' mean planes tested as planes are: what a geologist reads off the set table.
+    mean_wedges = wedges(
+        np.array([r["dip"] for r in sets]), np.array([r["dip_direction"] for r in sets]), slope, friction, **block
+    )
+    joints = joint_orientations(planes)
+    joint_wedges = None if joints is None else wedges(*joints, slope, friction, max_planes=MAX_WEDGE_PLANES, **block)
+    return _Tests(
+        planar_sliding(dip, dd, slope, friction, lateral_limit),
+        flexural_toppling(dip, dd, slope, friction, lateral_limit),
+        fs, base, oblique_base, in_wedge, w, direct, mean_wedges, len(tested), joint_wedges,
+    )  # fmt: skip
+
+
+def joint_orientations(planes) -> tuple[np.ndarray, np.ndarray] | None:
+    """Dip and dip direction of each joint of a plane table's ``joint`` column: its facets'
+    normals averaged by area (each turned to its largest facet's side), the plane its
+    facets stand for; the joints the table holds, largest first. None without joints.
+
+    Examples
+    --------
+    >>> from geostructure.core.planes import Planes
+    >>> planes = Planes(normal=[[0, 0, 1.0], [0.02, 0, 1.0], [1.0, 0, 0.2]], area=[3.0, 1.0, 2.0])
+    >>> dip, dd = joint_orientations(planes.with_columns(joint=np.array([0, 0, 1])))
+    >>> np.round(dip, 2).tolist(), np.round(dd, 1).tolist()
+    ([0.29, 78.69], [90.0, 90.0])
+    """
+    joint = planes.extra.get("joint")
+    if joint is None:
+        return None
+    grouped = np.flatnonzero(np.asarray(joint) >= 0)
+    if not len(grouped):
+        return np.zeros(0), np.zeros(0)
+    ids, j = np.unique(np.asarray(joint)[grouped], return_inverse=True)
+    normal = normal_from_orientation(planes.dip_direction[grouped], planes.dip[grouped]).reshape(-1, 3)
+    area = np.nan_to_num(np.asarray(planes.area, dtype=np.float64)[grouped])
+    largest = np.full(len(ids), -1)
+    order = np.lexsort((-area, j))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = j[order][1:] != j[order][:-1]
+    largest[j[order][first]] = order[first]
+    side = np.where(np.einsum("ij,ij->i", normal, normal[largest][j]) < 0, -1.0, 1.0)
+    weighted = normal * (side * np.maximum(area, 1e-12))[:, None]
+    mean = np.stack([np.bincount(j, weighted[:, a], len(ids)) for a in range(3)], axis=1)
+    o = orientation_from_normals(mean, Frame(), outward=normal[largest])
+    size = np.bincount(j, area, len(ids))
+    by_size = np.argsort(-size, kind="stable")
+    return o.dip[by_size], o.dip_direction[by_size]
+
+
+def _wedge_columns(w: Wedges, ids: np.ndarray, section: int) -> dict:
+    """Columns, not a dict per pair: an outcrop's 1,500 planes make 240,000."""
+    single = np.asarray(w.single_plane)
+    return {
+        "region_id_a": ids[w.a],
+        "region_id_b": ids[w.b],
+        "section": np.full(len(w), section, dtype=np.int64),
+        "trend": np.asarray(w.trend, dtype=np.float64),
+        "plunge": np.asarray(w.plunge, dtype=np.float64),
+        "wedge_fs": np.asarray(w.factor_of_safety, dtype=np.float64),
+        "slides_on": np.where(single < 0, "both", ids[np.maximum(single, 0)].astype(str)),
+    }
+
+
+def _mode(critical, area, joint=None) -> dict:
+    return {
+        "planes": int(np.sum(critical)),
+        "percent_by_count": percent_critical(critical),
+        "percent_by_area": percent_critical(critical, np.nan_to_num(area)),
+        **({} if joint is None else critical_joints(critical, area, joint)),
+    }
+
+
+def critical_joints(critical, area, joint) -> dict:
+    """The joints (``joints.csv``) a failure mode takes: those whose critical facets hold half
+    their facets' area or more, as the joint's own plane, their area-weighted mean, would
+    test; and their share of the joints tested. A joint exposed as ten facets counts once.
+
+    Examples
+    --------
+    >>> critical_joints(np.array([True, True, False, True]), np.array([1.0, 1.0, 3.0, 2.0]), np.array([0, 0, 0, 1]))
+    {'joints': 1, 'percent_of_joints': 50.0}
+    """
+    joint = np.asarray(joint, dtype=np.int64)
+    grouped = joint >= 0
+    if not grouped.any():
+        return {"joints": 0, "percent_of_joints": float("nan")}
+    j, weight = joint[grouped], np.nan_to_num(np.asarray(area, dtype=np.float64)[grouped])
+    n = int(j.max()) + 1
+    total, taken = np.bincount(j, weight, n), np.bincount(j, weight * np.asarray(critical)[grouped], n)
+    tested = np.bincount(j, minlength=n) > 0
+    hit = tested & (taken >= 0.5 * total) & (taken > 0)
+    return {"joints": int(hit.sum()), "percent_of_joints": float(100.0 * hit.sum() / tested.sum())}
+
+
+def _planar(planar, fs, area, joint=None) -> dict:
+    return {
+        **_mode(planar, area, joint),
+        "min_fs": float(np.min(fs[planar])) if planar.any() else float("nan"),
+        "median_fs": float(np.median(fs[planar])) if planar.any() else float("nan"),
+    }
+
+
+def _summary(planes, sets, t: _Tests, slope, friction, lateral_limit) -> dict:
+    """One slope's modes, sets and set means' wedges."""
+    area, pairs, direct = planes.area, t.wedges.pairs_tested, t.direct
+    set_labels = planes.extra.get("set", np.full(len(planes), -1))
+    joint = planes.extra.get("joint")
+    return {
+        "planar_sliding": _planar(t.planar, t.fs, area, joint),
+        "flexural_toppling": _mode(t.toppling, area, joint),
+        "wedge_sliding": {
+            **_mode(t.in_wedge, area, joint),
+            "pairs_tested": int(pairs),
+            "critical_pairs": int(len(t.wedges)),
+            "planes_in_pairs": int(t.planes_in_pairs),
+            **(
+                {}
+                if t.joint_wedges is None
+                else {
+                    "joint_pairs_tested": int(t.joint_wedges.pairs_tested),
+                    "critical_joint_pairs": int(len(t.joint_wedges)),
+                }
+            ),
+        },
+        "direct_toppling": {
+            "critical": direct.critical,
+            "intersections_in_zone": int(len(direct.a)),
+            "percent_of_pairs": 100.0 * len(direct.a) / pairs if pairs else float("nan"),
+            "base_planes": int(direct.base.sum()),
+            "sliding_base_planes": int(direct.sliding_base.sum()),
+            "oblique": {  # Dips' secondary zone: steep columns outside the lateral limits
+                "critical": direct.oblique_critical,
+                "intersections_in_zone": int(len(direct.oblique_a)),
+                "percent_of_pairs": 100.0 * len(direct.oblique_a) / pairs if pairs else float("nan"),
+                "base_planes": int(direct.oblique_base.sum()),
+            },
+        },
+        "sets": _set_summary(sets, t, set_labels, area, slope, friction, lateral_limit),
+        "set_mean_wedges": [
+            {
+                "sets": [int(sets[a]["set"]), int(sets[b]["set"])],
+                "trend": float(tr),
+                "plunge": float(p),
+                "wedge_fs": float(f),
+            }
+            for a, b, tr, p, f in zip(
+                t.mean_wedges.a,
+                t.mean_wedges.b,
+                t.mean_wedges.trend,
+                t.mean_wedges.plunge,
+                t.mean_wedges.factor_of_safety,
+            )
+        ],  # fmt: skip
+    }
+
+
+def _shares(members, planar, toppling, in_wedge, area) -> dict:
+    """The share of a set's planes critical in each mode."""
+    weights = np.nan_to_num(area[members])
+    return {
+        "planar_percent_by_count": percent_critical(planar[members]),
+        "planar_percent_by_area": percent_critical(planar[members], weights),
+        "toppling_percent_by_count": percent_critical(toppling[members]),
+        "toppling_percent_by_area": percent_critical(toppling[members], weights),
+        "wedge_percent_by_count": percent_critical(in_wedge[members]),
+    }
+
+
+def _set_summary(sets, t: _Tests, set_labels, area, slope, friction, lateral_limit) -> list[dict]:
+    """Per set: its mean's tests, the share of its planes critical per mode, and the wedges
+    its mean forms with the other sets' means (``t.mean_wedges``, on the means in ``sets``'s order)."""
+    if not sets:
+        return []
+    mean_dip = np.array([r["dip"] for r in sets])
+    mean_dd = np.array([r["dip_direction"] for r in sets])
+    mean_planar = planar_sliding(mean_dip, mean_dd, slope, friction, lateral_limit)
+    mean_toppling = flexural_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
+    w = t.mean_wedges
+    direct = direct_toppling(mean_dip, mean_dd, slope, friction, lateral_limit)
+    out = []
+    for i, row in enumerate(sets):
+
+        def partners(a, b):  # the sets whose means pair with this one's in (a, b)
+            return [int(sets[y if x == i else x]["set"]) for x, y in zip(a, b) if i in (x, y)]
+
+        out.append(
+            {
+                "set": int(row["set"]),
+                "mean_dip": float(mean_dip[i]),
+                "mean_dip_direction": float(mean_dd[i]),
+                "mean_planar_sliding": bool(mean_planar[i]),
+                "mean_flexural_toppling": bool(mean_toppling[i]),
+                "mean_wedges_with_sets": partners(w.a, w.b),
+                "mean_toppling_blocks_with_sets": partners(direct.a, direct.b) if direct.base.any() else [],
+                "mean_toppling_base": bool(direct.base[i]),
+                "mean_oblique_toppling_blocks_with_sets": partners(direct.oblique_a, direct.oblique_b)
+                if direct.oblique_critical
+                else [],
+                **_shares(set_labels == int(row["set"]), t.planar, t.toppling, t.in_wedge, area),
+            }
+        )
+    return out
+
+
+def _merged(parts: list[dict], planes, set_labels, planar, toppling, fs, in_wedge) -> dict:
+    """The sections' summaries as one: each plane critical in its own section, the pairs
+    and intersections of every section, a set's mean critical where it is in any section."""
+    area = planes.area
+
+    def total(key, field, sub=None):
+        return sum((p[key][sub] if sub else p[key])[field] for p in parts)
+
+    pairs = total("wedge_sliding", "pairs_tested")
+    zone, oblique = (
+        total("direct_toppling", "intersections_in_zone"),
+        total("direct_toppling", "intersections_in_zone", "oblique"),
+    )
+    merged_sets = []
+    for i, row in enumerate(parts[0]["sets"]):
+        rows = [p["sets"][i] for p in parts]
+        flags = ("mean_planar_sliding", "mean_flexural_toppling", "mean_toppling_base")
+        lists = ("mean_wedges_with_sets", "mean_toppling_blocks_with_sets", "mean_oblique_toppling_blocks_with_sets")
+        merged_sets.append({
+            **{key: row[key] for key in ("set", "mean_dip", "mean_dip_direction")},
+            **{key: any(r[key] for r in rows) for key in flags},
+            **{key: sorted({s for r in rows for s in r[key]}) for key in lists},
+            "mean_critical_in_sections": [p["section"] for p, r in zip(parts, rows) if _mean_critical(r)],
+            **_shares(set_labels == int(row["set"]), planar, toppling, in_wedge, area),
+        })  # fmt: skip
+    joint = planes.extra.get("joint")
+    return {
+        "planar_sliding": _planar(planar, fs, area, joint),
+        "flexural_toppling": _mode(toppling, area, joint),
+        "wedge_sliding": {
+            **_mode(in_wedge, area, joint),
+            "pairs_tested": int(pairs),
+            "critical_pairs": int(total("wedge_sliding", "critical_pairs")),
+            "planes_in_pairs": int(total("wedge_sliding", "planes_in_pairs")),
+            **(
+                {}
+                if "joint_pairs_tested" not in parts[0]["wedge_sliding"]
+                else {
+                    "joint_pairs_tested": int(total("wedge_sliding", "joint_pairs_tested")),
+                    "critical_joint_pairs": int(total("wedge_sliding", "critical_joint_pairs")),
+                }
+            ),
+        },
+        "direct_toppling": {
+            "critical": any(p["direct_toppling"]["critical"] for p in parts),
+            "intersections_in_zone": int(zone),
+            "percent_of_pairs": 100.0 * zone / pairs if pairs else float("nan"),
+            "base_planes": int(total("direct_toppling", "base_planes")),
+            "sliding_base_planes": int(total("direct_toppling", "sliding_base_planes")),
+            "oblique": {
+                "critical": any(p["direct_toppling"]["oblique"]["critical"] for p in parts),
+                "intersections_in_zone": int(oblique),
+                "percent_of_pairs": 100.0 * oblique / pairs if pairs else float("nan"),
+                "base_planes": int(total("direct_toppling", "base_planes", "oblique")),
+            },
+        },
+        "sets": merged_sets,
+        "set_mean_wedges": [{**w, "section": p["section"]} for p in parts for w in p["set_mean_wedges"]],
+    }
+
+
+def _mean_critical(row: dict) -> bool:
+    """A set's mean slides, topples or forms a critical wedge or toppling block."""
+    return bool(row["mean_planar_sliding"] or row["mean_flexural_toppling"] or row["mean_wedges_with_sets"]
+                or row["mean_toppling_blocks_with_sets"])  # fmt: skip

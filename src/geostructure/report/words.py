@@ -1,0 +1,180 @@
+"""The words and cells of the result tables, the terminal's and the report's alike: a
+figure or a dash, a count with its noun, an azimuth or "level", and the kinematic tables'
+columns and cells. The command line prints them (:mod:`geostructure.cli.tables`); the
+report draws them (:mod:`.kinematic_tables`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from geostructure.core.orientation import whole_azimuth
+
+
+def azimuth(value: float, dip: float, uncertainty: float) -> str:
+    """A strike or dip direction as the tables print it, or "level" for a plane whose dip is
+    within its normal's uncertainty (degrees) of level, where no azimuth means anything
+    (a level plane printed a dip direction of 075.2 at dip 0.0); planes.csv keeps the number.
+
+    Examples
+    --------
+    >>> azimuth(75.2, 0.0, 0.5), azimuth(75.2, 12.0, 0.5), azimuth(5.0, 0.4, float("nan"))
+    ('level', '075.2', '005.0')
+    """
+    return "level" if dip < 0.05 or dip < uncertainty else f"{value:05.1f}"
+
+
+def counted(n: int, noun: str) -> str:
+    """``n`` with thousands separators and ``noun``, plural unless it is one.
+
+    Examples
+    --------
+    >>> counted(1, "critical pair"), counted(2040, "critical pair")
+    ('1 critical pair', '2,040 critical pairs')
+    """
+    return f"{n:,} {noun}" + ("" if n == 1 else "s")
+
+
+def shown(value, digits: int = 2) -> str:
+    """A table's figure to ``digits`` decimals, or a dash where it was not measured (NaN, or
+    None as ``run.json`` and ``kinematics.json`` write NaN).
+
+    Examples
+    --------
+    >>> shown(0.456), shown(float("nan")), shown(None, 1), shown(12.0, 0)
+    ('0.46', '—', '—', '12')
+    """
+    return f"{value:.{digits}f}" if value is not None and np.isfinite(value) else "—"
+
+
+FAILURE_MODES = (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge sliding"),
+                 ("flexural_toppling", "flexural toppling"))  # fmt: skip
+#: The per-set kinematics table's columns (:func:`set_kinematic_cells`).
+SET_KINEMATIC_COLUMNS = ("set", "mean dip/dd", "mean slides", "% planar", "mean topples", "% toppling",
+                         "wedges with sets", "% in wedges")  # fmt: skip
+
+
+#: The per-section kinematics table's columns (:func:`section_cells`).
+SECTION_COLUMNS = ("section", "slope", "planes", "planar sliding", "wedge pairs", "flexural toppling",
+                   "direct toppling")  # fmt: skip
+
+
+def slope_text(summary: dict, whole: bool = False) -> str:
+    """The slope a kinematics summary tested against, in words: one, or a face's sections.
+
+    Examples
+    --------
+    >>> slope_text({"slope": {"dip": 75.4, "dip_direction": 180.2, "source": "given"}})
+    'slope 75.4/180.2 (given)'
+    >>> slope_text({"slope": {"dip": 75.4, "dip_direction": 180.2, "source": "given"}}, whole=True)
+    'slope 75/180 (given)'
+    >>> slope_text({"slope": {"dip": 7.7, "dip_direction": 225.0, "source": "fitted", "sections": 2},
+    ...             "sections": [{"slope": {"dip": 75.5, "dip_direction": 180.0}},
+    ...                          {"slope": {"dip": 74.2, "dip_direction": 271.1}}]})
+    'the face in 2 sections, slopes 76/180 and 74/271 (fitted)'
+    """
+    slope = summary["slope"]
+    sections = summary.get("sections") or []
+    if len(sections) < 2:
+        if whole:  # in whole degrees, as the report gives them
+            return f"slope {slope['dip']:.0f}/{whole_azimuth(slope['dip_direction'])} ({slope['source']})"
+        return f"slope {slope['dip']:.1f}/{slope['dip_direction']:05.1f} ({slope['source']})"
+    parts = [f"{s['slope']['dip']:.0f}/{whole_azimuth(s['slope']['dip_direction'])}" for s in sections]
+    return f"the face in {len(sections)} sections, slopes {', '.join(parts[:-1])} and {parts[-1]} ({slope['source']})"
+
+
+def section_cells(section: dict) -> list[str]:
+    """A row of the per-section kinematics table (``kinematics.json``'s ``sections``).
+
+    Examples
+    --------
+    >>> section = {"section": 1, "slope": {"dip": 74.2, "dip_direction": 271.1}, "planes": 174,
+    ...            "planar_sliding": {"planes": 57, "percent_by_count": 32.8}, "wedge_sliding": {"critical_pairs": 3300},
+    ...            "flexural_toppling": {"planes": 60, "percent_by_count": 34.5}, "direct_toppling": {"critical": True}}
+    >>> section_cells(section)
+    ['1', '74/271', '174', '57 (33%)', '3,300', '60 (34%)', 'critical']
+    """
+
+    def share(mode: dict) -> str:
+        return f"{mode['planes']:,} ({shown(mode['percent_by_count'], 0)}%)"
+
+    return [
+        str(section["section"]),
+        f"{section['slope']['dip']:.0f}/{whole_azimuth(section['slope']['dip_direction'])}",
+        f"{section['planes']:,}",
+        share(section["planar_sliding"]),
+        f"{section['wedge_sliding']['critical_pairs']:,}",
+        share(section["flexural_toppling"]),
+        "critical" if section["direct_toppling"]["critical"] else "—",
+    ]
+
+
+def failure_mode_cells(summary: dict, key: str) -> list[str]:
+    """One failure mode's planes critical, their share by count and by area, and the joints
+    it takes with their share (a dash without joints: no sets, none grouped, or a run
+    before them).
+
+    Examples
+    --------
+    >>> mode = {"planes": 120, "percent_by_count": 28.17, "percent_by_area": 30.9, "joints": 9, "percent_of_joints": 18.4}
+    >>> failure_mode_cells({"planar_sliding": mode}, "planar_sliding")
+    ['120', '28.2', '30.9', '9 (18%)']
+    >>> failure_mode_cells({"planar_sliding": {**mode, "joints": 0, "percent_of_joints": None}}, "planar_sliding")[3]
+    '—'
+    """
+    mode = summary[key]
+    share = shown(mode.get("percent_of_joints"), 0)
+    joints = f"{mode['joints']:,} ({share}%)" if share != "—" else "—"
+    return [f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1), joints]
+
+
+def set_kinematic_cells(row: dict) -> list[str]:
+    """A row of the per-set kinematics table (``kinematics.json``'s ``sets``): the set, its
+    mean plane's dip/dip direction, whether that plane slides or topples, the share of the
+    set's planes critical in each mode, and the sets its mean forms a critical wedge with.
+
+    Examples
+    --------
+    >>> row = {"set": 2, "mean_dip": 41.3, "mean_dip_direction": 359.7, "mean_planar_sliding": True,
+    ...        "planar_percent_by_count": 99.4, "mean_flexural_toppling": False, "toppling_percent_by_count": 0.0,
+    ...        "mean_wedges_with_sets": [0, 1], "wedge_percent_by_count": float("nan")}
+    >>> set_kinematic_cells(row)
+    ['2', '41/000', 'critical', '99', '—', '0', '0, 1', '—']
+    """
+
+    def critical(flag: bool) -> str:
+        return "critical" if flag else "—"
+
+    return [
+        str(row["set"]),
+        f"{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}",
+        critical(row["mean_planar_sliding"]),
+        shown(row["planar_percent_by_count"], 0),
+        critical(row["mean_flexural_toppling"]),
+        shown(row["toppling_percent_by_count"], 0),
+        ", ".join(str(s) for s in row["mean_wedges_with_sets"]) or "—",
+        shown(row["wedge_percent_by_count"], 0),
+    ]
+
+
+def set_mean_wedge_line(wedge: dict) -> str:
+    """One critical wedge of two sets' means (``kinematics.json``'s ``set_mean_wedges``).
+
+    Examples
+    --------
+    >>> set_mean_wedge_line({"sets": [0, 2], "trend": 168.9, "plunge": 41.2, "wedge_fs": 0.636})
+    'The means of sets 0 and 2 form a critical wedge: its line plunges 41° toward 169, factor of safety 0.64.'
+    """
+    a, b = wedge["sets"]
+    where = f" in section {wedge['section']}" if "section" in wedge else ""
+    return (
+        f"The means of sets {a} and {b} form a critical wedge{where}: its line plunges {wedge['plunge']:.0f}° "
+        f"toward {whole_azimuth(wedge['trend'])}, factor of safety {shown(wedge['wedge_fs'])}."
+    )
+
+
+#: The per-set kinematics table's title, for one slope and for a face tested in sections.
+SET_KINEMATIC_TITLES = (
+    "Sets against the slope: the mean plane's tests, and the set's planes critical",
+    "Sets against the sections' slopes: a mean is critical where it is in any section (kinematics.json has each), "
+    "and the set's planes critical in their own section",
+)

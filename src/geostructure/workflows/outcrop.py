@@ -1,0 +1,270 @@
+"""One call for what ``geostructure measure --sets --kinematics`` does, in memory.
+
+The command line parses its options, calls :func:`measure_outcrop` and :meth:`OutcropRun.save`,
+and prints; a notebook gets the same result from the same two calls. The stages, in order
+(each the library's own function):
+
+1. the coordinate system and north: a CRS given over the file's own, azimuths turned to
+   true north by the grid convergence unless ``grid_north`` (:func:`~.io.crs.true_north_frame`);
+2. the parameters: chosen from the cloud (:func:`~geostructure.detect.auto.choose_params`) unless ``auto`` is
+   off or every factor is given;
+3. the planes (:func:`~geostructure.detect.pipeline.measure`);
+4. with ``sets``: the joint sets and the rock mass (:func:`~geostructure.workflows.saving.sets_and_rock_mass`), and
+   the notes on what the face hides;
+5. with ``kinematics``: the slope fitted to the face (:func:`~geostructure.kinematics.slope.fit_face`)
+   unless given; the tests themselves run as the files are written
+   (:func:`~geostructure.workflows.kinematics.stage_kinematics`), since they read the written folder.
+
+Examples
+--------
+>>> from geostructure.synthetic import outcrop_scene
+>>> run = measure_outcrop(outcrop_scene(width=6.0, height=4.0, seed=1).cloud, sets=True)
+>>> len(run.sets), len(run.planes) > 50
+(3, True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from geostructure.core.bounds import column_max, column_min
+from geostructure.core.cloud import Cloud
+from geostructure.core.orientation import Frame
+from geostructure.core.params import Params
+from geostructure.detect.auto import choose_params
+from geostructure.detect.pipeline import Result, check_measurable, measure
+from geostructure.errors import GeoStructureNote
+from geostructure.io.crs import cloud_unit, describe_north, given_crs, note_unstated_unit, true_north_frame
+from geostructure.io.tiles import read_tiles
+from geostructure.kinematics.slope import fit_face
+from geostructure.rockmass.face import FACE
+from geostructure.rockmass.mass import RockMass, with_rock_mass
+from geostructure.rockmass.notes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
+from geostructure.rockmass.sets import JointSets
+from geostructure.workflows.kinematics import stage_kinematics
+from geostructure.workflows.saving import detected_spacing, save_measurement, sets_and_rock_mass
+
+#: The factors the automatic choice sets, unless given.
+FACTORS = ("zeta", "theta", "psi", "k")
+
+
+@dataclass
+class OutcropRun:
+    """What :func:`measure_outcrop` found: the measure (``result``: planes, labels, the
+    parameters and frame used), the joint sets and rock mass when asked, the kinematic
+    settings (the fitted slope in them), and what ``run.json`` records of the run beyond the
+    measure (``record``: the automatic choice, the unit, north). After :meth:`save`,
+    ``kinematics`` holds the kinematic tests' summary and ``paths`` the files written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from geostructure.synthetic import outcrop_scene
+    >>> run = measure_outcrop(outcrop_scene(width=6.0, height=4.0, seed=1).cloud, sets=True,
+    ...                       kinematics={"friction": 30.0})
+    >>> paths = run.save(tempfile.mkdtemp())
+    >>> sorted(k for k in paths if k.startswith("kin")), "planar_sliding" in run.kinematics
+    (['kinematics', 'kinematics_json', 'kinematics_png'], True)
+    """
+
+    result: Result
+    sets: JointSets | None = None
+    rock: RockMass | None = None
+    kinematic_options: dict | None = None
+    record: dict = field(default_factory=dict)
+    kinematics: dict = field(default_factory=dict)
+    paths: dict = field(default_factory=dict)
+
+    @property
+    def planes(self):
+        """The plane table, with the sets' and rock mass's columns when measured."""
+        return self.result.planes if self.sets is None else with_rock_mass(self.result.planes, self.sets, self.rock)
+
+    def save(
+        self, outdir, *, extra: dict | None = None, evaluation=None, report: bool = False, inputs=(),
+        point_files=True, progress=None,
+    ) -> dict[str, Path]:  # fmt: skip
+        """Write the folder as the command does, as one set: the measure's files, the sets',
+        the kinematic tests' (run here, on the staged files) and the report; returns output
+        kind -> path. ``extra``: more entries for ``run.json``; ``point_files`` as
+        :func:`~geostructure.workflows.saving.save_measurement` takes it."""
+        report_stage = progress or (lambda stage, done, total: None)
+        options, result = self.kinematic_options, self.result
+
+        def stage_kinematics_too(outputs):
+            """The kinematics, in the measure's own set: one command, one commit."""
+            held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # the folder's points
+            summary, kinematic_paths = stage_kinematics(outputs, outputs.staging, **options, progress=progress,
+                                                        points=(held, result.labels, result.filtered.vegetation))  # fmt: skip
+            self.kinematics.update(summary)
+            return kinematic_paths
+
+        report_stage("write", 0, None)
+        if callable(point_files) and progress is not None:  # a thinned survey's: its own bar
+            point_files = functools.partial(point_files, progress=progress)
+        self.paths = save_measurement(
+            result,
+            outdir,
+            extra={"auto": self.record.get("auto"), **(extra or {}), **self.record},  # run.json's order
+            evaluation=evaluation,
+            report=report,
+            inputs=inputs,
+            sets=self.sets,
+            rock=self.rock,
+            point_files=point_files,
+            then=stage_kinematics_too if options is not None else None,
+        )
+        return self.paths
+
+    def tables(self) -> dict:
+        """The planes, and the sets when measured, as pandas DataFrames (``pip install
+        pandas``): one row per plane or set, the columns of ``planes.csv`` and ``sets.csv``."""
+        import pandas as pd
+
+        tables = {"planes": pd.DataFrame(self.planes.rows())}
+        if self.sets is not None:
+            rows = self.sets.rows()
+            if self.rock is not None:
+                rows = [{**a, **b} for a, b in zip(rows, self.rock.set_rows())]
+            tables["sets"] = pd.DataFrame(rows)
+        return tables
+
+
+def measure_outcrop(
+    cloud,
+    *,
+    frame: Frame = Frame(),
+    params: Params | None = None,
+    auto: bool = True,
+    given: dict | None = None,
+    crs: str | None = None,
+    unit: str | None = None,
+    grid_north: bool = False,
+    sets: bool = False,
+    n_sets: int | None = None,
+    kinematics: dict | None = None,
+    progress=None,
+    seconds: dict | None = None,
+    on_choice=None,
+) -> OutcropRun:
+    """Measure an outcrop as ``geostructure measure`` does, automatic parameters included.
+
+    Parameters
+    ----------
+    cloud : Cloud, path or list of paths
+        The cloud, or its file(s) (tiles of one survey).
+    frame : Frame
+        Which way east, north and up point in the cloud's axes.
+    params : Params, optional
+        The parameters other than the automatic ones (the filter, the detector, ...).
+    auto : bool
+        Choose zeta, theta, psi and k from the cloud; those in ``given`` still win.
+    given : dict, optional
+        Factors set by hand (``{"zeta": 0.02}``).
+    crs : str, optional
+        The cloud's coordinate reference system when its file declares none (``EPSG:32633``).
+    unit : str, optional
+        The length unit of a cloud without a CRS (``m``, ``cm``, ``mm``, ``ft``, ``us-ft``).
+    grid_north : bool
+        Read azimuths against the CRS's grid north instead of true north.
+    sets : bool
+        Also find the joint sets and the rock mass.
+    n_sets : int, optional
+        How many sets; chosen by BIC when not given.
+    kinematics : dict, optional
+        The kinematic tests' settings, as :func:`~geostructure.workflows.kinematics.stage_kinematics` takes
+        them (``friction`` at least; ``slope`` None: fitted to the face). Needs ``sets``.
+    progress : callable, optional
+        ``progress(stage, done, total)``.
+    seconds : dict, optional
+        Times already spent (reading), for ``run.json``.
+    on_choice : callable, optional
+        Called with the automatic choice's description, before the measure.
+
+    Returns
+    -------
+    OutcropRun
+
+    Raises
+    ------
+    GeoStructureError
+        A cloud that cannot be measured, parameters that mean nothing.
+
+    Examples
+    --------
+    >>> from geostructure.synthetic import outcrop_scene
+    >>> run = measure_outcrop(outcrop_scene(width=6.0, height=4.0, seed=1).cloud)
+    >>> sorted(run.record["auto"])[:3], len(run.planes) > 50
+    (['k', 'normal_noise_deg', 'offset_noise_voxel_edges'], True)
+    """
+    report = progress or (lambda stage, done, total: None)
+    if not isinstance(cloud, Cloud):
+        paths = [Path(p) for p in ([cloud] if isinstance(cloud, (str, Path)) else cloud)]
+        t = time.perf_counter()
+        cloud = read_tiles(paths)
+        seconds = {"read": time.perf_counter() - t, **(seconds or {})}
+    params = params or Params()
+    crs = given_crs(crs, cloud.crs, cloud.source)
+    if crs != cloud.crs:
+        cloud = dataclasses.replace(cloud, crs=crs)
+    record, north = {}, None
+    if cloud.crs is not None and not grid_north and len(cloud):
+        frame, north = true_north_frame(frame, cloud.crs, cloud.offset + column_min(cloud.local),
+                                        cloud.offset + column_max(cloud.local))  # fmt: skip
+    if crs is not None or unit is not None:
+        record["unit"] = cloud_unit(crs, unit)
+    if north:
+        record["north"] = north
+        warnings.warn(describe_north(north), GeoStructureNote, stacklevel=2)
+    t = time.perf_counter()
+    report("auto", 0, None)
+    params, choice, moments = _chosen(cloud, params, auto, dict(given or {}), on_choice)
+    auto_seconds = time.perf_counter() - t
+    result = measure(cloud, params, frame, progress, moments=moments)
+    del moments
+    result.seconds = {**(seconds or {}), "auto": auto_seconds, **result.seconds}
+    run = OutcropRun(result, record={"auto": choice, **record})
+    if sets:
+        if crs is None and unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
+            note_unstated_unit(detected_spacing(result.detection), cloud.source)
+        run.sets, run.rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
+                                                n_sets, lambda stage: report(stage, 0, None),
+                                                errors=result.planes.standard_errors(),  # as measured: no tilt yet
+                                                spacing=detected_spacing(result.detection),
+                                                metres_per_unit=cloud_unit(crs, unit)["metres"],
+                                                vegetation=result.filtered.vegetation)  # fmt: skip
+        rock = run.rock
+        note_vegetation(result.filtered.vegetation, rock, cloud.source)
+        note_voxel_planes(params.detector, cloud.source)
+        note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
+        note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
+    if kinematics is not None:
+        kinematics = dict(kinematics)
+        if kinematics.get("slope") is None and run.rock is not None:
+            # The face the sets' rock mass was read on, fitted here, where its points are:
+            # the folder's would be read back and told from their ground and clutter again.
+            members = None if run.rock.point_part is None else run.rock.point_part == FACE
+            kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=run.rock.face_bend,
+                                           offset=result.filtered.offset, sections=run.rock.sections)  # fmt: skip
+        run.kinematic_options = kinematics
+    return run
+
+
+def _chosen(cloud: Cloud, params: Params, auto: bool, given: dict, on_choice):
+    """The parameters the run takes: ``params`` with the automatic choice where asked (the
+    given factors still win), the choice's record for ``run.json`` and its voxel moments."""
+    if given and any(getattr(params, name) != value for name, value in given.items()):
+        params = params.with_(**given)
+    if not auto or len(given) == len(FACTORS):
+        return params, None, None
+    check_measurable(cloud)
+    choice = choose_params(cloud.local, params)
+    chosen = choice.params.with_(**given) if given else choice.params
+    if on_choice is not None:
+        on_choice(choice.describe() + (f"; given: {given}" if given else ""))
+    return chosen, choice.to_dict(given), choice.moments
