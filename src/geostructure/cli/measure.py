@@ -208,7 +208,7 @@ def measure_cloud(
     with StageProgress(enabled=not args.quiet) as progress:
         run = measure_outcrop(cloud, frame=frame, params=base_params(args), auto=args.auto, given=given_factors(args),
                               crs=crs_from(args), unit=unit, grid_north=args.grid_north, sets=wants_sets(args),
-                              n_sets=args.n_sets, kinematics=kinematic_settings(args), progress=progress,
+                              n_sets=getattr(args, "n_sets", None), kinematics=kinematic_settings(args), progress=progress,
                               seconds=seconds, on_choice=say_choice)  # fmt: skip
         result, sets, rock = run.result, run.sets, run.rock
         if truth is not None and run.record.get("north"):  # a compass's azimuths are true: read in the turned frame
