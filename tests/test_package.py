@@ -238,3 +238,29 @@ def test_the_layer_checker_finds_a_forbidden_import():
 def test_at_most_eight_modules_lie_flat_in_the_package():
     flat = sorted(p.name for p in PACKAGE.glob("*.py"))
     assert len(flat) <= 8, flat
+
+
+def test_the_public_edge_raises_the_error_of_its_kind(tmp_path):
+    """Readers raise InputError, options ParameterError, outputs OutputError (issue 44: 118
+    of 193 raises used the base class, and no reader raised InputError)."""
+    from geostructure import InputError, OutputError, ParameterError, Params, read_cloud, save_measurement
+    from geostructure.io.tiles import read_tiles
+
+    damaged = tmp_path / "c.ply"
+    damaged.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nend_header\n")
+    text = tmp_path / "c.xyz"
+    text.write_text("1 2\n")
+    for path in (damaged, text, tmp_path / "missing.las"):
+        with pytest.raises(InputError):
+            read_cloud(path)
+    with pytest.raises(InputError):
+        read_tiles([damaged, text])
+    with pytest.raises(ParameterError):
+        Params(zeta=2.0)
+    (tmp_path / "taken").write_text("a file where the folder goes")
+    from geostructure import measure
+    from geostructure.synthetic import observatory_scene
+
+    result = measure(observatory_scene(20_000, seed=1).cloud)
+    with pytest.raises(OutputError):
+        save_measurement(result, tmp_path / "taken")

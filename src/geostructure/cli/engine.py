@@ -12,7 +12,7 @@ from geostructure.cli.options import base_params, crs_from, crs_record, given_fa
 from geostructure.cli.progress import StageProgress
 from geostructure.cli.rockmass import wants_sets
 from geostructure.cli.tables import counted, print_evaluation, print_planes
-from geostructure.errors import GeoStructureError
+from geostructure.errors import ParameterError
 from geostructure.evaluation.groundtruth import evaluate
 from geostructure.evaluation.scoring import stage_evaluation
 from geostructure.io.crs import recorded_unit
@@ -113,13 +113,11 @@ def check_spill_dir(folder) -> None:
 
     folder = Path(folder)
     if not folder.is_dir():
-        raise GeoStructureError(
-            f"--spill-dir {folder}: no such folder; give an existing folder with room for the points."
-        )
+        raise ParameterError(f"--spill-dir {folder}: no such folder; give an existing folder with room for the points.")
     try:
         os.rmdir(tempfile.mkdtemp(prefix=".geostructure-probe-", dir=folder))
     except OSError as exc:
-        raise GeoStructureError(f"--spill-dir {folder}: the folder is not writable ({exc.strerror}).") from None
+        raise ParameterError(f"--spill-dir {folder}: the folder is not writable ({exc.strerror}).") from None
 
 
 def check_scheduler_address(address: str) -> None:
@@ -133,7 +131,7 @@ def check_scheduler_address(address: str) -> None:
         if scheme in ("tcp", "tls"):
             parse_host_port(location)
     except (ValueError, TypeError) as error:
-        raise GeoStructureError(
+        raise ParameterError(
             f"--scheduler {address!r} is no Dask scheduler address ({error}): give one as tcp://HOST:PORT."
         ) from None
 
@@ -143,9 +141,9 @@ def chosen_engine(args, paths) -> str:
     engine = getattr(args, "engine", "memory")
     given = [name for name, value in (("--scheduler", args.scheduler), ("--workers", args.workers)) if value]
     if given and engine != "dask":
-        raise GeoStructureError(f"{' and '.join(given)} set up a Dask cluster: give them with --engine dask.")
+        raise ParameterError(f"{' and '.join(given)} set up a Dask cluster: give them with --engine dask.")
     if args.workers is not None and args.workers < 1:
-        raise GeoStructureError(f"--workers must be at least 1, not {args.workers}.")
+        raise ParameterError(f"--workers must be at least 1, not {args.workers}.")
     if args.scheduler:
         check_scheduler_address(args.scheduler)
     if getattr(args, "spill_dir", None) is not None:

@@ -40,7 +40,7 @@ from geostructure.cli.tables import (
 )
 from geostructure.cli.thinned import thinned_survey
 from geostructure.detect.pipeline import measure
-from geostructure.errors import GeoStructureError, GeoStructureNote
+from geostructure.errors import GeoStructureNote, ParameterError
 from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE
 from geostructure.evaluation.groundtruth import evaluate, match_scene, scene_truth
 from geostructure.evaluation.scoring import add_evaluation, add_validation
@@ -248,7 +248,7 @@ def measure_cloud(
 
 def run_evaluate(args) -> int:
     if (args.truth is None) == (args.fractures is None):
-        raise GeoStructureError("evaluate needs --truth TRUTH.csv or --fractures MAP.csv (one of the two).")
+        raise ParameterError("evaluate needs --truth TRUTH.csv or --fractures MAP.csv (one of the two).")
     if args.fractures is not None:
         summary, paths = add_validation(args.outdir, args.fractures, set_means=args.set_means,
                                         max_distance=args.max_distance, max_angle=args.max_angle)  # fmt: skip
@@ -257,7 +257,7 @@ def run_evaluate(args) -> int:
             print(f"wrote {', '.join(str(p) for p in paths.values())}")
         return 0
     if args.set_means is not None:
-        raise GeoStructureError("--set-means goes with --fractures.")
+        raise ParameterError("--set-means goes with --fractures.")
     evaluation, extra, paths = add_evaluation(args.outdir, args.truth, fit_frame=args.fit_frame)
     if not args.quiet:
         print_evaluation(evaluation)
@@ -311,7 +311,7 @@ def run_sweep(args) -> int:
     frame = frame_from(args)
     base_params(args)
     if args.factor == "all" and any(v is not None for v in (args.start, args.end, args.step)):
-        raise GeoStructureError("--start, --end and --step need a single --factor.")
+        raise ParameterError("--start, --end and --step need a single --factor.")
     factors = FACTORS if args.factor == "all" else (args.factor,)
     ranges = {args.factor: (args.start, args.end, args.step)} if args.factor != "all" else {}
     for factor in factors:  # a bad range is refused before the cloud is read
@@ -322,7 +322,7 @@ def run_sweep(args) -> int:
         cloud, truth = scene.cloud, scene_truth(scene, frame)
     else:
         if args.input is None or args.truth is None:
-            raise GeoStructureError("sweep needs INPUT and --truth TRUTH.csv, or --demo.")
+            raise ParameterError("sweep needs INPUT and --truth TRUTH.csv, or --demo.")
         truth = read_truth(args.truth, frame)
         cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
     base, _, _ = params_from(args, cloud)

@@ -15,7 +15,7 @@ from geostructure.core.params import Params
 from geostructure.detect.auto import choose_params
 from geostructure.detect.facets import DETECTORS
 from geostructure.detect.pipeline import check_measurable
-from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
+from geostructure.errors import GeoStructureNote, GeoStructureWarning, ParameterError
 from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, cloud_unit, describe_north, parse_crs
 from geostructure.io.gis import NO_CRS_NOTE
 from geostructure.io.outdir import check_inputs_not_outputs, check_outdir
@@ -218,7 +218,7 @@ def params_from(args, cloud=None) -> tuple[Params, dict | None, object]:
 
 def frame_from(args) -> Frame:
     if (args.up is None) != (args.north is None):
-        raise GeoStructureError("give both --up and --north, or neither.")
+        raise ParameterError("give both --up and --north, or neither.")
     if args.up is not None:
         return Frame.from_up_north(args.up, args.north, args.declination)
     return Frame.named(args.frame, args.declination)
@@ -229,7 +229,7 @@ def crs_from(args) -> str | None:
     before any work; None when not given."""
     text = getattr(args, "crs", None)
     if text is not None and not text.strip():
-        raise GeoStructureError("--crs is empty: give EPSG:XXXX or a file holding the CRS's WKT, or leave it out.")
+        raise ParameterError("--crs is empty: give EPSG:XXXX or a file holding the CRS's WKT, or leave it out.")
     if not text:
         return None
     crs = parse_crs(text)

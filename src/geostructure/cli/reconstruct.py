@@ -23,7 +23,7 @@ from geostructure.cli.options import (
 from geostructure.cli.progress import StageProgress
 from geostructure.core.cloud import Cloud
 from geostructure.core.orientation import Frame
-from geostructure.errors import GeoStructureError
+from geostructure.errors import GeoStructureError, InputError
 from geostructure.io.truth import read_truth
 from geostructure.reconstruct.dense import DenseOptions
 from geostructure.reconstruct.frames import FrameOptions, extract_frames
@@ -129,14 +129,14 @@ def run_run(args) -> int:
     )
     check_before_work(args, [args.truth, args.gcp])
     if not args.source.exists():
-        raise GeoStructureError(f"{args.source}: no such file or folder.")
+        raise InputError(f"{args.source}: no such file or folder.")
     if args.gcp:  # a bad control file is found now, not after SfM, dense and meshing
         if args.gcp.suffix.lower() != ".json":
             read_gcp_csv(args.gcp)
         elif args.source.is_dir():  # OpenSfM's JSON names the photos, so it is checked against them
             read_gcp(args.gcp, args.source)
         elif not args.gcp.is_file():
-            raise GeoStructureError(f"{args.gcp}: no such file.")
+            raise InputError(f"{args.gcp}: no such file.")
     truth = read_truth(args.truth, frame) if args.truth else None
     if args.source.is_dir():
         list_images(args.source)  # every photo is an image, before any folder is made

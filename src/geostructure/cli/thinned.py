@@ -14,7 +14,7 @@ import numpy as np
 from geostructure.cli.engine import MEMORY_BASE_BYTES, chunk_points, default_max_memory, memory_bytes_per_point
 from geostructure.cli.progress import StageProgress
 from geostructure.core.cloud import Cloud
-from geostructure.errors import GeoStructureError, GeoStructureNote
+from geostructure.errors import GeoStructureNote, ParameterError
 from geostructure.io.crs import cloud_unit
 from geostructure.io.laz import POINT_SET_DIMENSIONS, point_joints, point_sets
 from geostructure.stream import DaskExecutor, SerialExecutor, spill_inputs
@@ -32,7 +32,7 @@ def thinned_points(args) -> int:
     limit = args.max_memory or default_max_memory()
     points = (limit - MEMORY_BASE_BYTES) // memory_bytes_per_point(args)
     if points < MIN_THINNED_POINTS:
-        raise GeoStructureError(
+        raise ParameterError(
             f"--max-memory {limit >> 20}M holds too few points to measure a rock mass in: give at least "
             f"{(MEMORY_BASE_BYTES + MIN_THINNED_POINTS * memory_bytes_per_point(args)) >> 20}M."
         )

@@ -12,17 +12,17 @@ import numpy as np
 
 from geostructure.core.bounds import column_max, column_min, first_bad_coordinates
 from geostructure.core.cloud import MAX_COORDINATE
-from geostructure.errors import GeoStructureError, GeoStructureWarning
+from geostructure.errors import GeoStructureWarning, InputError
 
 
 def check_points(points: np.ndarray, path, offset=None) -> None:
     """Refuse coordinates no measurement can use: NaN/inf, too few, degenerate; ``points``
     relative to ``offset`` when given."""
     if len(points) == 0:
-        raise GeoStructureError(f"{path}: holds no points.")
+        raise InputError(f"{path}: holds no points.")
     check_coordinates(points, path, offset=offset)
     if len(points) < 3:
-        raise GeoStructureError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
+        raise InputError(f"{path}: holds {len(points)} point(s); a plane needs at least 3.")
 
 
 def check_coordinates(points: np.ndarray, path, first: int = 0, offset=None) -> None:
@@ -34,11 +34,11 @@ def check_coordinates(points: np.ndarray, path, first: int = 0, offset=None) -> 
         return
     kind, count, row = problem
     if kind == "not finite":
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: {count:,} point(s) have NaN or infinite coordinates (the first is point number "
             f"{first + row + 1:,}, counting from 1)."
         )
-    raise GeoStructureError(
+    raise InputError(
         f"{path}: point number {first + row + 1:,} (counting from 1) has a coordinate beyond {MAX_COORDINATE:.0e}, which no survey "
         f"uses (float64 keeps no millimetres there); the file may be damaged."
     )
@@ -98,7 +98,7 @@ def check_coordinate_step(points: np.ndarray, stored_step: tuple[float, str] | N
     heaped = spacing == 0 and distinct < 2 * step
     if heaped or step > MAX_STEP_SPACINGS * spacing > 0:
         ratio = "" if heaped else f", {step / spacing:.0f} times its point spacing ({spacing:.3g})"
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: its coordinates are stored {stored} {step:g}{ratio}, so its points are heaped on that grid, not "
             f"on their surfaces; save it with finer coordinates (double precision, a finer LAS scale, or shifted "
             f"near the origin) and measure that."

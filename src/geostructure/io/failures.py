@@ -20,7 +20,7 @@ import struct
 from contextlib import contextmanager
 from pathlib import Path
 
-from geostructure.errors import GeoStructureError
+from geostructure.errors import GeoStructureError, InputError
 
 #: The most bytes one LAZ chunk may decompress to: a chunk is 50,000 points (some 1.7 MB)
 #: in the files LAStools, PDAL and laspy write; above this the number is damaged.
@@ -66,7 +66,7 @@ def _damaged(path, what: str):
     except BaseException as exc:
         if not is_library_failure(exc) or isinstance(exc, GeoStructureError):
             raise
-        raise GeoStructureError(f"{path}: its {what} is damaged ({exc}).") from None
+        raise InputError(f"{path}: its {what} is damaged ({exc}).") from None
 
 
 def read_error(path, exc: BaseException) -> GeoStructureError | None:
@@ -127,7 +127,7 @@ def check_laz_chunks(path, header) -> None:
         compression = lazrs.LazVlr(record.record_data)
     point_bytes = max(int(compression.item_size()), 1)
     if not compression.uses_variable_size_chunks() and compression.chunk_size() * point_bytes > MAX_CHUNK_BYTES:
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: its LAZ compression record is damaged: chunks of {compression.chunk_size():,} points "
             f"({compression.chunk_size() * point_bytes / 2**30:.0f} GiB each)."
         )
@@ -145,11 +145,11 @@ def check_laz_chunks(path, header) -> None:
             fh.seek(max(size - 8, 0))
             (table,) = struct.unpack("<q", fh.read(8).rjust(8, b"\0"))
         if not start + 8 <= table <= size - 8:
-            raise GeoStructureError(f"{path}: its LAZ chunk table is damaged (at byte {table} of {size}).")
+            raise InputError(f"{path}: its LAZ chunk table is damaged (at byte {table} of {size}).")
         fh.seek(table)
         version, chunks = struct.unpack("<II", fh.read(8))
         if version != 0 or chunks > size - start:
-            raise GeoStructureError(
+            raise InputError(
                 f"{path}: its LAZ chunk table is damaged (version {version}, {chunks:,} chunks in {size:,} bytes)."
             )
         fh.seek(start)
@@ -157,10 +157,8 @@ def check_laz_chunks(path, header) -> None:
             entries = lazrs.read_chunk_table(fh, compression)
     held = sum(int(n_bytes) for _, n_bytes in entries)
     if held > size - start:
-        raise GeoStructureError(
-            f"{path}: its LAZ chunk table is damaged: its chunks hold {held:,} bytes, the file {size:,}."
-        )
+        raise InputError(f"{path}: its LAZ chunk table is damaged: its chunks hold {held:,} bytes, the file {size:,}.")
     if compression.uses_variable_size_chunks():
         largest = max((int(n_points) for n_points, _ in entries), default=0)
         if largest * point_bytes > MAX_CHUNK_BYTES:
-            raise GeoStructureError(f"{path}: its LAZ chunk table is damaged: a chunk of {largest:,} points.")
+            raise InputError(f"{path}: its LAZ chunk table is damaged: a chunk of {largest:,} points.")

@@ -15,7 +15,7 @@ import numpy as np
 
 from geostructure.core.cloud import Cloud
 from geostructure.core.duplicates import without_copies
-from geostructure.errors import GeoStructureError, GeoStructureNote, ParameterError
+from geostructure.errors import GeoStructureNote, InputError, ParameterError
 from geostructure.io.checks import check_coordinate_step, check_points, las_step, ply_step
 from geostructure.io.crs import check_cloud_crs
 from geostructure.io.failures import check_laz_chunks, laz_readers, translated_read_errors
@@ -59,14 +59,14 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
     """
     path = Path(path)
     if not path.exists():
-        raise GeoStructureError(f"{path}: no such file.")
+        raise InputError(f"{path}: no such file.")
     if path.is_dir():
-        raise GeoStructureError(f"{path}: is a folder, not a point-cloud file.")
+        raise InputError(f"{path}: is a folder, not a point-cloud file.")
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
-        raise GeoStructureError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
+        raise InputError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
     if path.stat().st_size == 0:
-        raise GeoStructureError(f"{path}: the file is empty.")
+        raise InputError(f"{path}: the file is empty.")
     with translated_read_errors(path):  # a library's parse error: the user's file is at fault
         if suffix == ".ply":
             cloud = read_ply(path, mesh_samples=mesh_samples, seed=seed)
@@ -98,7 +98,7 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
             try:
                 points, normals = sample_mesh(points, faces, mesh_samples, seed=seed)
             except OverflowError:
-                raise GeoStructureError(f"{path}: the mesh's coordinates are too large to sample its faces.") from None
+                raise InputError(f"{path}: the mesh's coordinates are too large to sample its faces.") from None
     return Cloud.from_points(points, source=str(path), normals=normals)
 
 
@@ -131,12 +131,12 @@ def ply_vertices(path: Path):
     check_ply_size(path)
     data = PlyData.read(str(path), mmap="r")
     if "vertex" not in data:
-        raise GeoStructureError(f"{path}: has no 'vertex' element.")
+        raise InputError(f"{path}: has no 'vertex' element.")
     vertex = data["vertex"].data
     missing = [axis for axis in "xyz" if axis not in (vertex.dtype.names or ())]
     if missing:
         present = ", ".join(vertex.dtype.names or ()) or "none"
-        raise GeoStructureError(f"{path}: vertex has no '{missing[0]}' property (it has: {present}).")
+        raise InputError(f"{path}: vertex has no '{missing[0]}' property (it has: {present}).")
     return data, vertex
 
 
@@ -146,7 +146,7 @@ def check_ply_size(path: Path) -> None:
         head = fh.read(65536)
     end = head.find(b"end_header")
     if not head.startswith(b"ply") or end < 0:
-        raise GeoStructureError(f"{path}: not a PLY file (no 'ply' magic line or no 'end_header').")
+        raise InputError(f"{path}: not a PLY file (no 'ply' magic line or no 'end_header').")
     header = head[:end].decode("ascii", errors="replace")
     fmt = re.search(r"^format\s+(\S+)", header, re.M)
     if not fmt or fmt.group(1) == "ascii":
@@ -180,7 +180,7 @@ def check_ply_size(path: Path) -> None:
             need += count * sizes.get(parts[1], 0)
     body = path.stat().st_size - (end + len(b"end_header\n"))
     if body < need:
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: truncated: the header promises {need} bytes of fixed-size data, the file holds {body}."
         )
 
@@ -202,7 +202,7 @@ def _ply_faces(data, n_vertices: int, path) -> np.ndarray | None:
         tris += [corners[:, [0, i, i + 1]] for i in range(1, n - 1)]
     tris = np.vstack(tris)
     if len(tris) and (tris.min() < 0 or tris.max() >= n_vertices):
-        raise GeoStructureError(f"{path}: a face refers to a vertex that does not exist.")
+        raise InputError(f"{path}: a face refers to a vertex that does not exist.")
     return tris
 
 
@@ -290,7 +290,7 @@ def note_left_out(path, kept: int, left_out) -> None:
         f"{n:,} {what}" for n, what in ((withheld, "withheld"), (noise, "noise (LAS classes 7 and 18)")) if n
     )
     if not kept:
-        raise GeoStructureError(f"{path}: every point is marked withheld or noise ({parts}); none is left to measure.")
+        raise InputError(f"{path}: every point is marked withheld or noise ({parts}); none is left to measure.")
     warnings.warn(
         f"{path}: {withheld + noise:,} point(s) left out, as the file marks them: {parts}.",
         GeoStructureNote,
@@ -316,7 +316,7 @@ class LasTally:
 
     def finish(self, path, expected: int) -> dict | None:
         if self.read < expected:
-            raise GeoStructureError(f"{path}: the header promises {expected} points, the file holds {self.read}.")
+            raise InputError(f"{path}: the header promises {expected} points, the file holds {self.read}.")
         note_left_out(path, self.kept, self.left_out)
         return left_out_record(self.left_out)
 
@@ -370,25 +370,25 @@ def check_las_header(path: Path) -> None:
     with open(path, "rb") as fh:
         head = fh.read(179)
     if len(head) < 179 or head[:4] != b"LASF":
-        raise GeoStructureError(f"{path}: not a LAS/LAZ file (no 'LASF' signature).")
+        raise InputError(f"{path}: not a LAS/LAZ file (no 'LASF' signature).")
     scales = struct.unpack_from("<3d", head, 131)
     bad = next((axis for axis, scale in zip("xyz", scales) if not (np.isfinite(scale) and scale != 0)), None)
     if bad is not None:
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: the header is damaged: the {bad} scale is {scales['xyz'.index(bad)]:g}, where a LAS "
             f"file's coordinates are integers times a scale that is not 0."
         )
     offsets = struct.unpack_from("<3d", head, 155)
     bad = next((axis for axis, offset in zip("xyz", offsets) if not np.isfinite(offset)), None)
     if bad is not None:
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: the header is damaged: the {bad} offset is {offsets['xyz'.index(bad)]:g}, where a LAS "
             f"file's coordinates are integers times a scale plus a finite offset."
         )
     header_size, point_offset, n_vlrs = struct.unpack_from("<HII", head, 94)
     size = path.stat().st_size
     if not header_size <= point_offset <= size or n_vlrs * 54 > point_offset - header_size:
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: the header is damaged ({n_vlrs} variable-length records and point "
             f"data at byte {point_offset} in a file of {size} bytes)."
         )

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from geostructure.core.cloud import Cloud
-from geostructure.errors import GeoStructureError
+from geostructure.errors import GeoStructureError, InputError
 
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.I)
 
@@ -27,7 +27,7 @@ def read_text(path: Path) -> Cloud:
     read where the separator is a semicolon, a tab or spaces."""
     first_lines = _first_data_lines(path, 2)
     if not first_lines:
-        raise GeoStructureError(f"{path}: holds no points.")
+        raise InputError(f"{path}: holds no points.")
     # A PTS file (Leica, FARO) opens each block of points with a line holding its count.
     counted = len(first_lines) == 2 and first_lines[0][1].strip().isdigit() and len(first_lines[1][1].split()) >= 3
     if counted:
@@ -57,7 +57,7 @@ def read_text(path: Path) -> Cloud:
                 ndmin=2,
             )
     except UnicodeDecodeError:
-        raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
+        raise InputError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):
         _raise_bad_line(path, delimiter, skip + counted, columns, decimal_comma, counted, quoted)
         raise
@@ -106,7 +106,7 @@ def _coordinate_columns(names: list[str], path) -> tuple[int, int, int]:
     lengths."""
     keys = [re.sub(r"\(.*?\)|\[.*?\]|[\"'\s/]", "", name).lower() for name in names]
     if all(set(keys) & group for group in _GEOGRAPHIC_NAMES):
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: its columns are latitude and longitude, in degrees, which are not lengths; project the "
             f"cloud to a metric coordinate system (UTM) and measure that."
         )
@@ -136,9 +136,9 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
         with open(path, "r", encoding="utf-8-sig") as fh:  # -sig: a byte-order mark is not data
             for number, line in enumerate(iter(lambda: fh.readline(MAX_LINE), ""), start=1):
                 if "\0" in line:
-                    raise GeoStructureError(f"{path}: holds NUL bytes on line {number}: not a text point cloud.")
+                    raise InputError(f"{path}: holds NUL bytes on line {number}: not a text point cloud.")
                 if len(line) >= MAX_LINE and not line.endswith("\n"):
-                    raise GeoStructureError(
+                    raise InputError(
                         f"{path}: line {number} runs past {MAX_LINE:,} characters: not a text point cloud."
                     )
                 if line.strip() and not line.lstrip().startswith(("#", "//")):
@@ -146,7 +146,7 @@ def _first_data_lines(path: Path, n: int) -> list[tuple[int, str]]:
                     if len(found) == n:
                         break
     except UnicodeDecodeError:
-        raise GeoStructureError(f"{path}: is not a text file (not UTF-8).") from None
+        raise InputError(f"{path}: is not a text file (not UTF-8).") from None
     return found
 
 
@@ -163,13 +163,13 @@ def _raise_bad_line(
             line = _decimal_points(line) if decimal_comma else line
             fields = _split(line, delimiter)
             if len(fields) <= max(columns):
-                raise GeoStructureError(
+                raise InputError(
                     f"{path}: line {number} has {len(fields)} field(s); x, y and z are needed"
                     + (f" (columns {', '.join(str(c + 1) for c in columns)})." if max(columns) > 2 else ".")
                 )
             bad = next((fields[c] for c in columns if not _NUMBER.match(fields[c])), None)
             if bad is not None:
-                raise GeoStructureError(f"{path}: line {number}: '{bad}' is not a number.")
+                raise InputError(f"{path}: line {number}: '{bad}' is not a number.")
 
 
 def _sniff_layout(line: str) -> tuple[str | None, bool]:

@@ -19,7 +19,7 @@ import numpy as np
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.cloud import Cloud
 from geostructure.core.duplicates import without_copies
-from geostructure.errors import GeoStructureError, GeoStructureNote
+from geostructure.errors import GeoStructureError, GeoStructureNote, InputError
 from geostructure.io.crs import check_cloud_crs, parse_crs
 from geostructure.io.readers import (
     DEFAULT_MESH_SAMPLES,
@@ -63,21 +63,19 @@ def expand_inputs(specs) -> list[Path]:
         if spec.is_dir():
             found = sorted(p for p in spec.iterdir() if p.is_file() and _is_point_file(p))
             if not found:
-                raise GeoStructureError(f"{spec}: the folder holds no point-cloud file ({', '.join(SUFFIXES)}).")
+                raise InputError(f"{spec}: the folder holds no point-cloud file ({', '.join(SUFFIXES)}).")
         elif not spec.exists() and glob.has_magic(str(spec)):
             found = sorted(Path(p) for p in glob.glob(str(spec)) if Path(p).is_file())
             if not found:
-                raise GeoStructureError(f"{spec}: the pattern matches no file.")
+                raise InputError(f"{spec}: the pattern matches no file.")
         else:
             found = [spec]
         paths.extend(p for p in found if p not in paths)
     for path in paths:
         if not path.exists():
-            raise GeoStructureError(f"{path}: no such file.")
+            raise InputError(f"{path}: no such file.")
         if path.suffix.lower() not in SUFFIXES:
-            raise GeoStructureError(
-                f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}."
-            )
+            raise InputError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
     return paths
 
 
@@ -216,7 +214,7 @@ def check_same_crs(first: Cloud, other: Cloud, first_path: Path, path: Path) -> 
         return
     if first.crs and other.crs and parse_crs(first.crs) == parse_crs(other.crs):
         return
-    raise GeoStructureError(
+    raise InputError(
         f"{path}: its coordinate system ({_crs_name(other)}) is not that of {first_path.name} "
         f"({_crs_name(first)}); tiles measured together must share one."
     )

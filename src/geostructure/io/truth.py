@@ -28,7 +28,7 @@ from geostructure.core.orientation import (
     normal_from_orientation,
     orientation_from_normals,
 )
-from geostructure.errors import GeoStructureError, GeoStructureWarning, InputError
+from geostructure.errors import GeoStructureWarning, InputError
 from geostructure.io.usercsv import read_rows
 
 QUADRANTS = {
@@ -83,12 +83,10 @@ def parse_dip(text: str, path, line: int) -> tuple[float, str]:
     """``"89(E)"`` -> (89.0, "E"); ``"40"`` -> (40.0, "")."""
     match = _DIP.match(text)
     if not match or (match.group(2) and match.group(2).upper() not in QUADRANTS):
-        raise GeoStructureError(
-            f"{path}: line {line}: dip '{text}' is not a number with an optional quadrant like 89(E)."
-        )
+        raise InputError(f"{path}: line {line}: dip '{text}' is not a number with an optional quadrant like 89(E).")
     dip = float(match.group(1))
     if not 0 <= dip <= 90:
-        raise GeoStructureError(f"{path}: line {line}: dip {dip} is outside 0 to 90 degrees.")
+        raise InputError(f"{path}: line {line}: dip {dip} is outside 0 to 90 degrees.")
     return dip, match.group(2).upper()
 
 
@@ -109,7 +107,7 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
     """Read a ground-truth CSV (see the module docstring) into :class:`GroundTruth`."""
     path = Path(path)
     if not path.is_file():
-        raise GeoStructureError(f"{path}: no such ground-truth file.")
+        raise InputError(f"{path}: no such ground-truth file.")
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's byte-order mark
             rows = read_rows(fh)
@@ -121,7 +119,7 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
         (i, r) for i, r in enumerate(rows, start=1) if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")
     ]
     if len(rows) < 2:
-        raise GeoStructureError(f"{path}: needs a header row and at least one surface.")
+        raise InputError(f"{path}: needs a header row and at least one surface.")
     if len(rows) - 1 > MAX_SURFACES:
         raise InputError(
             f"{path}: {len(rows) - 1:,} surfaces is more than a ground truth measured by hand holds (at most "
@@ -132,7 +130,7 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
     if repeated:
         raise InputError(f"{path}: the header names column '{repeated[0]}' more than once; keep one.")
     if "surface" not in header:
-        raise GeoStructureError(f"{path}: the header has no 'surface' column.")
+        raise InputError(f"{path}: the header has no 'surface' column.")
     names, dips, dds, normals, centres = [], [], [], [], []
     for line, row in rows[1:]:
         cell = {h: (row[i].strip() if i < len(row) else "") for i, h in enumerate(header)}
@@ -169,7 +167,7 @@ def _row_orientation(cell, frame, path, line, name):
         dd = dip_direction_from_strike(strike, quadrant)
     if np.isnan(dd) or np.isnan(dip):
         if not has_normal:
-            raise GeoStructureError(
+            raise InputError(
                 f"{path}: line {line}: surface '{name}' needs two of strike, dip and dip direction, or a normal."
             )
         o = orientation_from_normals(n, frame)
