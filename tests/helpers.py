@@ -3,6 +3,7 @@ and the checks of the error contract (one sentence, exit 2, the input untouched)
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import re
 from pathlib import Path
@@ -11,6 +12,9 @@ import numpy as np
 
 from geostructure.cli import main
 from geostructure.synthetic import observatory_scene, outcrop_scene
+
+#: The tests' folder, for the data files beside them (tests/data).
+TESTS_DIR = Path(__file__).resolve().parent
 
 #: An error line: the prefix, then one sentence (ending in a full stop; no second line).
 ERROR_LINE = re.compile(r"^geostructure: error: .+[.)]$")
@@ -92,3 +96,57 @@ def lidar_outcrop(width: float, height: float):
         seed=6,
         offset=(662_000.0, 5_103_000.0, 800.0),
     )
+
+
+def write_ply(path, points, *, text, dtype="f8", extra=True, faces=None):
+    from plyfile import PlyData, PlyElement
+
+    fields = [("x", dtype), ("y", dtype), ("z", dtype)] + ([("red", "u1"), ("intensity", "f4")] if extra else [])
+    v = np.zeros(len(points), dtype=fields)
+    v["x"], v["y"], v["z"] = points.T
+    elements = [PlyElement.describe(v, "vertex")]
+    if faces is not None:
+        f = np.empty(len(faces), dtype=[("vertex_indices", "i4", (3,))])
+        f["vertex_indices"] = faces
+        elements.append(PlyElement.describe(f, "face"))
+    PlyData(elements, text=text).write(str(path))
+
+
+UTM = (500_000.0, 4_600_000.0, 300.0)
+
+
+def write_laz(path, points, crs="EPSG:32633"):
+    import laspy
+    import pyproj
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, list(UTM)
+    if crs:
+        header.add_crs(pyproj.CRS(crs))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.write(str(path))
+
+
+def tile_index(points, n=4, axes=(0, 2)):
+    """Each point's tile on an n x n grid over two axes of the bounding box."""
+    lower, upper = points.min(axis=0), points.max(axis=0)
+    index = [np.minimum(((points[:, a] - lower[a]) / (upper[a] - lower[a]) * n).astype(int), n - 1) for a in axes]
+    return index[0] * n + index[1]
+
+
+def planes_of(out):
+    with open(out / "planes.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    centroid = np.array([[float(r[f"centroid_{a}"]) for a in "xyz"] for r in rows]).reshape(-1, 3)
+    normal = np.array([[float(r[f"normal_{a}"]) for a in "xyz"] for r in rows]).reshape(-1, 3)
+    return centroid, normal
+
+
+def turned_faces(turn: float, seed: int = 4) -> np.ndarray:
+    """Two 12 x 6 m faces side by side along x, the second turned ``turn`` degrees about the
+    vertical at their shared edge (as two generated outcrops, each with its own joints)."""
+    first = outcrop_scene(width=12.0, height=6.0, seed=seed, face_dip_direction=180.0)
+    second = outcrop_scene(width=12.0, height=6.0, seed=seed + 50, face_dip_direction=180.0 + turn,
+                           offset=(12.0, 0.0, 0.0))  # fmt: skip
+    return np.vstack([first.cloud.points, second.cloud.points])

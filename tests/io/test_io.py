@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 from conftest import shared_file
+from helpers import write_ply
 
 from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
 from geostructure.io.readers import read_cloud
@@ -10,20 +11,6 @@ from geostructure.io.readers import read_cloud
 def points():
     rng = np.random.default_rng(0)
     return rng.random((500, 3)) * [10, 20, 5] + [500_000.25, 5_000_000.5, 120.0]
-
-
-def write_ply(path, points, *, text, dtype="f8", extra=True, faces=None):
-    from plyfile import PlyData, PlyElement
-
-    fields = [("x", dtype), ("y", dtype), ("z", dtype)] + ([("red", "u1"), ("intensity", "f4")] if extra else [])
-    v = np.zeros(len(points), dtype=fields)
-    v["x"], v["y"], v["z"] = points.T
-    elements = [PlyElement.describe(v, "vertex")]
-    if faces is not None:
-        f = np.empty(len(faces), dtype=[("vertex_indices", "i4", (3,))])
-        f["vertex_indices"] = faces
-        elements.append(PlyElement.describe(f, "face"))
-    PlyData(elements, text=text).write(str(path))
 
 
 @pytest.mark.parametrize("text", [True, False])

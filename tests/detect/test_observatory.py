@@ -10,6 +10,7 @@ figure: the angles between the six surfaces.
 import numpy as np
 import pytest
 from conftest import shared_file
+from helpers import TESTS_DIR
 
 from geostructure.core.orientation import Frame, angle_between_normals
 from geostructure.core.params import Params
@@ -59,7 +60,7 @@ def test_evaluate_fit_frame_on_the_paper_cloud(tmp_path, capsys):
 
     from geostructure.cli import main
 
-    truth = __import__("pathlib").Path(__file__).parent / "data" / "paper_truth.csv"
+    truth = TESTS_DIR / "data" / "paper_truth.csv"
     cloud = shared_file("observatory/dense_poisson_oc_6.ply")
     out = tmp_path / "obs"
     # the paper's own method: its voxel detector, fixed parameters and no coplanar merge

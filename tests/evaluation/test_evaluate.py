@@ -1,7 +1,6 @@
-from pathlib import Path
-
 import numpy as np
 import pytest
+from helpers import TESTS_DIR
 
 from geostructure.core.orientation import Frame, normal_from_orientation, orientation_from_normals
 from geostructure.core.planes import Planes
@@ -9,7 +8,7 @@ from geostructure.errors import GeoStructureError
 from geostructure.evaluation.groundtruth import evaluate, run_score, z_score
 from geostructure.io.truth import GroundTruth, TruthWarning, dip_direction_from_strike, read_truth
 
-PAPER_TRUTH = Path(__file__).parent / "data" / "paper_truth.csv"
+PAPER_TRUTH = TESTS_DIR / "data" / "paper_truth.csv"
 
 
 def plane_set(dd_dip, centres=None):

@@ -8,8 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from helpers import run_cli, write_xyz
-from test_face_bend import turned_faces
+from helpers import run_cli, turned_faces, write_xyz
 
 from geostructure.core.orientation import normal_from_orientation
 from geostructure.io.results import read_planes

@@ -74,7 +74,7 @@ def test_sweep_command_writes_table_and_figures(tmp_path, capsys):
 
 
 def test_evaluate_command_and_measure_with_truth(tmp_path, capsys):
-    from test_io import write_ply
+    from helpers import write_ply
 
     scene = observatory_scene(40_000, seed=6)
     cloud_path = tmp_path / "scene.ply"

@@ -19,8 +19,7 @@ import warnings
 import laspy
 import numpy as np
 import pytest
-from helpers import assert_one_sentence, run_cli
-from test_tiles import UTM, write_laz
+from helpers import UTM, assert_one_sentence, run_cli, write_laz
 
 from geostructure.errors import GeoStructureError
 from geostructure.io.failures import LASZIP_RECORD_ID, read_error

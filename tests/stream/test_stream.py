@@ -11,8 +11,7 @@ import sys
 import laspy
 import numpy as np
 import pytest
-from helpers import assert_one_sentence, run_cli, write_classified_las
-from test_tiles import UTM, planes_of, tile_index, write_laz
+from helpers import UTM, assert_one_sentence, planes_of, run_cli, tile_index, write_classified_las, write_laz
 
 from geostructure import measure
 from geostructure.core.params import Params

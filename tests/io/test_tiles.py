@@ -2,45 +2,17 @@
 one, measure as the whole file does; a plane across four tiles is one region; tiles that
 disagree on their CRS are refused before any work; the order of the points changes nothing."""
 
-import csv
 import json
 
 import laspy
 import numpy as np
 import pyproj
 import pytest
-from helpers import assert_one_sentence, run_cli
+from helpers import UTM, assert_one_sentence, planes_of, run_cli, tile_index, write_laz
 from plyfile import PlyData
 
 from geostructure import Cloud, measure
 from geostructure.synthetic import outcrop_scene
-
-UTM = (500_000.0, 4_600_000.0, 300.0)
-
-
-def write_laz(path, points, crs="EPSG:32633"):
-    header = laspy.LasHeader(point_format=6, version="1.4")
-    header.scales, header.offsets = [0.001] * 3, list(UTM)
-    if crs:
-        header.add_crs(pyproj.CRS(crs))
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = points.T
-    las.write(str(path))
-
-
-def tile_index(points, n=4, axes=(0, 2)):
-    """Each point's tile on an n x n grid over two axes of the bounding box."""
-    lower, upper = points.min(axis=0), points.max(axis=0)
-    index = [np.minimum(((points[:, a] - lower[a]) / (upper[a] - lower[a]) * n).astype(int), n - 1) for a in axes]
-    return index[0] * n + index[1]
-
-
-def planes_of(out):
-    with open(out / "planes.csv", newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    centroid = np.array([[float(r[f"centroid_{a}"]) for a in "xyz"] for r in rows]).reshape(-1, 3)
-    normal = np.array([[float(r[f"normal_{a}"]) for a in "xyz"] for r in rows]).reshape(-1, 3)
-    return centroid, normal
 
 
 @pytest.fixture(scope="module")

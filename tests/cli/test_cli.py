@@ -5,7 +5,7 @@ import sys
 
 import numpy as np
 import pytest
-from test_io import write_ply
+from helpers import write_ply
 
 from geostructure.cli import main
 from geostructure.core.planes import PLANE_COLUMNS

@@ -5,19 +5,10 @@ import json
 
 import numpy as np
 import pytest
-from helpers import run_cli, write_xyz
+from helpers import run_cli, turned_faces, write_xyz
 
 from geostructure.rockmass.exposure import BENT_FACE, face_bend
 from geostructure.synthetic import outcrop_scene
-
-
-def turned_faces(turn: float, seed: int = 4) -> np.ndarray:
-    """Two 12 x 6 m faces side by side along x, the second turned ``turn`` degrees about the
-    vertical at their shared edge (as two generated outcrops, each with its own joints)."""
-    first = outcrop_scene(width=12.0, height=6.0, seed=seed, face_dip_direction=180.0)
-    second = outcrop_scene(width=12.0, height=6.0, seed=seed + 50, face_dip_direction=180.0 + turn,
-                           offset=(12.0, 0.0, 0.0))  # fmt: skip
-    return np.vstack([first.cloud.points, second.cloud.points])
 
 
 @pytest.mark.parametrize("turn", [20.0, 40.0, 90.0])

@@ -10,9 +10,8 @@ import re
 import laspy
 import numpy as np
 import pytest
-from helpers import run_cli
+from helpers import UTM, run_cli, tile_index, write_laz
 from plyfile import PlyData
-from test_tiles import UTM, tile_index, write_laz
 
 from geostructure.core.planes import Planes
 from geostructure.evaluation.groundtruth import match_facets
@@ -163,7 +162,7 @@ def test_sets_and_kinematics_on_a_thinned_folder_read_the_measured_points(survey
     first point of ``regions.ply`` (every point of the survey) on the recorded grid: the
     points the run measured, so the sets come out as the run's own; ``regions.laz`` is
     written again chunk by chunk, every point with its set."""
-    from test_rockmass import TEXT_SET_COLUMNS
+    from geostructure.io.results import TEXT_SET_COLUMNS
 
     _, tiles, _ = survey
     out = tmp_path / "out"

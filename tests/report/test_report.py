@@ -25,7 +25,7 @@ def test_pole_at_dip_40_dip_direction_89_sits_where_mplstereonet_puts_it():
 
 
 def test_exports_written_by_measure(tmp_path, scene, capsys):
-    from test_io import write_ply
+    from helpers import write_ply
 
     path = tmp_path / "scene.ply"
     write_ply(path, scene.cloud.points, text=False)
