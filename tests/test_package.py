@@ -165,6 +165,19 @@ def test_the_command_has_malloc_reuse_freed_memory_unless_the_user_chose(chosen)
 #: parts each may import: the layers of docs/architecture.md, bottom up. No part imports one
 #: above it, nothing but ``__main__`` imports the command line, and ``io`` imports no
 #: measuring part.
+#: What a workflow may call on: every part but the command line.
+WORKFLOW_PARTS = {
+    "core",
+    "detect",
+    "rockmass",
+    "kinematics",
+    "evaluation",
+    "io",
+    "stream",
+    "report",
+    "reconstruct",
+    "errors",
+}
 ALLOWED = {
     "root": set(),
     "errors": set(),
@@ -178,34 +191,9 @@ ALLOWED = {
     "evaluation": {"core", "detect", "io", "errors"},
     "stream": {"core", "detect", "io", "errors"},
     "report": {"core", "io", "rockmass", "reconstruct", "errors"},
-    "workflows": {
-        "core",
-        "detect",
-        "rockmass",
-        "kinematics",
-        "evaluation",
-        "io",
-        "stream",
-        "report",
-        "reconstruct",
-        "errors",
-    },  # fmt: skip
+    "workflows": WORKFLOW_PARTS,
     "testing": {"core", "detect", "evaluation", "synthetic", "io", "errors"},
-    "cli": {
-        "core",
-        "detect",
-        "rockmass",
-        "kinematics",
-        "evaluation",
-        "io",
-        "stream",
-        "report",
-        "reconstruct",
-        "synthetic",
-        "workflows",
-        "errors",
-        "root",
-    },  # fmt: skip
+    "cli": WORKFLOW_PARTS | {"synthetic", "workflows", "root"},
     "__main__": {"cli", "errors", "root"},
 }
 
