@@ -49,3 +49,15 @@ def test_the_tables_are_dataframes(tmp_path):
     run.save(tmp_path / "o")
     written = list(csv.DictReader(open(tmp_path / "o" / "sets.csv")))
     assert [float(r["dip"]) for r in written] == pytest.approx(tables["sets"]["dip"].tolist(), abs=1e-9)
+
+
+def test_the_streamed_workflow_writes_what_the_streamed_command_writes(tmp_path, capsys):
+    from geostructure.workflows.survey import measure_survey
+
+    cloud = write_xyz(tmp_path / "outcrop.xyz", outcrop_scene(width=6.0, height=4.0, seed=1).cloud.points)
+    run = measure_survey([cloud], tmp_path / "api")  # chunks as the command sizes them by default
+    assert len(run.result) > 5 and run.paths["planes"].name == "planes.csv"
+    code, _, _ = run_cli(capsys, "measure", cloud, "-o", tmp_path / "cli", "-q", "--engine", "stream")
+    assert code == 0
+    for name in ("planes.csv", "regions.ply"):
+        assert (tmp_path / "api" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name

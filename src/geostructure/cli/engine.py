@@ -8,21 +8,15 @@ import os
 import re
 import time
 
-from geostructure.cli.options import base_params, crs_from, crs_record, given_factors, say_what_was_left
+from geostructure.cli.options import base_params, crs_from, given_factors, say_what_was_left
 from geostructure.cli.progress import StageProgress
 from geostructure.cli.rockmass import wants_sets
 from geostructure.cli.tables import counted, print_evaluation, print_planes
 from geostructure.errors import ParameterError
-from geostructure.evaluation.groundtruth import evaluate
-from geostructure.evaluation.scoring import stage_evaluation
 from geostructure.io.crs import recorded_unit
-from geostructure.io.outdir import output_set
-from geostructure.io.writers import write_result
-from geostructure.stream import DaskExecutor, SerialExecutor, measure_stream
 from geostructure.stream.engine import DEFAULT_CHUNK_POINTS
-from geostructure.stream.output import RegionsLaz, RegionsPly
 from geostructure.stream.source import estimate_points
-from geostructure.workflows.saving import stage_report
+from geostructure.workflows.survey import measure_survey
 
 ENGINES = ("auto", "memory", "stream", "dask")
 #: A run in memory with the default options peaked at 1.10 GB for a 1M-point LAZ and 1.12 GB
@@ -164,45 +158,25 @@ def chunk_points(args) -> int:
 
 
 def run_streamed(args, paths, frame, engine: str, extra: dict | None, *, truth=None, inputs=()) -> int:
-    """Measure ``paths`` streamed (or on Dask) and write the folder's files as one set."""
-    params = base_params(args).with_(detector="voxel")
-    auto = given_factors(args) if args.auto else None
-    executor = DaskExecutor(args.scheduler, args.workers) if engine == "dask" else SerialExecutor()
+    """Measure ``paths`` streamed (or on Dask) and write the folder's files as one set
+    (:func:`~geostructure.workflows.survey.measure_survey`); print the planes."""
     t = time.perf_counter()
-    try:
-        with StageProgress(enabled=not args.quiet) as progress, output_set(args.outdir, inputs=inputs) as outputs:
-            writers = [RegionsPly(outputs.path("regions.ply")), RegionsLaz(outputs.path("regions.laz"))]
-            result = measure_stream(
-                paths,
-                params,
-                frame,
-                auto=auto,
-                chunk_points=chunk_points(args),
-                executor=executor,
-                progress=progress,
-                writers=writers,
-                spill_dir=args.spill_dir,
-                mesh_samples=args.mesh_samples or None,
-                crs=crs_from(args),
-                true_north=not args.grid_north,
-            )
-            about_crs, truth = crs_record(args, result.cloud.crs, result.north, result.frame, truth)
-            evaluation = evaluate(result.planes, truth) if truth is not None else None
-            record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {}), **about_crs}
-            written = write_result(result, outputs, record, point_files=False)
-            if evaluation is not None:
-                written.update(stage_evaluation(outputs, evaluation, None))
-            if args.report:
-                written.update(stage_report(outputs, outputs.staging, None))
-    finally:
-        executor.close()
+    with StageProgress(enabled=not args.quiet) as progress:
+        run = measure_survey(paths, args.outdir, frame=frame, params=base_params(args), auto=args.auto,
+                             given=given_factors(args), engine=engine, chunk_points=chunk_points(args),
+                             scheduler=args.scheduler, workers=args.workers, spill_dir=args.spill_dir,
+                             mesh_samples=args.mesh_samples or None, crs=crs_from(args),
+                             unit=getattr(args, "unit", None), grid_north=args.grid_north, truth=truth,
+                             truth_path=args.truth, report=args.report, extra=extra, inputs=inputs,
+                             progress=progress)  # fmt: skip
+    result, evaluation = run.result, run.evaluation
     say_what_was_left(len(result), "voxel", result.cloud.crs is not None, args.min_points, result.counts)
     if not args.quiet:
-        print_planes(result, metres_per_unit=recorded_unit({"crs": result.cloud.crs, **about_crs})["metres"])
+        print_planes(result, metres_per_unit=recorded_unit({"crs": result.cloud.crs, **run.record})["metres"])
         if evaluation is not None:
             print_evaluation(evaluation)
         print(
             f"{counted(len(result), 'plane')} from {result.counts['input']:,} points ({engine} engine) in "
-            f"{time.perf_counter() - t:.1f} s; wrote {', '.join(str(p) for p in written.values())}"
+            f"{time.perf_counter() - t:.1f} s; wrote {', '.join(str(p) for p in run.paths.values())}"
         )
     return 0

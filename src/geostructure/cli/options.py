@@ -16,11 +16,10 @@ from geostructure.detect.auto import choose_params
 from geostructure.detect.facets import DETECTORS
 from geostructure.detect.pipeline import check_measurable
 from geostructure.errors import GeoStructureNote, GeoStructureWarning, ParameterError
-from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, cloud_unit, describe_north, parse_crs
+from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, parse_crs
 from geostructure.io.gis import NO_CRS_NOTE
 from geostructure.io.outdir import check_inputs_not_outputs, check_outdir
 from geostructure.io.tiles import check_headers
-from geostructure.io.truth import read_truth
 
 
 def finite_float(text: str) -> float:
@@ -238,23 +237,6 @@ def crs_from(args) -> str | None:
     return (
         f"{authority[0]}:{authority[1]}" if authority and text.upper().startswith(("EPSG:", "ESRI:")) else crs.to_wkt()
     )
-
-
-def crs_record(args, crs: str | None, north: dict | None, frame: Frame, truth):
-    """What ``run.json`` says of a measured cloud's CRS beyond its name (``unit``: what
-    planes.csv's sizes but its area are in; ``north``: the convergence its azimuths were turned by, said
-    as a note too), and the ground truth read in the turned frame (its azimuths are true, as
-    a compass's). In memory and streamed alike."""
-    record = {}
-    unit = getattr(args, "unit", None)
-    if crs is not None or unit is not None:
-        record["unit"] = cloud_unit(crs, unit)
-    if north:
-        record["north"] = north
-        warnings.warn(describe_north(north), GeoStructureNote, stacklevel=2)
-        if truth is not None:
-            truth = read_truth(args.truth, frame)
-    return record, truth
 
 
 def check_before_work(args, inputs) -> None:
