@@ -252,3 +252,28 @@ def test_the_public_edge_raises_the_error_of_its_kind(tmp_path):
     result = measure(observatory_scene(20_000, seed=1).cloud)
     with pytest.raises(OutputError):
         save_measurement(result, tmp_path / "taken")
+
+
+#: The parts whose public names are their ``__all__`` (imported on first use).
+DOCUMENTED_PARTS = ("core", "detect", "rockmass", "kinematics", "evaluation", "workflows", "io")
+
+
+@pytest.mark.parametrize("part", DOCUMENTED_PARTS)
+def test_every_name_a_part_exports_has_a_numpydoc_docstring(part):
+    """Parameters (when it takes any), Returns (a function), and Examples, which run as
+    doctests: the public edge a notebook user reads (issue 44: 29 of 531 had Parameters)."""
+    import importlib
+    import inspect
+
+    package = importlib.import_module(f"geostructure.{part}")
+    assert package.__all__, part
+    missing = []
+    for name in package.__all__:
+        obj = getattr(package, name)
+        doc = inspect.getdoc(obj) or ""
+        takes = [p for p in inspect.signature(obj).parameters if p != "self"]
+        wanted = ["Examples"] + (["Parameters"] if takes else []) + (["Returns"] if inspect.isfunction(obj) else [])
+        missing += [f"{part}.{name}: {section}" for section in wanted if f"{section}\n--" not in doc]
+        if ">>>" not in doc:
+            missing.append(f"{part}.{name}: an example")
+    assert missing == []

@@ -200,6 +200,12 @@ def orientation_from_normals(normals, frame: Frame = Frame(), outward=None) -> O
     outward : (N, 3) array, optional
         The side each face is seen from, in cloud axes; settles vertical planes.
 
+    Returns
+    -------
+    Orientation
+        ``strike``, ``dip`` and ``dip_direction`` (N,) in degrees (right-hand rule strike,
+        dip 0 to 90, dip direction from north, less the frame's declination).
+
     Examples
     --------
     >>> o = orientation_from_normals([0.0112, -0.6427, 0.7660], Frame.named("paper"))

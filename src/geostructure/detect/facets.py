@@ -377,6 +377,18 @@ def _sampled_scatter(grid, seed: int, among: np.ndarray) -> float:
 def detect_facets(points: np.ndarray) -> FacetDetection:
     """Local planes on a grid, thresholds from the cloud, facets grown and checked for planarity.
 
+    Parameters
+    ----------
+    points : (N, 3) array
+        The cloud's local coordinates (``Cloud.local``, filtered).
+
+    Returns
+    -------
+    FacetDetection
+        Each point's planar facet (``labels``, 0, 1, ... by size, -1 for none), the points
+        of grown groups that were not planar (``curved``), the thresholds read from the
+        cloud, the grid's edge and scatter, and on rough rock the rough facets (``rough``).
+
     Examples
     --------
     >>> g = np.mgrid[0:1:40j, 0:1:40j].reshape(2, -1).T

@@ -151,6 +151,12 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         The cloud's voxel moments at ``params.zeta``, as :func:`~geostructure.detect.auto.choose_params`
         keeps them (``AutoChoice.moments``): the local filter then does not sum them again.
 
+    Returns
+    -------
+    Result
+        The plane table (``planes``), each filtered point's region (``labels``), the
+        parameters and frame used, the counts and the stages' seconds.
+
     Examples
     --------
     >>> from geostructure.synthetic import observatory_scene

@@ -62,6 +62,23 @@ def validate(
     """Score measured planes (``centroids`` (P, 3), unit ``normals`` (P, 3)) against mapped
     ones (``map_centres`` (M, 3), ``map_normals`` (M, 3)), all in one frame.
 
+    Parameters
+    ----------
+    centroids, normals : (P, 3) arrays
+        The measured planes' centroids and unit normals.
+    map_centres, map_normals : (M, 3) arrays
+        The mapped planes' centres and unit normals.
+    max_distance : float
+        The farthest a measured plane's centroid may lie from a mapped centre (the cloud's unit).
+    max_angle : float
+        The largest angle between their normals (degrees).
+
+    Returns
+    -------
+    Validation
+        Per mapped plane whether it is matched and by which plane, at what distance and
+        angle; per measured plane whether it matches any (``precision``).
+
     Examples
     --------
     >>> up, east = np.array([[0.0, 0, 1]]), np.array([[1.0, 0, 0]])

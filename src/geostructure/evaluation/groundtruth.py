@@ -183,8 +183,35 @@ def run_score(region_scores) -> float:
 
 
 def evaluate(planes: Planes, truth: GroundTruth, *, matched=None, **match_options) -> Evaluation:
-    """Match planes to the ground truth (unless ``matched`` gives the plane per surface, -1
-    for none) and score every surface (missed ones score 1)."""
+    """Match planes to the ground truth and score every surface (a missed one scores 1).
+
+    Parameters
+    ----------
+    planes : Planes
+        The measured planes.
+    truth : GroundTruth
+        The surfaces (:func:`~geostructure.io.truth.read_truth`), in the planes' frame.
+    matched : (S,) int array, optional
+        The plane matched to each surface (-1 for none); matched here when not given.
+    **match_options
+        For :func:`match_planes` (the largest angle and distance a match may have).
+
+    Returns
+    -------
+    Evaluation
+        Per surface its score: the plane matched, the angle between normals, the paper's
+        z(R); ``n_found`` and ``n_missed``.
+
+    Examples
+    --------
+    >>> from geostructure import measure
+    >>> from geostructure.synthetic import observatory_scene
+    >>> scene = observatory_scene(40_000, seed=1)
+    >>> result = measure(scene.cloud)
+    >>> evaluation = evaluate(result.planes, scene_truth(scene, result.frame))
+    >>> evaluation.n_found, evaluation.n_missed
+    (6, 0)
+    """
     matched = match_planes(planes, truth, **match_options) if matched is None else np.asarray(matched)
     scores = []
     for i, name in enumerate(truth.names):

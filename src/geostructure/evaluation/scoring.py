@@ -127,6 +127,22 @@ def add_validation(
     Returns
     -------
     the scores (as ``validation.json`` holds them), paths
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from geostructure import measure, save_measurement
+    >>> from geostructure.synthetic import observatory_scene
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> result = measure(observatory_scene(40_000, seed=1).cloud)
+    >>> _ = save_measurement(result, folder / "out")
+    >>> row = result.planes.rows()[0]
+    >>> _ = (folder / "map.csv").write_text("x,y,z,dip,dip_direction\\n" +
+    ...     f"{row['centroid_x']},{row['centroid_y']},{row['centroid_z']},{row['dip']},{row['dip_direction']}\\n")
+    >>> summary, paths = add_validation(folder / "out", folder / "map.csv")
+    >>> summary["matched"], sorted(paths)
+    (1, ['validation_csv', 'validation_json'])
+
     """
     if not (np.isfinite(max_distance) and max_distance > 0):
         raise ParameterError(f"--max-distance must be a positive distance, not {max_distance}.")

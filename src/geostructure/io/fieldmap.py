@@ -57,6 +57,18 @@ def read_field_map(path, *, located: bool = True) -> FieldMap:
     of set means: dip, dip direction and set) the x, y, z columns are not needed, and the
     centres are NaN where they are missing.
 
+    Parameters
+    ----------
+    path : str or Path
+        The field map CSV.
+    located : bool
+        Whether each row must give its plane's position (x, y, z).
+
+    Returns
+    -------
+    FieldMap
+        Per mapped plane its centre, normal, dip, dip direction and set (-1 for none).
+
     Examples
     --------
     >>> import os, tempfile

@@ -16,6 +16,18 @@ from geostructure.io.atomic import write_table_csv
 def write_planes_csv(planes: Planes, path) -> Path:
     """Write ``planes.csv`` (atomically), floats to the last bit.
 
+    Parameters
+    ----------
+    planes : Planes
+        The plane table.
+    path : str or Path
+        Where ``planes.csv`` goes; written whole or not at all.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
     Examples
     --------
     >>> import tempfile, os
@@ -33,10 +45,32 @@ def read_planes_csv(path, offset=None) -> Planes:
     in ``extra``. A file that is not one, or whose centroids or normals are not finite unit
     vectors (a table edited by hand), is refused naming it.
 
+    Parameters
+    ----------
+    path : str or Path
+        A ``planes.csv``.
+    offset : (3,) array, optional
+        What the table's positions are held relative to (``run.json``'s offset).
+
+    Returns
+    -------
+    Planes
+        The table, its extra columns (``set``, ``joint``, traces) in ``extra``.
+
     Raises
     ------
     InputError
         No such file, or not a GeoStructure plane table.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "planes.csv")
+    >>> table = Planes(normal=[[0.0, 0.0, 1.0]], local_centroid=[[1.0, 2.0, 3.0]]).with_columns(set=[0])
+    >>> back = read_planes_csv(write_planes_csv(table, path), offset=[1.0, 2.0, 3.0])
+    >>> back.centroid.tolist(), back.extra["set"].tolist()
+    ([[1.0, 2.0, 3.0]], [0])
+
     """
     path = Path(path)
     if not path.is_file():

@@ -97,15 +97,42 @@ def describe(paths) -> str:
 
 
 def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progress=None) -> Cloud:
-    """One cloud from several files (:func:`~.readers.read_cloud` each).
+    """One cloud from several files (:func:`~geostructure.io.readers.read_cloud` each).
 
     The tiles must agree on their coordinate reference system (all the same, or none
     declared); stored normals are kept only when every tile has them; the LAS grid (scale
-    and offset) only when every tile shares it.
+    and offset) only when every tile shares it. Points written in two tiles count once, and
+    files that do not touch are measured together with a note.
+
+    Parameters
+    ----------
+    paths : sequence of paths
+        The survey's files.
+    mesh_samples : int or None
+        Points sampled on a PLY mesh's faces (None or 0: its vertices).
+    progress : callable, optional
+        ``progress(stage, done, total)``, once per file read.
+
+    Returns
+    -------
+    Cloud
+        The tiles' points as one cloud, about one offset.
+
+    Raises
+    ------
+    InputError
+        A file that cannot be read, tiles that declare different CRSs.
 
     Examples
     --------
-    >>> cloud = read_tiles(sorted(Path("tiles").glob("*.laz")))  # doctest: +SKIP
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> grid = np.mgrid[0:10:0.1, 0:10:0.1].reshape(2, -1).T
+    >>> for i, shift in enumerate((0.0, 10.0)):
+    ...     _ = np.savetxt(folder / f"tile{i}.xyz", np.c_[grid[:, 0] + shift, grid[:, 1], np.zeros(len(grid))])
+    >>> cloud = read_tiles(sorted(folder.glob("*.xyz")))
+    >>> len(cloud), cloud.source.count(".xyz")
+    (20000, 2)
     """
     paths = [Path(p) for p in paths]
     if len(paths) == 1:

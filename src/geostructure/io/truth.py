@@ -104,7 +104,36 @@ MAX_SURFACES = 10_000
 
 
 def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
-    """Read a ground-truth CSV (see the module docstring) into :class:`GroundTruth`."""
+    """Read a ground-truth CSV (see the module docstring) into :class:`GroundTruth`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV: a header, then one row per surface (``surface``, any two of ``strike``,
+        ``dip``, ``dip_direction``, optionally ``center_x``, ``center_y``, ``center_z``).
+    frame : Frame
+        The cloud's frame: the surfaces' normals are written in its axes.
+
+    Returns
+    -------
+    GroundTruth
+        The surfaces' names, orientations, normals and centres (NaN where not given).
+
+    Raises
+    ------
+    InputError
+        No such file, not a text CSV, a row that is not a surface, more than
+        :data:`MAX_SURFACES` surfaces.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "truth.csv"
+    >>> _ = path.write_text("surface,dip,dip_direction\\nwall,89,090\\nroof,30,180\\n")
+    >>> truth = read_truth(path)
+    >>> truth.names, truth.dip.tolist()
+    (['wall', 'roof'], [89.0, 30.0])
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such ground-truth file.")

@@ -56,7 +56,26 @@ class Slope:
     """The slope face: dip, dip direction, their standard errors (degrees), how it was set
     (``given``, or ``fitted`` to the cloud), and for a fitted one how far the face turns along
     its strike (degrees, :func:`~geostructure.rockmass.exposure.face_bend`): one plane stands for a face that
-    turns by :data:`~geostructure.rockmass.exposure.BENT_FACE` or more for none of its parts."""
+    turns by :data:`~geostructure.rockmass.exposure.BENT_FACE` or more for none of its parts.
+
+    Parameters
+    ----------
+    dip, dip_direction : float
+        The face's orientation (degrees).
+    dip_uncertainty, dip_direction_uncertainty : float
+        Their standard errors (degrees); 0 for a slope given by hand.
+    source : str
+        ``given``, or ``fitted`` to the cloud.
+    face_bend : float
+        For a fitted slope, how far the face turns along its strike (degrees).
+
+    Examples
+    --------
+    >>> slope = Slope(65.0, 180.0)
+    >>> slope.dip, slope.source
+    (65.0, 'given')
+
+    """
 
     dip: float
     dip_direction: float

@@ -46,6 +46,27 @@ def fit_face(
     ``sections``: the :class:`~geostructure.rockmass.sections.FaceSections` of the same points, when the sets' rock
     mass cut them already.
 
+    Parameters
+    ----------
+    points : (N, 3) array
+        The cloud's points (local coordinates).
+    frame : Frame
+        Which way east, north and up point in the cloud.
+    members : (N,) bool array, optional
+        The points of the face (:func:`~geostructure.rockmass.face.face_members`); all by default.
+    bend : float, optional
+        How far the face turns along its strike (degrees); measured here when not given.
+    offset : (3,) array, optional
+        What ``points`` are relative to (the cloud's), for the planes' sections.
+    sections : FaceSections, optional
+        The face's sections, when the rock mass cut them already.
+
+    Returns
+    -------
+    FittedFace
+        The whole face's slope (``slope``) and, for a face that turns, each section's
+        (``slopes``) with the section each point lies in.
+
     Examples
     --------
     >>> rng = np.random.default_rng(0)
@@ -78,6 +99,22 @@ def fit_slope(points, frame: Frame = Frame(), members=None, bend: float | None =
     ``members`` (:func:`~geostructure.rockmass.face.face_members`) leaves the ground before or above the face and
     the clutter on it out (see :func:`~geostructure.rockmass.exposure.exposure`). ``bend``: how far those points
     turn (:func:`~geostructure.rockmass.exposure.face_bend`), when the sets' exposure measured it already.
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        The cloud's points (local coordinates).
+    frame : Frame
+        Which way east, north and up point in the cloud.
+    members : (N,) bool array, optional
+        The points of the face (:func:`~geostructure.rockmass.face.face_members`); all by default.
+    bend : float, optional
+        How far the face turns along its strike (degrees); measured here when not given.
+
+    Returns
+    -------
+    Slope
+        The face's dip and dip direction with their standard errors, ``source`` "fitted".
 
     Examples
     --------

@@ -67,11 +67,42 @@ def kinematics_of(
     planes, sets: list, slope: Slope, friction: float, lateral_limit: float = LATERAL_LIMIT, strength=None,
     sections=None,
 ):  # fmt: skip
-    """The tests on a plane table and its sets' rows: (summary, plane rows, wedge columns,
-    figure); ``strength`` holds the cohesion (kPa), unit weight and height for the planar
-    and wedge factors of safety (frictional without it). ``sections``: (each plane's
-    section, each section's slope) for a face that turns, tested section by section (see
-    the module); ``slope`` is then the whole face's."""
+    """The kinematic tests of a plane table against a slope: per plane, per pair of planes
+    (wedges) and per set, section by section on a face that turns.
+
+    Parameters
+    ----------
+    planes : Planes
+        The plane table (with ``set`` and ``joint`` columns when the sets were found).
+    sets : list of dict
+        The sets' rows, as ``sets.csv`` holds them; [] for none.
+    slope : Slope
+        The slope face (the whole face's, for a face in sections).
+    friction : float
+        The joints' friction angle (degrees).
+    lateral_limit : float
+        Degrees either side of the slope's dip direction (of its opposite for toppling).
+    strength : dict, optional
+        ``cohesion_kpa``, ``unit_weight_kn_m3`` and ``height_m`` for the planar and wedge
+        factors of safety; frictional and dry without it.
+    sections : (labels, slopes), optional
+        Each plane's section and each section's slope, for a face that turns.
+
+    Returns
+    -------
+    tuple
+        The summary (as ``kinematics.json`` holds it), the plane rows and wedge columns (as
+        ``kinematics.csv`` and ``wedges.csv`` hold them) and the figure (``kinematics.png``).
+
+    Examples
+    --------
+    >>> from geostructure.core.planes import Planes
+    >>> from geostructure.kinematics.modes import Slope
+    >>> planes = Planes(normal=[[0.0, -0.5, 0.866], [0.0, 0.94, 0.342]], area=[2.0, 3.0])
+    >>> summary, rows, _, _ = kinematics_of(planes, [], Slope(65.0, 180.0), 30.0)
+    >>> summary["planar_sliding"]["planes"], [r["flexural_toppling"] for r in rows]
+    (1, [False, True])
+    """
     from geostructure.report.kinematics_plot import kinematics_figure  # lazy: matplotlib
 
     strength = strength or {"cohesion_kpa": 0.0, "unit_weight_kn_m3": UNIT_WEIGHT}

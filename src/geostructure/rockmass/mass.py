@@ -147,15 +147,46 @@ ROCK_SET_COLUMNS = (
 
 @dataclass
 class RockMass:
-    """Spacing, persistence and intensity of a run's sets.
+    """Spacing, persistence and intensity of a run's sets (:func:`rock_mass`).
 
-    ``persistence`` has one entry per plane; ``scanlines``, ``trace_scanlines`` (the same
-    lines meeting each joint only along the stretches of its trace its facets show),
-    ``nearest_gaps`` (DSE-style spacings, m), ``p21``, ``c13`` and ``c23`` one per set;
-    ``set_labels`` is each plane's set,
-    ``ground`` and ``clutter`` whether it is the level ground before or above the face or in
-    clutter such as vegetation (in no set either way), and ``point_part`` each point's part
-    (:data:`~geostructure.rockmass.face.FACE`, ``GROUND`` or ``CLUTTER``; :func:`~geostructure.rockmass.face.face_parts`).
+    Parameters
+    ----------
+    persistence : Persistence
+        Each plane's traces on the face and whether the face's edge cuts them.
+    exposure_area : float
+        The exposed face's area (m^2).
+    set_labels : (P,) int array
+        Each plane's set (-1 for none).
+    scanlines, trace_scanlines : list of Scanlines
+        Per set, the virtual scanlines meeting its joints as persistent planes, and only
+        along the stretches of their traces their facets show.
+    joint_trace_lengths, nearest_gaps : list
+        Per set, its joints' trace lengths and DSE-style nearest-plane spacings (m).
+    p21, c13, c23 : (S,) arrays
+        Per set, P21 and the factors that turn P10 and P21 into P32.
+    ground, clutter : (P,) bool arrays, optional
+        The planes on the level ground before or above the face, and in clutter
+        (vegetation, debris, objects): in no set either way.
+    point_part : (N,) array, optional
+        Each point's part (:data:`~geostructure.rockmass.face.FACE`, ``GROUND`` or ``CLUTTER``).
+    joints : Joints, optional
+        Every discontinuity once (:class:`~geostructure.rockmass.jointtable.Joints`).
+    exposure_span : float
+        The longest line across the exposed face (m): no mean trace is given past it.
+
+    The other fields (the correlated tilt, the face's bend and sections, the planes' standard
+    errors, the unit) are what :func:`rock_mass` read on the way, recorded in ``run.json``.
+
+    Examples
+    --------
+    >>> from geostructure import measure
+    >>> from geostructure.synthetic import outcrop_scene
+    >>> from geostructure.workflows.saving import plane_sets
+    >>> result = measure(outcrop_scene(width=8.0, height=5.0, seed=5).cloud)
+    >>> sets = plane_sets(result.planes)
+    >>> rock = rock_mass(result.filtered.local, result.labels, result.planes.normal, sets.labels, sets.mean_normal)
+    >>> len(rock.spacing) == len(sets), sorted(rock.set_rows()[0])[:3]
+    (True, ['exposure_span_m', 'flags', 'joint_trace_estimate_m'])
     """
 
     persistence: Persistence
@@ -387,6 +418,13 @@ def rock_mass(
     parts : :class:`~geostructure.rockmass.face.FaceParts`, optional
         The face's ground and clutter the exposure ``face`` left out, recorded in the
         result; found here when ``face`` is not given.
+
+    Returns
+    -------
+    RockMass
+        Per set its scanlines, spacing, traces, P10, P21 and P32; per plane its traces; the
+        face's parts, sections and the joints (``set_rows`` and ``summary`` give them as
+        ``sets.csv`` and ``run.json`` hold them).
 
     Examples
     --------

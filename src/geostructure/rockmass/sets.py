@@ -53,10 +53,34 @@ HOPELESS_MARGIN = 1.0
 
 @dataclass
 class JointSets:
-    """The sets found among a run's planes.
+    """The sets found among a run's planes (:func:`find_sets`).
 
-    ``labels`` (P,) gives each plane's set (0, 1, ... by decreasing total area) or -1; the
-    other arrays have one entry per set. ``bic`` maps each number of sets tried to its BIC.
+    Parameters
+    ----------
+    labels : (P,) int array
+        Each plane's set: 0, 1, ... by decreasing total area, or -1 for none.
+    mean_normal : (S, 3) array
+        Each set's mean normal, upward, unit, in the cloud's axes.
+    dip, dip_direction : (S,) arrays
+        Each set's mean orientation (degrees).
+    n_planes, area : (S,) arrays
+        The planes in each set and their total area.
+    resultant, fisher_k, alpha95, spherical_variance : (S,) arrays
+        Fisher's R and K, the 95% cone of confidence (degrees) and the spherical variance.
+    criterion : str
+        How the number of sets was chosen (``bic``, or ``given``).
+    bic : dict
+        The BIC of each number of sets tried.
+
+    Examples
+    --------
+    >>> from geostructure.synthetic import fisher_directions
+    >>> rng = np.random.default_rng(1)
+    >>> normals = np.vstack([fisher_directions([0.0, -0.7, 0.7], 80.0, 60, rng),
+    ...                      fisher_directions([0.7, 0.0, 0.7], 80.0, 60, rng)])
+    >>> sets = find_sets(normals, n_sets=2)
+    >>> len(sets), bool(np.all(np.abs(sets.dip - 45.0) < 3.0)), sets.labels.shape
+    (2, True, (120,))
     """
 
     labels: np.ndarray
@@ -167,6 +191,12 @@ def find_sets(
         chosen only if each of its sets holds :data:`MIN_SET_JOINTS` joints or more, facets on
         one plane counting as one joint (:func:`~geostructure.rockmass.joints.joint_planes`): the facets of a
         single joint drawn far from its set's mean are that joint, not a set.
+
+    Returns
+    -------
+    JointSets
+        Each plane's set (``labels``, -1 for none) and per set its mean, Fisher's K,
+        alpha95 and spherical variance; ``bic`` per number of sets tried.
 
     Examples
     --------

@@ -61,6 +61,23 @@ class OutcropRun:
     measure (``record``: the automatic choice, the unit, north). After :meth:`save`,
     ``kinematics`` holds the kinematic tests' summary and ``paths`` the files written.
 
+    Parameters
+    ----------
+    result : Result
+        The measure.
+    sets : JointSets, optional
+        The joint sets.
+    rock : RockMass, optional
+        Their spacing, persistence and intensity.
+    kinematic_options : dict, optional
+        The kinematic tests' settings, the slope fitted in them.
+    record : dict
+        What ``run.json`` says of the run beyond the measure.
+    kinematics : dict
+        The kinematic tests' summary, after :meth:`save`.
+    paths : dict
+        Output kind -> path of each file written, after :meth:`save`.
+
     Examples
     --------
     >>> import tempfile

@@ -390,6 +390,11 @@ def add_report(outdir, *, max_points: int | None = None) -> dict[str, Path]:
     max_points : int, optional
         Points drawn in the 3D view at most (default 100,000).
 
+    Returns
+    -------
+    dict
+        Output kind -> path of each file written (``report``, ``stereonet``, ``rose``).
+
     Examples
     --------
     >>> import tempfile
