@@ -23,7 +23,7 @@ from geostructure.detect.regions import grow_regions
 from geostructure.detect.roughfacets import FACE_CONE, MIN_FACET_POINTS, mean_directions, numbered_by_size
 from geostructure.detect.uncertainty import normal_standard_errors
 from geostructure.detect.voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
-from geostructure.errors import GeoStructureError, InputError, ParameterError
+from geostructure.errors import InputError, ParameterError
 
 STAGES = ("filter", "voxel", "regions", "planes", "orientation")
 #: A voxel more than this share of whose points no facet took goes to the voxel growing with
@@ -110,7 +110,7 @@ def check_measurable(cloud: Cloud) -> None:
             f"read_cloud(path)), not {type(cloud).__name__}."
         )
     if len(cloud) == 0:
-        raise GeoStructureError(f"{cloud.source}: holds 0 point(s); a plane needs at least 3.")
+        raise InputError(f"{cloud.source}: holds 0 point(s); a plane needs at least 3.")
     problem = first_bad_coordinates(cloud.local, MAX_COORDINATE)
     if problem is not None and problem[0] == "not finite":
         raise InputError(
@@ -118,7 +118,7 @@ def check_measurable(cloud: Cloud) -> None:
             f"{problem[2] + 1:,}, counting from 1)."
         )
     if len(cloud) < 3:
-        raise GeoStructureError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
+        raise InputError(f"{cloud.source}: holds {len(cloud)} point(s); a plane needs at least 3.")
     if problem is not None:
         raise InputError(
             f"{cloud.source}: a coordinate lies beyond {MAX_COORDINATE:.0e} of the cloud's centre, which "
@@ -126,14 +126,14 @@ def check_measurable(cloud: Cloud) -> None:
         )
     extent = column_max(cloud.local) - column_min(cloud.local)
     if extent.max() <= 0:
-        raise GeoStructureError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
+        raise InputError(f"{cloud.source}: all points lie at one spot; there is no plane to measure.")
     if (
         np.linalg.matrix_rank(
             np.cov(cloud.local[:: max(1, len(cloud) // 100_000)], rowvar=False), tol=1e-12 * extent.max() ** 2
         )
         < 2
     ):
-        raise GeoStructureError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
+        raise InputError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
 
 
 def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None, *, moments=None) -> Result:
@@ -175,9 +175,7 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
         filtered = cloud.subset(filt.keep)
         counts["filtered"] = len(filtered)
     if len(filtered) < 3:
-        raise GeoStructureError(
-            f"{cloud.source}: the outlier filter left {len(filtered)} point(s); try `filter='none'`."
-        )
+        raise ParameterError(f"{cloud.source}: the outlier filter left {len(filtered)} point(s); try `filter='none'`.")
 
     with _stage(seconds, "voxel", report):
         voxels = fit_voxels(

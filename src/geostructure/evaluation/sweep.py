@@ -18,7 +18,7 @@ import numpy as np
 
 from geostructure.core.params import TABLE1, Params
 from geostructure.detect.pipeline import measure
-from geostructure.errors import GeoStructureError
+from geostructure.errors import ParameterError
 from geostructure.evaluation.groundtruth import evaluate
 from geostructure.io.atomic import write_figure
 
@@ -44,16 +44,16 @@ class SweepRow:
 def factor_values(factor: str, start=None, end=None, step=None) -> np.ndarray:
     """Values of one factor, from the paper's Table 1 unless given; ``end`` is included."""
     if factor not in TABLE1:
-        raise GeoStructureError(f"unknown factor '{factor}'; use one of {', '.join(FACTORS)} or all.")
+        raise ParameterError(f"unknown factor '{factor}'; use one of {', '.join(FACTORS)} or all.")
     lo, hi, st = TABLE1[factor]
     start, end, step = (lo if start is None else start), (hi if end is None else end), (st if step is None else step)
     if not all(np.isfinite(v) for v in (start, end, step)):
-        raise GeoStructureError(f"start, end and step must be finite numbers, got {start}, {end}, {step}.")
+        raise ParameterError(f"start, end and step must be finite numbers, got {start}, {end}, {step}.")
     if step <= 0 or end < start:
-        raise GeoStructureError(f"start, end and step must give a rising range, got {start}, {end}, {step}.")
+        raise ParameterError(f"start, end and step must give a rising range, got {start}, {end}, {step}.")
     runs = math.floor((end - start) / step + 1e-6) + 1
     if runs > MAX_RUNS:
-        raise GeoStructureError(
+        raise ParameterError(
             f"{factor} from {start} to {end} in steps of {step} makes {runs:,} runs; "
             f"at most {MAX_RUNS} are allowed, so take a larger step."
         )

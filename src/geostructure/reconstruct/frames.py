@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geostructure.errors import GeoStructureError
+from geostructure.errors import InputError
 
 VIDEO_SUFFIXES = {".mp4", ".avi", ".mov", ".mkv", ".m4v", ".mts", ".webm"}
 
@@ -72,15 +72,15 @@ def decode(video, fps: float | None = None):
     try:
         container = av.open(str(video))
     except FileNotFoundError:
-        raise GeoStructureError(f"{video}: no such file.") from None
+        raise InputError(f"{video}: no such file.") from None
     except (av.error.FFmpegError, ValueError) as exc:
-        raise GeoStructureError(
+        raise InputError(
             f"{video}: not a video that can be decoded ({exc.__class__.__name__}); "
             "give an mp4, avi or mov file, or a folder of photos."
         ) from None
     with container:
         if not container.streams.video:
-            raise GeoStructureError(f"{video}: holds no video stream.")
+            raise InputError(f"{video}: holds no video stream.")
         stream = container.streams.video[0]
         next_time = 0.0
         try:
@@ -90,7 +90,7 @@ def decode(video, fps: float | None = None):
                     next_time = t + (1.0 / fps if fps else 0.0)
                     yield t, frame.to_ndarray(format="bgr24")
         except av.error.FFmpegError as exc:
-            raise GeoStructureError(f"{video}: the video is damaged and stopped decoding ({exc}).") from None
+            raise InputError(f"{video}: the video is damaged and stopped decoding ({exc}).") from None
 
 
 def video_rate(video) -> float:
@@ -101,7 +101,7 @@ def video_rate(video) -> float:
             rate = container.streams.video[0].average_rate
             return float(rate) if rate else 25.0
     except (av.error.FFmpegError, IndexError, ValueError):
-        raise GeoStructureError(
+        raise InputError(
             f"{video}: not a video that can be decoded; give an mp4, avi or mov file, or a folder of photos."
         ) from None
 
@@ -116,7 +116,7 @@ def extract_frames(video, outdir, options: FrameOptions = FrameOptions(), progre
 
     report = progress or (lambda stage, done, total: None)
     if not Path(video).is_file():
-        raise GeoStructureError(
+        raise InputError(
             f"{video}: no such file." if not Path(video).exists() else f"{video}: is a folder, not a video file."
         )
     video_fps = video_rate(video)
@@ -138,7 +138,7 @@ def extract_frames(video, outdir, options: FrameOptions = FrameOptions(), progre
     while buffer and not (options.max_frames and len(state["kept"]) >= options.max_frames):
         _judge(buffer.popleft(), scores, outdir, options, state)
     if not decoded:
-        raise GeoStructureError(f"{video}: holds no frames that could be decoded.")
+        raise InputError(f"{video}: holds no frames that could be decoded.")
     return FrameReport(state["kept"], decoded, state["blurred"], state["still"], video_fps, sample_fps, state["times"])
 
 

@@ -26,7 +26,7 @@ import numpy as np
 from geostructure.core.alignment import similarity as umeyama  # the name control-point code and its tests know
 from geostructure.core.geodesy import geodetic_to_enu
 from geostructure.core.orientation import Frame
-from geostructure.errors import GeoStructureError
+from geostructure.errors import InputError
 from geostructure.io.usercsv import read_rows
 
 
@@ -79,14 +79,14 @@ def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
     """Similarity from control points seen in the model; residual per point."""
     names = sorted(set(model_points) & set(world_points))
     if len(names) < 3:
-        raise GeoStructureError(
+        raise InputError(
             f"ground control: {len(names)} point(s) located in the model; at least 3 "
             "(not in a line) are needed. Check the names match and each is seen in 2+ images."
         )
     src = np.array([model_points[n] for n in names])
     dst = np.array([world_points[n] for n in names])
     if np.linalg.matrix_rank(src - src.mean(axis=0), tol=1e-9 * np.ptp(src, axis=0).max()) < 2:
-        raise GeoStructureError("ground control points lie on one line; the rotation about it is unknown.")
+        raise InputError("ground control points lie on one line; the rotation about it is unknown.")
     s, r, t = umeyama(src, dst)
     fitted = s * src @ r.T + t
     residuals = dict(zip(names, np.linalg.norm(fitted - dst, axis=1).tolist()))
@@ -96,7 +96,7 @@ def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
 def manual(up, north, scale: float = 1.0) -> Georeference:
     """The user's word on which model directions are up and north, and the model's scale."""
     if not (np.isfinite(scale) and scale > 0):
-        raise GeoStructureError(f"`scale` must be a positive finite number, not {scale}.")
+        raise InputError(f"`scale` must be a positive finite number, not {scale}.")
     frame = Frame.from_up_north(up, north)
     return Georeference(float(scale), frame.matrix, np.zeros(3), "manual", approximate=False)
 
@@ -114,16 +114,16 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
         width = len(table[0]) if table else 0  # a short row's missing cells are None, as csv.DictReader gives them
         rows = [dict(zip(table[0], r + [None] * (width - len(r)))) for r in table[1:]]
     except FileNotFoundError:
-        raise GeoStructureError(f"{path}: no such file.") from None
+        raise InputError(f"{path}: no such file.") from None
     except (UnicodeDecodeError, csv.Error) as exc:
-        raise GeoStructureError(f"{path}: not a CSV file ({exc}).") from None
+        raise InputError(f"{path}: not a CSV file ({exc}).") from None
     if not rows:
-        raise GeoStructureError(f"{path}: holds no control points.")
+        raise InputError(f"{path}: holds no control points.")
     columns = {c.strip().lower(): c for c in rows[0] if c is not None}  # None: cells past the header
     need = ["name", "e", "n", "up"]
     has_model, has_pixels = all(c in columns for c in "xyz"), all(c in columns for c in ("image", "u", "v"))
     if not all(c in columns for c in need) or not (has_model or has_pixels):
-        raise GeoStructureError(
+        raise InputError(
             f"{path}: needs columns name, E, N, Up and either x, y, z (model) or image, u, v "
             f"(pixels); it has {', '.join(columns.values())}."
         )
@@ -138,14 +138,14 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
             if has_model and get("x"):
                 model[name] = [float(get("x")), float(get("y")), float(get("z"))]
         except (ValueError, TypeError, AttributeError):
-            raise GeoStructureError(f"{path}, line {line}: a coordinate is missing or not a number.") from None
+            raise InputError(f"{path}, line {line}: a coordinate is missing or not a number.") from None
         values = (
             world[name]
             + (list(observations[-1][2:]) if observations and observations[-1][0] == name else [])
             + model.get(name, [])
         )
         if not np.isfinite(values).all():
-            raise GeoStructureError(f"{path}, line {line}: a coordinate is NaN or infinite.")
+            raise InputError(f"{path}, line {line}: a coordinate is NaN or infinite.")
     return world, observations, model
 
 
@@ -181,13 +181,13 @@ def read_opensfm_gcp(path, image_dir) -> tuple[dict, list, dict, tuple | None]:
             float,
         ).reshape(-1, 3)
     except FileNotFoundError:
-        raise GeoStructureError(f"{path}: no such file.") from None
+        raise InputError(f"{path}: no such file.") from None
     except (ValueError, KeyError, TypeError, UnicodeDecodeError) as exc:
-        raise GeoStructureError(f"{path}: not an OpenSfM ground_control_points.json ({exc}).") from None
+        raise InputError(f"{path}: not an OpenSfM ground_control_points.json ({exc}).") from None
     if not len(located):
-        raise GeoStructureError(f"{path}: no control point has a position.")
+        raise InputError(f"{path}: no control point has a position.")
     if not np.isfinite(fixes).all():
-        raise GeoStructureError(f"{path}: a control point's latitude, longitude or altitude is NaN or infinite.")
+        raise InputError(f"{path}: a control point's latitude, longitude or altitude is NaN or infinite.")
     origin = (float(fixes[:, 0].mean()), float(fixes[:, 1].mean()), 0.0)
     enu = geodetic_to_enu(fixes[:, 0], fixes[:, 1], fixes[:, 2], origin)
     world = {str(p["id"]): e.tolist() for p, e in zip(located, enu)}
@@ -200,7 +200,7 @@ def read_opensfm_gcp(path, image_dir) -> tuple[dict, list, dict, tuple | None]:
                     with Image.open(Path(image_dir or path.parent / "images") / shot) as image:
                         sizes[shot] = image.size
                 except OSError:
-                    raise GeoStructureError(
+                    raise InputError(
                         f"{path}: image {shot} of control point {p['id']} not found in {image_dir}."
                     ) from None
             width, height = sizes[shot]
@@ -259,9 +259,7 @@ def solve_exif_gps(reconstruction, image_dir) -> Georeference:
             centres.append(image.projection_center())
             gps.append(fix)
     if len(gps) < 3:
-        raise GeoStructureError(
-            f"{image_dir}: {len(gps)} registered photo(s) carry GPS in EXIF; at least 3 are needed."
-        )
+        raise InputError(f"{image_dir}: {len(gps)} registered photo(s) carry GPS in EXIF; at least 3 are needed.")
     gps = np.array(gps)
     origin = (float(gps[:, 0].mean()), float(gps[:, 1].mean()), 0.0)  # so Up stays the GPS altitude
     enu = geodetic_to_enu(gps[:, 0], gps[:, 1], gps[:, 2], origin)
@@ -292,7 +290,7 @@ def camera_up(reconstruction, min_spread: float = 0.01) -> np.ndarray:
             xs.append(world_from_cam[:, 0])
             ups.append(-world_from_cam[:, 1])  # camera y points down the image
     if not xs:
-        raise GeoStructureError("no registered camera to take up from.")
+        raise InputError("no registered camera to take up from.")
     xs, mean_up = np.array(xs), np.mean(ups, axis=0)
     values, vectors = np.linalg.eigh(xs.T @ xs)
     if values[1] >= min_spread * values[2]:

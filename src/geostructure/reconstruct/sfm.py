@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geostructure.errors import GeoStructureError
+from geostructure.errors import InputError
 
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp"}
 EXHAUSTIVE_LIMIT = 60
@@ -69,10 +69,10 @@ def quiet_colmap(level: int = 3):
 def list_images(folder) -> list[Path]:
     folder = Path(folder)
     if not folder.is_dir():
-        raise GeoStructureError(f"{folder}: not a folder of images.")
+        raise InputError(f"{folder}: not a folder of images.")
     images = _images_in(folder)
     if not images:
-        raise GeoStructureError(f"{folder}: holds no images (.jpg, .png or .tif){_where_images_are(folder)}")
+        raise InputError(f"{folder}: holds no images (.jpg, .png or .tif){_where_images_are(folder)}")
     check_images(images)
     return images
 
@@ -118,7 +118,7 @@ def check_images(images) -> None:
             with Image.open(path) as image:
                 image.verify()
         except (UnidentifiedImageError, OSError, SyntaxError, ValueError):
-            raise GeoStructureError(
+            raise InputError(
                 f"{path}: is not an image that can be read (damaged, or not a photo); remove it from the folder."
             ) from None
 
@@ -178,7 +178,7 @@ def _run_sfm(image_dir, workdir, options, progress):
     elif matching == "exhaustive":
         pycolmap.match_exhaustive(database, matching_options=matcher, device=pycolmap.Device.cpu)
     else:
-        raise GeoStructureError(f"unknown matching '{matching}'; use auto, sequential or exhaustive.")
+        raise InputError(f"unknown matching '{matching}'; use auto, sequential or exhaustive.")
     seconds["matching"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -200,7 +200,7 @@ def _run_sfm(image_dir, workdir, options, progress):
             matching += ", relaxed start"
     seconds["mapping"] = time.perf_counter() - t
     if registered < 3:
-        raise GeoStructureError(
+        raise InputError(
             f"{image_dir}: SfM registered {registered} of {len(images)} images (at least 3 are needed). "
             "The photos may not overlap: take them so that each shares about two thirds of its view with the "
             "next, avoid plain or shiny surfaces, or try `matching='exhaustive'`."

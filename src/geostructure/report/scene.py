@@ -15,7 +15,7 @@ import numpy as np
 
 from geostructure.core.orientation import Frame
 from geostructure.core.planes import Planes
-from geostructure.errors import GeoStructureError
+from geostructure.errors import OutputError
 from geostructure.io.crs import metres_per_unit, unit_symbol
 from geostructure.io.results import ply_field, read_planes, read_run, read_sets, read_spacings
 
@@ -144,9 +144,9 @@ def _read_ply_sample(path: Path, names, offset, limit, rng):
         vertex = PlyData.read(str(path), mmap="r")["vertex"].data
         columns = [vertex[n] for n in ("x", "y", "z")] + [ply_field(vertex, n) for n in names]
     except FileNotFoundError:
-        raise GeoStructureError(f"{path}: no such file; run 'geostructure measure' first.") from None
+        raise OutputError(f"{path}: no such file; run 'geostructure measure' first.") from None
     except (PlyParseError, KeyError, ValueError) as exc:
-        raise GeoStructureError(f"{path}: not a GeoStructure PLY ({exc}).") from None
+        raise OutputError(f"{path}: not a GeoStructure PLY ({exc}).") from None
     total = len(vertex)
     pick = np.sort(rng.choice(total, limit, replace=False)) if total > limit else slice(None)
     # The sample first, then the columns: a memory-mapped file of a streamed survey's
@@ -165,7 +165,7 @@ def _read_json(path: Path) -> dict:
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except (ValueError, UnicodeDecodeError):
-        raise GeoStructureError(f"{path}: not a GeoStructure JSON file.") from None
+        raise OutputError(f"{path}: not a GeoStructure JSON file.") from None
 
 
 def _read_truth(path: Path) -> dict:

@@ -37,7 +37,7 @@ from geostructure.detect.rectangle import bound_plane, plane_from_scatter
 from geostructure.detect.regions import grow_regions
 from geostructure.detect.uncertainty import errors_from_sums, plane_axes
 from geostructure.detect.voxel import VoxelPlanes, voxel_planes_from_moments
-from geostructure.errors import GeoStructureError
+from geostructure.errors import InputError, ParameterError
 from geostructure.stream import passes
 from geostructure.stream.executor import SerialExecutor
 from geostructure.stream.source import Spill
@@ -123,7 +123,7 @@ def measure_spill(
     keep.written = True
     counts["filtered"] = n_kept
     if n_kept < 3:
-        raise GeoStructureError(f"{spill.source}: the outlier filter left {n_kept} point(s); try `filter='none'`.")
+        raise ParameterError(f"{spill.source}: the outlier filter left {n_kept} point(s); try `filter='none'`.")
     seconds["filter"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -194,7 +194,7 @@ class _Run:
         self.lower = spill.lower - self.offset
         self.extent = float(np.max(spill.upper - spill.lower))
         if not self.extent > 0:
-            raise GeoStructureError(f"{spill.source}: all points lie at one spot; there is no plane to measure.")
+            raise InputError(f"{spill.source}: all points lie at one spot; there is no plane to measure.")
         self.report = progress or (lambda stage, done, total: None)
         self.done = 0
         # The passes: the filter's moments and decisions, the fit, the labels, the errors

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from geostructure.errors import GeoStructureError
+from geostructure.errors import GeoStructureError, ParameterError
 
 #: Chunks in flight at once on a cluster, per worker: enough to keep each busy, few enough
 #: that results waiting to be added stay small.
@@ -40,7 +40,7 @@ class DaskExecutor:
             try:
                 self.client = Client(address, timeout="10s")
             except (OSError, TimeoutError) as error:
-                raise GeoStructureError(f"{address}: no Dask scheduler answers there ({error}).") from None
+                raise ParameterError(f"{address}: no Dask scheduler answers there ({error}).") from None
         else:
             # The workers' scratch space in a folder of this run's, removed on close: Dask's
             # default, dask-scratch-space in the temporary folder, outlived every run.

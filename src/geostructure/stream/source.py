@@ -20,7 +20,7 @@ import numpy as np
 
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.cloud import Cloud
-from geostructure.errors import GeoStructureError
+from geostructure.errors import InputError
 from geostructure.io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
 from geostructure.io.failures import translated_read_errors
 from geostructure.io.readers import (
@@ -192,7 +192,7 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                         spill.upper = np.maximum(spill.upper, column_max(points))
                 if spill.n_points - start < 3:
                     held = spill.n_points - start
-                    raise GeoStructureError(
+                    raise InputError(
                         f"{path}: holds no points."
                         if not held
                         else f"{path}: holds {held} point(s); a plane needs at least 3."

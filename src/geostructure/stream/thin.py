@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geostructure.detect.voxel import MAX_CELLS_PER_AXIS, voxel_keys
-from geostructure.errors import GeoStructureError
+from geostructure.errors import GeoStructureError, InputError
 from geostructure.io.laz import point_joints, point_sets
 from geostructure.io.results import open_regions, ply_field, read_regions
 from geostructure.stream.executor import SerialExecutor
@@ -174,7 +174,7 @@ def thin_spill(spill: Spill, target: int, chunk_points: int, executor=None, prog
 
     ``progress("thin", done, total)`` over the passes' chunks."""
     if not np.max(spill.upper - spill.lower) > 0:
-        raise GeoStructureError(f"{spill.source}: all points lie at one spot; there is no plane to measure.")
+        raise InputError(f"{spill.source}: all points lie at one spot; there is no plane to measure.")
     executor = executor or SerialExecutor()
     report = progress or (lambda stage, done, total: None)
     chunks = spill.chunks(chunk_points)
