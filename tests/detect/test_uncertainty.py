@@ -13,7 +13,8 @@ from geostructure.rockmass.joints import PlaneMoments
 from geostructure.synthetic import outcrop_scene
 from geostructure.synthetic.outcrop import DEFAULT_SETS
 from geostructure.synthetic.surface import smooth_field
-from geostructure.workflows.saving import plane_rock_mass, plane_sets, with_rock_mass
+from geostructure.workflows.saving import with_rock_mass
+from geostructure.workflows.sets import plane_rock_mass, plane_sets
 
 
 def noisy_planes(rng, *, size, spacing, white, correlated=0.0, wavelength=0.0, normal=(0.0, 0.0, 1.0), n=150):

@@ -34,7 +34,7 @@ from geostructure.rockmass.traces import persistence_class
 from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
 from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
 from geostructure.synthetic.scanlines import exposed_trace_chords
-from geostructure.workflows.saving import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
+from geostructure.workflows.sets import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 
 
 def measured(scene):

@@ -181,7 +181,7 @@ class RockMass:
     --------
     >>> from geostructure import measure
     >>> from geostructure.synthetic import outcrop_scene
-    >>> from geostructure.workflows.saving import plane_sets
+    >>> from geostructure.workflows.sets import plane_sets
     >>> result = measure(outcrop_scene(width=8.0, height=5.0, seed=5).cloud)
     >>> sets = plane_sets(result.planes)
     >>> rock = rock_mass(result.filtered.local, result.labels, result.planes.normal, sets.labels, sets.mean_normal)
@@ -414,7 +414,7 @@ def rock_mass(
         (:func:`~geostructure.detect.uncertainty.correlated_tilt`).
     face : :class:`~geostructure.rockmass.exposure.Exposure`, optional
         ``exposure(points, up)``, when it was made already (it needs the points alone, so
-        :func:`~geostructure.workflows.saving.sets_and_rock_mass` makes it while the sets are found).
+        :func:`~geostructure.workflows.sets.sets_and_rock_mass` makes it while the sets are found).
     parts : :class:`~geostructure.rockmass.face.FaceParts`, optional
         The face's ground and clutter the exposure ``face`` left out, recorded in the
         result; found here when ``face`` is not given.
@@ -429,7 +429,7 @@ def rock_mass(
     Examples
     --------
     >>> from geostructure import measure
-    >>> from geostructure.workflows.saving import plane_sets
+    >>> from geostructure.workflows.sets import plane_sets
     >>> from geostructure.synthetic import outcrop_scene
     >>> scene = outcrop_scene(width=8.0, height=5.0, seed=5)
     >>> result = measure(scene.cloud)
