@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -16,6 +15,7 @@ from geostructure.cli.options import (
     check_before_work,
     check_outdir,
     check_unit_given,
+    choice_teller,
     crs_from,
     finite_float,
     folder,
@@ -200,16 +200,12 @@ def measure_cloud(
     ``regions.ply`` and ``regions.laz`` (:func:`~geostructure.workflows.saving.save_measurement`)."""
     unit = getattr(args, "unit", None)  # checked against the CRS before reading (a reconstruction has none)
 
-    def say_choice(text: str) -> None:
-        if not args.quiet:
-            print(f"geostructure: {text}", file=sys.stderr)
-
     t = time.perf_counter()
     with StageProgress(enabled=not args.quiet) as progress:
         run = measure_outcrop(cloud, frame=frame, params=base_params(args), auto=args.auto, given=given_factors(args),
                               crs=crs_from(args), unit=unit, grid_north=args.grid_north, sets=wants_sets(args),
                               n_sets=getattr(args, "n_sets", None), kinematics=kinematic_settings(args), progress=progress,
-                              seconds=seconds, on_choice=say_choice)  # fmt: skip
+                              seconds=seconds, on_choice=choice_teller(args))  # fmt: skip
         result, sets, rock = run.result, run.sets, run.rock
         if truth is not None and run.record.get("north"):  # a compass's azimuths are true: read in the turned frame
             truth = read_truth(args.truth, result.frame)

@@ -12,14 +12,13 @@ from pathlib import Path
 
 from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
-from geostructure.detect.auto import choose_params
 from geostructure.detect.facets import DETECTORS
-from geostructure.detect.pipeline import check_measurable
 from geostructure.errors import GeoStructureNote, GeoStructureWarning, ParameterError
 from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, parse_crs
 from geostructure.io.gis import NO_CRS_NOTE
 from geostructure.io.outdir import check_inputs_not_outputs, check_outdir
 from geostructure.io.tiles import check_headers
+from geostructure.workflows.outcrop import chosen_params
 
 
 def finite_float(text: str) -> float:
@@ -203,16 +202,20 @@ def params_from(args, cloud=None) -> tuple[Params, dict | None, object]:
     voxel moments the choice summed (:class:`~geostructure.detect.voxel.CloudMoments`, for
     ``measure(..., moments=)``; None without --auto).
     """
-    given = given_factors(args)
     base = base_params(args)
-    if not (args.auto and cloud is not None) or len(given) == len(FACTOR_OPTIONS):
+    if cloud is None:
         return base, None, None
-    check_measurable(cloud)
-    choice = choose_params(cloud.local, base)
-    params = choice.params.with_(**given) if given else choice.params
-    if not args.quiet:
-        print(f"geostructure: {choice.describe()}" + (f"; given: {given}" if given else ""), file=sys.stderr)
-    return params, choice.to_dict(given), choice.moments
+    return chosen_params(cloud, base, args.auto, given_factors(args), choice_teller(args))
+
+
+def choice_teller(args):
+    """What tells the user the automatic choice: a line on stderr, none under ``-q``."""
+
+    def say(text: str) -> None:
+        if not args.quiet:
+            print(f"geostructure: {text}", file=sys.stderr)
+
+    return say
 
 
 def frame_from(args) -> Frame:

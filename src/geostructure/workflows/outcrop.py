@@ -241,7 +241,7 @@ def measure_outcrop(
         warnings.warn(describe_north(north), GeoStructureNote, stacklevel=2)
     t = time.perf_counter()
     report("auto", 0, None)
-    params, choice, moments = _chosen(cloud, params, auto, dict(given or {}), on_choice)
+    params, choice, moments = chosen_params(cloud, params, auto, dict(given or {}), on_choice)
     auto_seconds = time.perf_counter() - t
     result = measure(cloud, params, frame, progress, moments=moments)
     del moments
@@ -273,9 +273,11 @@ def measure_outcrop(
     return run
 
 
-def _chosen(cloud: Cloud, params: Params, auto: bool, given: dict, on_choice):
-    """The parameters the run takes: ``params`` with the automatic choice where asked (the
-    given factors still win), the choice's record for ``run.json`` and its voxel moments."""
+def chosen_params(cloud: Cloud, params: Params, auto: bool, given: dict, on_choice=None):
+    """The parameters a run takes: ``params`` with the automatic choice where asked (the
+    ``given`` factors still win), the choice's record for ``run.json`` (None without one)
+    and the voxel moments it summed (for ``measure(..., moments=)``); ``on_choice`` is
+    told the choice in words."""
     if given and any(getattr(params, name) != value for name, value in given.items()):
         params = params.with_(**given)
     if not auto or len(given) == len(FACTORS):
