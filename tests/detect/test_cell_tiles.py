@@ -1,0 +1,33 @@
+"""The detector's grid in tiles with halos (issue 46, docs/tiles.md step 1): every core
+cell's plane is the one the whole cloud's grid gives it, and every cell is a core cell of
+exactly one tile."""
+
+import numpy as np
+
+from geostructure.core.bounds import column_min
+from geostructure.detect.cells import CellGrid, grid_planes, with_sparse_cells_filled
+from geostructure.detect.tiles import cell_tiles, key_bound, key_codes
+from geostructure.synthetic import outcrop_scene
+
+
+def test_core_cells_take_the_whole_grids_planes_on_a_rough_outcrop():
+    points = outcrop_scene(width=8.0, height=5.0, seed=5).cloud.local
+    edge, lower = 0.12, column_min(points)
+    grid = CellGrid.of(points, edge, lower)
+    whole = with_sparse_cells_filled(grid_planes(grid), grid)
+    bound = key_bound(points, edge, lower)
+    codes = key_codes(grid.cell_key, bound)
+    seen = np.zeros(len(codes), dtype=int)
+    tiles = list(cell_tiles(points, edge, tile_cells=10, lower=lower))
+    assert len(tiles) > 10  # tiles of 1.2 m on an 8 x 5 m face: most facets cut by a border
+    for tile in tiles:
+        at = np.searchsorted(codes, key_codes(tile.key[tile.core], bound))
+        assert np.array_equal(codes[at], key_codes(tile.key[tile.core], bound))
+        seen[at] += 1
+        mine = tile.cells
+        assert np.array_equal(mine.defined[tile.core], whole.defined[at])
+        ok = whole.defined[at]
+        angle = np.abs(np.einsum("ij,ij->i", mine.normal[tile.core][ok], whole.normal[at][ok]))
+        assert angle.min() > 1.0 - 1e-12
+        np.testing.assert_allclose(mine.residual[tile.core][ok], whole.residual[at][ok], rtol=1e-9, atol=1e-12)
+    assert (seen == 1).all()  # every cell the core of one tile, once
