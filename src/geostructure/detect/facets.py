@@ -275,8 +275,17 @@ def grow_cells(cells: CellPlanes, thresholds: FacetThresholds, pairs=None) -> np
     >>> int(labels.max() + 1)
     2
     """
-    n = len(cells)
     source, target = neighbour_pairs(cells) if pairs is None else pairs
+    flat, (source, target) = agreeing_pairs(cells, thresholds, (source, target))
+    return ranked_components(len(cells), source, target, flat, cells.count)
+
+
+def agreeing_pairs(cells: CellPlanes, thresholds: FacetThresholds, pairs) -> tuple[np.ndarray, tuple]:
+    """Which cells are flat enough to grow (their surface variation), and which of the
+    touching ``pairs`` agree: both flat, their normals within the angle, each cell's points
+    within the offset of the other's plane. Local: a pair's test reads its two cells alone,
+    so tiles with halos test the pairs of their own cells as the whole grid does."""
+    source, target = pairs
     flat = cells.defined & (cells.variation <= thresholds.max_variation)
     # Each test on the pairs that passed the one before: the gathered (pairs, 3) rows are
     # the largest arrays here, and at 8M points most pairs fail the first tests.
@@ -290,7 +299,16 @@ def grow_cells(cells: CellPlanes, thresholds: FacetThresholds, pairs=None) -> np
             np.abs(pair_dots(cells.centroid, b, cells.normal, a, less=(cells.block_centroid, a)))
             <= thresholds.max_offset
         )
-    graph = coo_matrix((np.ones(int(ok.sum()), dtype=np.int8), (source[ok], target[ok])), shape=(n, n))
+    return flat, (source[ok], target[ok])
+
+
+def ranked_components(
+    n: int, source: np.ndarray, target: np.ndarray, flat: np.ndarray, count: np.ndarray
+) -> np.ndarray:
+    """The connected components of ``n`` cells joined by the pairs (``source``, ``target``),
+    flat cells only, of two cells or more, numbered by the points they hold (``count`` per
+    cell), most first; -1 for the rest."""
+    graph = coo_matrix((np.ones(len(source), dtype=np.int8), (source, target)), shape=(n, n))
     _, component = connected_components(graph, directed=False)
     component = np.where(flat, component, -1)
     n_components = int(component.max(initial=-1)) + 1
@@ -300,7 +318,7 @@ def grow_cells(cells: CellPlanes, thresholds: FacetThresholds, pairs=None) -> np
     cells_in = np.bincount(component[grown], minlength=n_components)
     component = np.where(grown & (cells_in[np.maximum(component, 0)] >= 2), component, -1)
     grown = component >= 0
-    points_in = np.bincount(component[grown], weights=cells.count[grown], minlength=n_components)
+    points_in = np.bincount(component[grown], weights=count[grown], minlength=n_components)
     order = np.argsort(-points_in, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))

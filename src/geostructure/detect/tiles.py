@@ -16,7 +16,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from geostructure.core.bounds import column_max, column_min
-from geostructure.detect.cells import CellGrid, CellPlanes, grid_planes, with_sparse_cells_filled
+from geostructure.core.density import point_spacing
+from geostructure.detect.cells import CellGrid, CellPlanes, grid_planes, neighbour_pairs, with_sparse_cells_filled
+from geostructure.detect.facets import (
+    CELL_EDGE,
+    MAX_CELL_SCATTER,
+    FacetDetection,
+    agreeing_pairs,
+    coarsened_planes,
+    detect_facets,
+    facet_thresholds,
+    far_scatter,
+    planar_components,
+    ranked_components,
+)
 
 #: Cells of halo round a tile: a sparse cell's coarse block reaches three fine cells out.
 HALO_CELLS = 4
@@ -105,3 +118,141 @@ def key_codes(key: np.ndarray, upper: np.ndarray) -> np.ndarray:
 def key_bound(points: np.ndarray, edge: float, lower) -> np.ndarray:
     """An exclusive bound on the cell keys of ``points``, for :func:`key_codes`."""
     return cell_keys(column_max(np.asarray(points, dtype=np.float64))[None], edge, lower)[0] + 2
+
+
+#: Cells of a tile's halo whose planes are the whole grid's for sure: a sparse cell's
+#: coarse block reaches three cells out, so the outer three may differ.
+UNSURE_CELLS = 3
+
+
+def grow_in_tiles(
+    points: np.ndarray, edge: float, thresholds, tile_cells: int, lower=None, halo_cells: int = HALO_CELLS
+):
+    """The detector's growing (:func:`~geostructure.detect.facets.grow_cells` and
+    :func:`~geostructure.detect.facets.label_points`) done tile by tile: each tile tests the
+    touching pairs of the cells whose planes are sure (its core and the inner
+    ``halo_cells - UNSURE_CELLS`` of its halo), so every pair of touching cells is tested in
+    a tile that holds both; the agreeing pairs, named by the cells' keys on the whole grid,
+    are joined into components once; each tile labels its own core points.
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        The cloud (local coordinates).
+    edge : float
+        The grid's cell edge.
+    thresholds : FacetThresholds
+        The whole cloud's (:func:`~geostructure.detect.facets.facet_thresholds`).
+    tile_cells : int
+        Cells on a side of a tile's core (even).
+    lower : (3,) array, optional
+        The grid's anchor: the cloud's least corner unless given.
+    halo_cells : int
+        Cells of halo, more than :data:`UNSURE_CELLS`.
+
+    Returns
+    -------
+    labels : (N,) int array
+        Each point's facet, numbered by the points its cells hold, or -1, as
+        :func:`~geostructure.detect.facets.label_points` gives them for the whole grid.
+    normals : (N, 3) array
+        Each point's cell's plane normal (for the planarity check).
+
+    Examples
+    --------
+    >>> from geostructure.detect.cells import cell_planes
+    >>> from geostructure.detect.facets import facet_thresholds, grow_cells, label_points
+    >>> g = np.mgrid[0:4:160j, 0:4:160j].reshape(2, -1).T
+    >>> roof = np.c_[g, np.where(g[:, 0] < 2, 0.5 * g[:, 0], 2 - 0.5 * g[:, 0])]
+    >>> cells = cell_planes(roof, 0.1)
+    >>> thresholds = facet_thresholds(cells, 0.025)
+    >>> whole = label_points(roof, cells, grow_cells(cells, thresholds), thresholds.max_offset)
+    >>> tiled, _ = grow_in_tiles(roof, 0.1, thresholds, tile_cells=8)
+    >>> int(tiled.max() + 1), bool((tiled == whole).all())
+    (2, True)
+    """
+    from geostructure.detect.cells import neighbour_pairs  # lazy, as above
+
+    if halo_cells <= UNSURE_CELLS:
+        raise ValueError(f"halo_cells must be more than {UNSURE_CELLS}, not {halo_cells}")
+    points = np.asarray(points, dtype=np.float64)
+    lower = column_min(points) if lower is None else np.asarray(lower, dtype=np.float64)
+    bound = key_bound(points, edge, lower)
+    codes = np.unique(key_codes(cell_keys(points, edge, lower), bound))
+    flat = np.zeros(len(codes), dtype=bool)
+    count = np.zeros(len(codes))
+    sources, targets, tiles = [], [], []
+    sure = halo_cells - UNSURE_CELLS
+    for tile in cell_tiles(points, edge, tile_cells, lower, halo_cells):
+        cells = tile.cells
+        first = (tile.key[tile.core][0] - 1) // tile_cells * tile_cells + 1
+        trusted = np.all((tile.key >= first - sure) & (tile.key < first + tile_cells + sure), axis=1)
+        source, target = neighbour_pairs(cells)
+        keep = trusted[source] & trusted[target]
+        tile_flat, (source, target) = agreeing_pairs(cells, thresholds, (source[keep], target[keep]))
+        where = np.searchsorted(codes, key_codes(tile.key, bound))  # the tile's cells on the whole grid
+        flat[where[tile.core]] = tile_flat[tile.core]
+        count[where[tile.core]] = cells.count[tile.core]
+        sources.append(where[source])
+        targets.append(where[target])
+        tiles.append((tile, where))
+    component = ranked_components(
+        len(codes), np.concatenate(sources) if sources else np.zeros(0, int),
+        np.concatenate(targets) if targets else np.zeros(0, int), flat, count,
+    )  # fmt: skip
+    labels = np.full(len(points), -1, dtype=np.int64)
+    normals = np.zeros((len(points), 3))
+    for tile, where in tiles:
+        cells = tile.cells
+        mine = tile.core[cells.point_cell]  # the tile's own points: those in its core cells
+        held, cell = tile.points[mine], cells.point_cell[mine]
+        own = component[where[cell]]
+        near = cells.point_offset(points[held], cell) <= thresholds.max_offset
+        labels[held] = np.where((own >= 0) & near, own, -1)
+        normals[held] = cells.normal[cell]
+    return labels, normals
+
+
+def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int = HALO_CELLS) -> FacetDetection:
+    """:func:`~geostructure.detect.facets.detect_facets` with its growing and labelling done
+    in tiles (:func:`grow_in_tiles`); the spacing, the grid's edge and the thresholds are the
+    whole cloud's, read as in memory (docs/tiles.md, steps 1 and 3). On rock rough at every
+    scale the grid tries, the rough facets are not tiled yet: the whole cloud's are given.
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        The cloud's local coordinates (filtered).
+    tile_cells : int
+        Cells on a side of a tile's core (even).
+    halo_cells : int
+        Cells of halo round each tile.
+
+    Returns
+    -------
+    FacetDetection
+        As :func:`~geostructure.detect.facets.detect_facets` gives it.
+
+    Examples
+    --------
+    >>> g = np.mgrid[0:4:160j, 0:4:160j].reshape(2, -1).T
+    >>> roof = np.c_[g, np.where(g[:, 0] < 2, 0.5 * g[:, 0], 2 - 0.5 * g[:, 0])]
+    >>> found = detect_facets_in_tiles(roof, tile_cells=8)
+    >>> bool((found.labels == detect_facets(roof).labels).all()), bool((found.labels >= 0).mean() > 0.9)
+    (True, True)
+    """
+    points = np.asarray(points, dtype=np.float64)
+    spacing = point_spacing(points)
+    cells = coarsened_planes(points, CELL_EDGE * spacing)
+    edge, scatter = cells.edge, far_scatter(cells)
+    if scatter > MAX_CELL_SCATTER:
+        return detect_facets(points)
+    thresholds = facet_thresholds(cells, spacing, neighbour_pairs(cells))
+    labels, normals = grow_in_tiles(points, edge, thresholds, tile_cells, column_min(points), halo_cells)
+    planar = planar_components(points, normals, labels, thresholds)
+    spans = np.bincount(labels[labels >= 0], minlength=len(planar)) >= 3
+    planar &= spans
+    curved = (labels >= 0) & ~(planar | ~spans)[np.maximum(labels, 0)] if len(planar) else np.zeros(len(points), bool)
+    renumber = np.full(len(planar) + 1, -1)
+    renumber[np.flatnonzero(planar)] = np.arange(int(planar.sum()))
+    return FacetDetection(renumber[labels], curved, thresholds, edge, scatter)
