@@ -3,6 +3,7 @@ cell's plane is the one the whole cloud's grid gives it, and every cell is a cor
 exactly one tile."""
 
 import numpy as np
+import pytest
 
 from geostructure.core.bounds import column_min
 from geostructure.detect.cells import CellGrid, grid_planes, with_sparse_cells_filled
@@ -46,3 +47,21 @@ def test_facets_grown_in_small_tiles_are_the_whole_clouds():
     assert whole.labels.max() + 1 > 100  # most facets are cut by a tile's border here
     assert (tiled.labels == whole.labels).mean() > 0.999
     assert tiled.labels.max() == whole.labels.max()
+
+
+def test_the_thresholds_and_the_far_scatter_read_in_tiles_are_the_whole_grids():
+    """docs/tiles.md step 2: medians do not add, so the tiles give their core cells' values
+    and the medians are taken once: the same thresholds and scatter as the whole grid."""
+    from geostructure.detect.facets import facet_thresholds
+    from geostructure.detect.gridscatter import far_scatter
+    from geostructure.detect.tiles import grid_statistics_in_tiles
+
+    points = outcrop_scene(width=8.0, height=5.0, seed=5).cloud.local
+    edge, lower = 0.05, column_min(points)
+    grid = CellGrid.of(points, edge, lower)
+    cells = with_sparse_cells_filled(grid_planes(grid), grid)
+    whole = facet_thresholds(cells, 0.015)
+    tiled, scatter = grid_statistics_in_tiles(points, edge, 0.015, tile_cells=10, lower=lower)
+    for name in ("max_angle", "max_offset", "max_variation"):
+        assert getattr(tiled, name) == pytest.approx(getattr(whole, name), rel=1e-9)
+    assert scatter == pytest.approx(far_scatter(cells), rel=1e-9)

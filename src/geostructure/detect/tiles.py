@@ -17,19 +17,30 @@ import numpy as np
 
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.density import point_spacing
-from geostructure.detect.cells import CellGrid, CellPlanes, grid_planes, neighbour_pairs, with_sparse_cells_filled
+from geostructure.detect.cells import (
+    CENTRE,
+    SURFACE_VARIATION,
+    CellGrid,
+    CellPlanes,
+    grid_planes,
+    neighbour_pairs,
+    with_sparse_cells_filled,
+)
 from geostructure.detect.facets import (
+    ANGLE_FACTOR,
     CELL_EDGE,
     MAX_CELL_SCATTER,
+    SCATTER_SAMPLE_POINTS,
     FacetDetection,
+    FacetThresholds,
     agreeing_pairs,
     coarsened_planes,
     detect_facets,
-    facet_thresholds,
-    far_scatter,
     planar_components,
     ranked_components,
+    sampled_edge,
 )
+from geostructure.detect.gridscatter import SCATTER_PERCENTILE, SURFACE_SHARE
 
 #: Cells of halo round a tile: a sparse cell's coarse block reaches three fine cells out.
 HALO_CELLS = 4
@@ -216,8 +227,9 @@ def grow_in_tiles(
 def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int = HALO_CELLS) -> FacetDetection:
     """:func:`~geostructure.detect.facets.detect_facets` with its growing and labelling done
     in tiles (:func:`grow_in_tiles`); the spacing, the grid's edge and the thresholds are the
-    whole cloud's, read as in memory (docs/tiles.md, steps 1 and 3). On rock rough at every
-    scale the grid tries, the rough facets are not tiled yet: the whole cloud's are given.
+    whole cloud's: the edge as in memory, the thresholds and the far scatter gathered over the
+    tiles (:func:`grid_statistics_in_tiles`, docs/tiles.md, steps 1 to 3). On rock rough at
+    every scale the grid tries, the rough facets are not tiled yet: the whole cloud's are given.
 
     Parameters
     ----------
@@ -243,12 +255,18 @@ def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int 
     """
     points = np.asarray(points, dtype=np.float64)
     spacing = point_spacing(points)
-    cells = coarsened_planes(points, CELL_EDGE * spacing)
-    edge, scatter = cells.edge, far_scatter(cells)
+    lower = column_min(points)
+    # The grid's edge: on a sample of blocks above SCATTER_SAMPLE_POINTS (as a stream would
+    # read it), else by coarsening the whole grid, as in memory.
+    if len(points) > SCATTER_SAMPLE_POINTS:
+        edge = sampled_edge(points, CELL_EDGE * spacing)
+    else:
+        edge = coarsened_planes(points, CELL_EDGE * spacing).edge
+    thresholds, scatter = grid_statistics_in_tiles(points, edge, spacing, tile_cells, lower,
+                                                   max(halo_cells, SCATTER_HALO_CELLS))  # fmt: skip
     if scatter > MAX_CELL_SCATTER:
         return detect_facets(points)
-    thresholds = facet_thresholds(cells, spacing, neighbour_pairs(cells))
-    labels, normals = grow_in_tiles(points, edge, thresholds, tile_cells, column_min(points), halo_cells)
+    labels, normals = grow_in_tiles(points, edge, thresholds, tile_cells, lower, halo_cells)
     planar = planar_components(points, normals, labels, thresholds)
     spans = np.bincount(labels[labels >= 0], minlength=len(planar)) >= 3
     planar &= spans
@@ -256,3 +274,104 @@ def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int 
     renumber = np.full(len(planar) + 1, -1)
     renumber[np.flatnonzero(planar)] = np.arange(int(planar.sum()))
     return FacetDetection(renumber[labels], curved, thresholds, edge, scatter)
+
+
+#: A cell's far scatter pairs it with the cell two steps along each axis: the tiles that
+#: read it need sure cells two out, so a halo this wide.
+SCATTER_HALO_CELLS = UNSURE_CELLS + 2
+
+
+def grid_statistics_in_tiles(
+    points: np.ndarray, edge: float, spacing: float, tile_cells: int, lower=None,
+    halo_cells: int = SCATTER_HALO_CELLS,
+):  # fmt: skip
+    """The detector's thresholds and its grid's far scatter, read tile by tile, equal to
+    :func:`~geostructure.detect.facets.facet_thresholds` and
+    :func:`~geostructure.detect.gridscatter.far_scatter` on the whole grid (docs/tiles.md,
+    step 2). Each tile gives the values of its own core cells and of the pairs its core
+    cells start: medians do not add, so the values are gathered and their medians taken
+    once, exactly.
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        The cloud (local coordinates).
+    edge : float
+        The grid's cell edge.
+    spacing : float
+        The cloud's point spacing.
+    tile_cells : int
+        Cells on a side of a tile's core (even).
+    lower : (3,) array, optional
+        The grid's anchor: the cloud's least corner unless given.
+    halo_cells : int
+        Cells of halo, at least :data:`SCATTER_HALO_CELLS`.
+
+    Returns
+    -------
+    thresholds : FacetThresholds
+        As the whole grid gives them.
+    scatter : float
+        The far scatter (degrees), as the whole grid gives it.
+
+    Examples
+    --------
+    >>> from geostructure.detect.cells import CellGrid, grid_planes, with_sparse_cells_filled
+    >>> from geostructure.detect.facets import facet_thresholds
+    >>> from geostructure.detect.gridscatter import far_scatter
+    >>> rng = np.random.default_rng(3)
+    >>> xy = rng.random((30_000, 2)) * 6.0
+    >>> wavy = np.c_[xy, 0.2 * np.sin(xy[:, 0]) + 0.003 * rng.standard_normal(len(xy))]
+    >>> grid = CellGrid.of(wavy, 0.15)
+    >>> cells = with_sparse_cells_filled(grid_planes(grid), grid)
+    >>> thresholds, scatter = grid_statistics_in_tiles(wavy, 0.15, 0.035, tile_cells=8)
+    >>> thresholds == facet_thresholds(cells, 0.035), abs(scatter - far_scatter(cells)) < 1e-9
+    (True, True)
+    """
+    if halo_cells < SCATTER_HALO_CELLS:
+        raise ValueError(f"halo_cells must be at least {SCATTER_HALO_CELLS}, not {halo_cells}")
+    residual, variation, count, defined, angles, far = [], [], [], [], [], []
+    for tile in cell_tiles(points, edge, tile_cells, lower, halo_cells):
+        cells, core = tile.cells, tile.core
+        residual.append(cells.residual[core & cells.defined])
+        variation.append(cells.variation[core])
+        count.append(cells.count[core])
+        defined.append(cells.defined[core])
+        source, target = neighbour_pairs(cells)  # forward pairs: each counted in its source's tile
+        mine = core[source]
+        cosine = np.abs(np.einsum("ij,ij->i", cells.normal[source[mine]], cells.normal[target[mine]]))
+        angles.append(np.arccos(np.clip(cosine, 0.0, 1.0)))
+        far.append(_far_pairs(cells, core))
+    residual, variation, count, defined = (np.concatenate(v) for v in (residual, variation, count, defined))
+    angles = np.concatenate(angles)
+    scatter = float(np.degrees(np.median(angles))) if len(angles) else 0.0
+    thresholds = FacetThresholds(
+        max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
+        max_offset=max(3.0 * float(np.median(residual)), spacing / 3.0) if defined.any() else spacing,
+        max_variation=float(np.clip(3.0 * np.median(variation[defined]), 0.01, 0.1)) if defined.any() else 0.01,
+        spacing=spacing,
+    )
+    # The far scatter on the surface's cells (gridscatter.surface_cells): the thin cells when
+    # they hold half the points or more, a share that adds over the tiles.
+    thin = defined & (variation <= SURFACE_VARIATION)
+    surface = count[thin].sum() >= SURFACE_SHARE * count[defined].sum()
+    far_angles = np.concatenate([pick[1] if surface else pick[0] for pick in far])
+    far_scatter = float(np.degrees(np.percentile(far_angles, SCATTER_PERCENTILE))) if len(far_angles) else 0.0
+    return thresholds, far_scatter
+
+
+def _far_pairs(cells: CellPlanes, core: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The angles between each core cell's normal and that of the cell two steps along each
+    axis (:func:`~geostructure.detect.gridscatter.far_scatter`'s pairs), among the defined
+    cells and among the thin ones: which of the two counts is the whole cloud's choice."""
+    thin = cells.defined & (cells.variation <= SURFACE_VARIATION)
+    found = ([], [])
+    for axis_offset in (CENTRE + 9, CENTRE + 3, CENTRE + 1):  # +x, +y, +z
+        one = cells.neighbour[:, axis_offset]
+        two = np.where(one >= 0, cells.neighbour[np.maximum(one, 0), axis_offset], -1)
+        for among, out in ((cells.defined, found[0]), (thin, found[1])):
+            ok = core & (two >= 0) & among
+            ok[ok] &= among[two[ok]]
+            cosine = np.abs(np.einsum("ij,ij->i", cells.normal[ok], cells.normal[two[ok]]))
+            out.append(np.arccos(np.clip(cosine, 0.0, 1.0)))
+    return np.concatenate(found[0]), np.concatenate(found[1])
