@@ -428,13 +428,23 @@ def detect_facets(points: np.ndarray) -> FacetDetection:
         rough = detect_rough_facets(points, spacing)
         return FacetDetection(rough.labels, np.zeros(len(points), bool), thresholds, edge, scatter, rough)
     labels = label_points(points, cells, grow_cells(cells, thresholds, pairs), thresholds.max_offset)
-    planar = planar_components(points, cells.normal, labels, thresholds, normal_of=cells.point_cell)
-    # A group of one or two points spans no plane: its normal, and so its planarity, is
-    # whatever the rounding of its coordinates makes it (a cloud moved to UTM flipped some,
-    # and with them which voxels were grown again). Such a group is no facet, nor curved.
+    labels, curved = planar_facets(points, cells.normal, labels, thresholds, normal_of=cells.point_cell)
+    return FacetDetection(labels, curved, thresholds, edge, scatter)
+
+
+def planar_facets(points, normals, labels, thresholds, normal_of=None) -> tuple[np.ndarray, np.ndarray]:
+    """The grown groups (``labels``) that are planar facets, numbered afresh (0, 1, ...),
+    and the points of those that are not (curved), as :func:`planar_components` tells
+    them; ``normals`` and ``normal_of`` as it takes them.
+
+    A group of one or two points spans no plane: its normal, and so its planarity, is
+    whatever the rounding of its coordinates makes it (a cloud moved to UTM flipped some,
+    and with them which voxels were grown again). Such a group is no facet, nor curved.
+    """
+    planar = planar_components(points, normals, labels, thresholds, normal_of=normal_of)
     spans = np.bincount(labels[labels >= 0], minlength=len(planar)) >= 3
     planar &= spans
     curved = (labels >= 0) & ~(planar | ~spans)[np.maximum(labels, 0)] if len(planar) else np.zeros(len(points), bool)
     renumber = np.full(len(planar) + 1, -1)
     renumber[np.flatnonzero(planar)] = np.arange(int(planar.sum()))
-    return FacetDetection(renumber[labels], curved, thresholds, edge, scatter)
+    return renumber[labels], curved

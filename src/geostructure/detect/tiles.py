@@ -36,7 +36,7 @@ from geostructure.detect.facets import (
     agreeing_pairs,
     coarsened_planes,
     detect_facets,
-    planar_components,
+    planar_facets,
     ranked_components,
     sampled_edge,
 )
@@ -267,13 +267,8 @@ def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int 
     if scatter > MAX_CELL_SCATTER:
         return detect_facets(points)
     labels, normals = grow_in_tiles(points, edge, thresholds, tile_cells, lower, halo_cells)
-    planar = planar_components(points, normals, labels, thresholds)
-    spans = np.bincount(labels[labels >= 0], minlength=len(planar)) >= 3
-    planar &= spans
-    curved = (labels >= 0) & ~(planar | ~spans)[np.maximum(labels, 0)] if len(planar) else np.zeros(len(points), bool)
-    renumber = np.full(len(planar) + 1, -1)
-    renumber[np.flatnonzero(planar)] = np.arange(int(planar.sum()))
-    return FacetDetection(renumber[labels], curved, thresholds, edge, scatter)
+    labels, curved = planar_facets(points, normals, labels, thresholds)
+    return FacetDetection(labels, curved, thresholds, edge, scatter)
 
 
 #: A cell's far scatter pairs it with the cell two steps along each axis: the tiles that
