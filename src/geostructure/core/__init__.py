@@ -15,5 +15,4 @@ _PUBLIC = {
     "orientation_from_normals": "orientation",
 }
 
-__all__ = sorted(_PUBLIC)
-__getattr__, __dir__ = lazy_names(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = lazy_names(__name__, _PUBLIC)

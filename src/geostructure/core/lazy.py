@@ -8,14 +8,14 @@ import importlib
 
 
 def lazy_names(package: str, public: dict[str, str]):
-    """``__getattr__`` and ``__dir__`` for a package whose public names (name -> module,
-    relative to the package) are loaded on first use.
+    """``__all__``, ``__getattr__`` and ``__dir__`` for a package whose public names (name
+    -> module, relative to the package) are loaded on first use.
 
     Examples
     --------
-    >>> getattr_, dir_ = lazy_names("geostructure.core", {"Frame": "orientation"})
-    >>> getattr_("Frame").__name__, dir_()
-    ('Frame', ['Frame'])
+    >>> all_, getattr_, dir_ = lazy_names("geostructure.core", {"Frame": "orientation"})
+    >>> all_, getattr_("Frame").__name__, dir_()
+    (['Frame'], 'Frame', ['Frame'])
     """
 
     def __getattr__(name: str):
@@ -26,4 +26,4 @@ def lazy_names(package: str, public: dict[str, str]):
     def __dir__() -> list[str]:
         return sorted(public)
 
-    return __getattr__, __dir__
+    return sorted(public), __getattr__, __dir__

@@ -14,5 +14,4 @@ _PUBLIC = {
     "add_validation": "scoring",
 }
 
-__all__ = sorted(_PUBLIC)
-__getattr__, __dir__ = lazy_names(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = lazy_names(__name__, _PUBLIC)

@@ -18,5 +18,4 @@ _PUBLIC = {
     "read_field_map": "fieldmap",
 }
 
-__all__ = sorted(_PUBLIC)
-__getattr__, __dir__ = lazy_names(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = lazy_names(__name__, _PUBLIC)

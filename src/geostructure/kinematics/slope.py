@@ -41,21 +41,12 @@ def fit_face(
 ) -> FittedFace:
     """The slope of an outcrop cloud (:func:`fit_slope`), and for a face that turns, the
     slope of each of its sections (:func:`~geostructure.rockmass.sections.face_sections`), each fitted to the
-    points of its own section. ``members`` and ``bend`` as :func:`fit_slope` takes them;
-    ``offset``: what ``points`` are relative to (a cloud's), for the planes' sections;
-    ``sections``: the :class:`~geostructure.rockmass.sections.FaceSections` of the same points, when the sets' rock
-    mass cut them already.
+    points of its own section.
 
     Parameters
     ----------
-    points : (N, 3) array
-        The cloud's points (local coordinates).
-    frame : Frame
-        Which way east, north and up point in the cloud.
-    members : (N,) bool array, optional
-        The points of the face (:func:`~geostructure.rockmass.face.face_members`); all by default.
-    bend : float, optional
-        How far the face turns along its strike (degrees); measured here when not given.
+    points, frame, members, bend
+        As :func:`fit_slope` takes them.
     offset : (3,) array, optional
         What ``points`` are relative to (the cloud's), for the planes' sections.
     sections : FaceSections, optional
