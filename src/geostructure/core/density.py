@@ -77,16 +77,40 @@ def _spacing_of(points: np.ndarray, sample: int, seed: int) -> tuple[float, floa
 
 def _block_sampled_r8(points: np.ndarray, sample: int, seed: int) -> tuple[float, float] | None:
     """The median r_8 of :func:`point_spacing`, read in a hash-drawn sample of whole blocks
-    (:data:`SPACING_BLOCKS_ACROSS` across the cloud) holding some :data:`SPACING_TREE_POINTS`
-    / 4 points, from probes at least twice the median r_8 inside their block. Their 8 nearest
-    neighbours are then the whole cloud's, unless farther than that (the sparsest tail, which
-    does not move the median). With it, the share of those probes that have a copy. None when
+    (:func:`spacing_blocks`); with it, the share of its probes that have a copy. None when
     too few probes are that far inside."""
+    lower, edge, fraction = spacing_blocks(column_min(points), column_max(points), len(points))
+    return r8_in_blocks(points[sampled_blocks(points, lower, edge, fraction, seed)], lower, edge, sample, seed)
+
+
+def spacing_blocks(lower, upper, n_points: int) -> tuple[np.ndarray, float, float]:
+    """The blocks :func:`point_spacing` reads a large cloud's spacing in: their anchor, their
+    edge (:data:`SPACING_BLOCKS_ACROSS` across the cloud) and the share of them drawn (to hold
+    some :data:`SPACING_TREE_POINTS` / 4 points), from the cloud's bounds and size alone, so
+    that a cloud read in chunks draws the same blocks
+    (:func:`~geostructure.core.sampling.sampled_blocks`).
+
+    Examples
+    --------
+    >>> lower, edge, fraction = spacing_blocks(np.zeros(3), np.array([64.0, 10.0, 5.0]), 10_000_000)
+    >>> lower.tolist(), edge, fraction
+    ([-0.5, -0.5, -0.5], 1.0, 0.05)
+    """
+    lower, upper = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     # Blocks start half a block below the cloud's corner, so that surfaces at its bounds (the
     # ground, at the lowest points) lie mid-block, not along a face where no probe counts.
-    edge = float((column_max(points) - column_min(points)).max()) / SPACING_BLOCKS_ACROSS
-    lower = column_min(points) - edge / 2
-    sub = points[sampled_blocks(points, lower, edge, SPACING_TREE_POINTS / 4 / len(points), seed)]
+    edge = float((upper - lower).max()) / SPACING_BLOCKS_ACROSS
+    return lower - edge / 2, edge, SPACING_TREE_POINTS / 4 / n_points
+
+
+def r8_in_blocks(sub: np.ndarray, lower, edge: float, sample: int, seed: int) -> tuple[float, float] | None:
+    """The median r_8 of the points of the drawn blocks ``sub`` (the cubes of ``edge`` from
+    ``lower``), from probes at least twice the median r_8 inside their block: their 8 nearest
+    neighbours are then the whole cloud's, unless farther than that (the sparsest tail, which
+    does not move the median). With it, the share of those probes that have a copy; None
+    when too few probes are that far inside."""
+    if len(sub) < 9:
+        return None
     probe = order_free_sample(sub, min(4 * sample, len(sub)), seed)
     tree = cKDTree(sub, balanced_tree=False, compact_nodes=False)
     distance = tree.query(sub[probe], k=9, workers=-1)[0]
@@ -97,3 +121,15 @@ def _block_sampled_r8(points: np.ndarray, sample: int, seed: int) -> tuple[float
     if inside.sum() < sample // 4:
         return None
     return float(np.median(r8[inside])), float(np.mean(distance[inside, 1] == 0.0))
+
+
+def spacing_of_blocks(sub: np.ndarray, lower, edge: float, sample: int = SPACING_SAMPLE, seed: int = 0):
+    """:func:`point_spacing` of a cloud too large to hold, from the points ``sub`` of its
+    drawn blocks (:func:`spacing_blocks`, gathered chunk by chunk): the same value as the
+    whole cloud gives, or None where too few probes lie inside their blocks (the cloud is
+    then read on a tree of all its points). Where many probes have a copy, the spacing is
+    read on the distinct points of the blocks (in memory: of the cloud)."""
+    found = r8_in_blocks(sub, lower, edge, sample, seed)
+    if found is not None and found[1] > MAX_COPIED_SHARE:
+        found = r8_in_blocks(np.unique(sub, axis=0), lower, edge, sample, seed)
+    return None if found is None else found[0] * float(np.sqrt(np.pi / 8))

@@ -362,16 +362,29 @@ def coarsened_planes(points: np.ndarray, edge: float) -> CellPlanes:
 def sampled_edge(points: np.ndarray, edge: float, seed: int = 0) -> float:
     """The edge :func:`coarsened_planes` chooses, its scatter read on
     :data:`SCATTER_SAMPLE_CELLS` cells of a hash-drawn sample of whole blocks of the grid
-    (:data:`SCATTER_BLOCK_CELLS` of the coarsest grid's cells wide, so every grid's cells
-    nest in them), drawn among the cells whose planes and partners' planes lie in their
-    block. The blocks are a spatial sample, and each block whole: a cell's neighbours are
-    all there."""
+    (:func:`edge_blocks`), drawn among the cells whose planes and partners' planes lie in
+    their block. The blocks are a spatial sample, and each block whole: a cell's neighbours
+    are all there."""
     lower = column_min(points)
-    block_edge = edge * 2**COARSENING_ROUNDS * SCATTER_BLOCK_CELLS  # a power of two: cells nest exactly
-    # Half a block below the corner (a whole number of the coarsest cells): surfaces at the
-    # cloud's bounds (its ground) lie mid-block, not in the face layers no cell is drawn from.
-    fraction = SCATTER_SAMPLE_POINTS / len(points)
-    grid = CellGrid.of(points[sampled_blocks(points, lower, block_edge, fraction, seed, shift=0.5)], edge, lower)
+    block_edge, fraction = edge_blocks(edge, len(points))
+    drawn = sampled_blocks(points, lower, block_edge, fraction, seed, shift=0.5)
+    return edge_of_blocks(points[drawn], edge, lower, fraction, seed)
+
+
+def edge_blocks(edge: float, n_points: int) -> tuple[float, float]:
+    """The blocks :func:`sampled_edge` reads the scatter in: their edge,
+    :data:`SCATTER_BLOCK_CELLS` of the coarsest grid's cells (a power of two times ``edge``:
+    every grid's cells nest in them), and the share of them drawn, for a cloud of
+    ``n_points``. They are anchored half a block below the cloud's corner (``shift=0.5`` in
+    :func:`~geostructure.core.sampling.sampled_blocks`): surfaces at the cloud's bounds (its
+    ground) lie mid-block, not in the face layers no cell is drawn from."""
+    return edge * 2**COARSENING_ROUNDS * SCATTER_BLOCK_CELLS, SCATTER_SAMPLE_POINTS / n_points
+
+
+def edge_of_blocks(sub: np.ndarray, edge: float, lower, fraction: float, seed: int = 0) -> float:
+    """:func:`sampled_edge` from the points ``sub`` of the drawn blocks (:func:`edge_blocks`,
+    gathered in memory or chunk by chunk), the grid anchored at the cloud's corner ``lower``."""
+    grid = CellGrid.of(sub, edge, lower)
     for level in range(COARSENING_ROUNDS):
         if len(grid) / fraction < 100:
             break

@@ -33,14 +33,12 @@ from geostructure.detect.facets import (
     SCATTER_SAMPLE_POINTS,
     FacetDetection,
     FacetThresholds,
-    agreeing_pairs,
     coarsened_planes,
     detect_facets,
-    planar_facets,
-    ranked_components,
     sampled_edge,
 )
 from geostructure.detect.gridscatter import SCATTER_PERCENTILE, SURFACE_SHARE
+from geostructure.detect.tilejoin import UNSURE_CELLS, grow_tile, joined_labels
 
 #: Cells of halo round a tile: a sparse cell's coarse block reaches three fine cells out.
 HALO_CELLS = 4
@@ -50,13 +48,15 @@ HALO_CELLS = 4
 class CellTile:
     """One tile's cells: ``points`` (the indices into the cloud of the tile's points, core
     and halo), their grid's planes ``cells`` (:class:`~geostructure.detect.cells.CellPlanes`),
-    each cell's key on the whole cloud's grid ``key`` (C, 3) and whether it is a ``core``
-    cell of this tile (C,), which no other tile has as its own."""
+    each cell's key on the whole cloud's grid ``key`` (C, 3), whether it is a ``core``
+    cell of this tile (C,), which no other tile has as its own, and ``first`` (3,), the
+    least key of its core."""
 
     points: np.ndarray
     cells: CellPlanes
     key: np.ndarray
     core: np.ndarray
+    first: np.ndarray  # the least key of its own cells
 
 
 def cell_keys(points: np.ndarray, edge: float, lower) -> np.ndarray:
@@ -112,12 +112,21 @@ def cell_tiles(points: np.ndarray, edge: float, tile_cells: int, lower=None, hal
         first = index * tile_cells + 1  # the tile's least core key
         reach = (key >= first - halo_cells) & (key < first + tile_cells + halo_cells)
         held = np.flatnonzero(reach.all(axis=1))
-        grid = CellGrid.of(points[held], edge, lower)
-        cells = with_sparse_cells_filled(grid_planes(grid), grid)
-        cell_key = grid.cell_key
-        core = np.all((cell_key >= first) & (cell_key < first + tile_cells), axis=1)
-        if core.any():
-            yield CellTile(held, cells, cell_key, core)
+        found = tile_cells_of(points[held], edge, lower, first, tile_cells)
+        if found.core.any():
+            yield CellTile(held, found.cells, found.key, found.core, found.first)
+
+
+def tile_cells_of(points: np.ndarray, edge: float, lower, first, tile_cells: int) -> CellTile:
+    """One tile's :class:`CellTile` from its points (core and halo, ``points`` indexing them
+    all): the grid of ``edge`` anchored at the cloud's ``lower``, and which cells are the
+    tile's own, those from key ``first`` (3,) to ``first + tile_cells``."""
+    grid = CellGrid.of(points, edge, lower)
+    cells = with_sparse_cells_filled(grid_planes(grid), grid)
+    cell_key = grid.cell_key
+    first = np.asarray(first, dtype=np.int64)
+    core = np.all((cell_key >= first) & (cell_key < first + tile_cells), axis=1)
+    return CellTile(np.arange(len(points)), cells, cell_key, core, first)
 
 
 def key_codes(key: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -131,20 +140,16 @@ def key_bound(points: np.ndarray, edge: float, lower) -> np.ndarray:
     return cell_keys(column_max(np.asarray(points, dtype=np.float64))[None], edge, lower)[0] + 2
 
 
-#: Cells of a tile's halo whose planes are the whole grid's for sure: a sparse cell's
-#: coarse block reaches three cells out, so the outer three may differ.
-UNSURE_CELLS = 3
-
-
 def grow_in_tiles(
     points: np.ndarray, edge: float, thresholds, tile_cells: int, lower=None, halo_cells: int = HALO_CELLS
-):
-    """The detector's growing (:func:`~geostructure.detect.facets.grow_cells` and
-    :func:`~geostructure.detect.facets.label_points`) done tile by tile: each tile tests the
-    touching pairs of the cells whose planes are sure (its core and the inner
-    ``halo_cells - UNSURE_CELLS`` of its halo), so every pair of touching cells is tested in
-    a tile that holds both; the agreeing pairs, named by the cells' keys on the whole grid,
-    are joined into components once; each tile labels its own core points.
+) -> tuple[np.ndarray, np.ndarray]:
+    """The detector's growing, labelling and planarity test
+    (:func:`~geostructure.detect.facets.grow_cells`,
+    :func:`~geostructure.detect.facets.label_points`,
+    :func:`~geostructure.detect.facets.planar_facets`) done tile by tile: each tile grows
+    its pieces (:func:`~geostructure.detect.tilejoin.grow_tile`), the pieces are joined
+    across the borders (:func:`~geostructure.detect.tilejoin.join_pieces`), and the planarity
+    test adds the tiles' moments and counts.
 
     Parameters
     ----------
@@ -159,15 +164,15 @@ def grow_in_tiles(
     lower : (3,) array, optional
         The grid's anchor: the cloud's least corner unless given.
     halo_cells : int
-        Cells of halo, more than :data:`UNSURE_CELLS`.
+        Cells of halo, more than :data:`~geostructure.detect.tilejoin.UNSURE_CELLS`.
 
     Returns
     -------
     labels : (N,) int array
-        Each point's facet, numbered by the points its cells hold, or -1, as
-        :func:`~geostructure.detect.facets.label_points` gives them for the whole grid.
-    normals : (N, 3) array
-        Each point's cell's plane normal (for the planarity check).
+        Each point's planar facet (0, 1, ... by the points its cells hold) or -1, as
+        :func:`~geostructure.detect.facets.detect_facets` gives them on a trusted grid.
+    curved : (N,) bool array
+        The points of grown groups that are not planar.
 
     Examples
     --------
@@ -178,50 +183,22 @@ def grow_in_tiles(
     >>> cells = cell_planes(roof, 0.1)
     >>> thresholds = facet_thresholds(cells, 0.025)
     >>> whole = label_points(roof, cells, grow_cells(cells, thresholds), thresholds.max_offset)
-    >>> tiled, _ = grow_in_tiles(roof, 0.1, thresholds, tile_cells=8)
-    >>> int(tiled.max() + 1), bool((tiled == whole).all())
-    (2, True)
+    >>> tiled, curved = grow_in_tiles(roof, 0.1, thresholds, tile_cells=8)
+    >>> int(tiled.max() + 1), bool((tiled == whole).all()), int(curved.sum())
+    (2, True, 0)
     """
-    from geostructure.detect.cells import neighbour_pairs  # lazy, as above
-
-    if halo_cells <= UNSURE_CELLS:
-        raise ValueError(f"halo_cells must be more than {UNSURE_CELLS}, not {halo_cells}")
     points = np.asarray(points, dtype=np.float64)
     lower = column_min(points) if lower is None else np.asarray(lower, dtype=np.float64)
     bound = key_bound(points, edge, lower)
-    codes = np.unique(key_codes(cell_keys(points, edge, lower), bound))
-    flat = np.zeros(len(codes), dtype=bool)
-    count = np.zeros(len(codes))
-    sources, targets, tiles = [], [], []
-    sure = halo_cells - UNSURE_CELLS
+    tiles, pieces = [], []
     for tile in cell_tiles(points, edge, tile_cells, lower, halo_cells):
-        cells = tile.cells
-        first = (tile.key[tile.core][0] - 1) // tile_cells * tile_cells + 1
-        trusted = np.all((tile.key >= first - sure) & (tile.key < first + tile_cells + sure), axis=1)
-        source, target = neighbour_pairs(cells)
-        keep = trusted[source] & trusted[target]
-        tile_flat, (source, target) = agreeing_pairs(cells, thresholds, (source[keep], target[keep]))
-        where = np.searchsorted(codes, key_codes(tile.key, bound))  # the tile's cells on the whole grid
-        flat[where[tile.core]] = tile_flat[tile.core]
-        count[where[tile.core]] = cells.count[tile.core]
-        sources.append(where[source])
-        targets.append(where[target])
-        tiles.append((tile, where))
-    component = ranked_components(
-        len(codes), np.concatenate(sources) if sources else np.zeros(0, int),
-        np.concatenate(targets) if targets else np.zeros(0, int), flat, count,
-    )  # fmt: skip
+        codes = key_codes(tile.key, bound)
+        pieces.append(grow_tile(tile, codes, tile.first, tile_cells, halo_cells, thresholds, points[tile.points]))
+        tiles.append(tile.points)
     labels = np.full(len(points), -1, dtype=np.int64)
-    normals = np.zeros((len(points), 3))
-    for tile, where in tiles:
-        cells = tile.cells
-        mine = tile.core[cells.point_cell]  # the tile's own points: those in its core cells
-        held, cell = tile.points[mine], cells.point_cell[mine]
-        own = component[where[cell]]
-        near = cells.point_offset(points[held], cell) <= thresholds.max_offset
-        labels[held] = np.where((own >= 0) & near, own, -1)
-        normals[held] = cells.normal[cell]
-    return labels, normals
+    for held, piece, found in zip(tiles, pieces, joined_labels(pieces, thresholds)):
+        labels[held[piece.point]] = found
+    return np.maximum(labels, -1), labels == -2
 
 
 def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int = HALO_CELLS) -> FacetDetection:
@@ -266,8 +243,7 @@ def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int 
                                                    max(halo_cells, SCATTER_HALO_CELLS))  # fmt: skip
     if scatter > MAX_CELL_SCATTER:
         return detect_facets(points)
-    labels, normals = grow_in_tiles(points, edge, thresholds, tile_cells, lower, halo_cells)
-    labels, curved = planar_facets(points, normals, labels, thresholds)
+    labels, curved = grow_in_tiles(points, edge, thresholds, tile_cells, lower, halo_cells)
     return FacetDetection(labels, curved, thresholds, edge, scatter)
 
 
@@ -325,20 +301,34 @@ def grid_statistics_in_tiles(
     """
     if halo_cells < SCATTER_HALO_CELLS:
         raise ValueError(f"halo_cells must be at least {SCATTER_HALO_CELLS}, not {halo_cells}")
-    residual, variation, count, defined, angles, far = [], [], [], [], [], []
-    for tile in cell_tiles(points, edge, tile_cells, lower, halo_cells):
-        cells, core = tile.cells, tile.core
-        residual.append(cells.residual[core & cells.defined])
-        variation.append(cells.variation[core])
-        count.append(cells.count[core])
-        defined.append(cells.defined[core])
-        source, target = neighbour_pairs(cells)  # forward pairs: each counted in its source's tile
-        mine = core[source]
-        cosine = np.abs(np.einsum("ij,ij->i", cells.normal[source[mine]], cells.normal[target[mine]]))
-        angles.append(np.arccos(np.clip(cosine, 0.0, 1.0)))
-        far.append(_far_pairs(cells, core))
-    residual, variation, count, defined = (np.concatenate(v) for v in (residual, variation, count, defined))
-    angles = np.concatenate(angles)
+    parts = [tile_statistics(tile) for tile in cell_tiles(points, edge, tile_cells, lower, halo_cells)]
+    return combined_statistics(parts, spacing)
+
+
+def tile_statistics(tile: CellTile) -> tuple:
+    """What one tile gives :func:`combined_statistics`: its core cells' residuals (defined
+    cells), variations, counts and whether defined, the angles of the touching pairs its
+    core cells start, and the far pairs' angles (:func:`_far_pairs`). Its halo must be at
+    least :data:`SCATTER_HALO_CELLS` wide."""
+    cells, core = tile.cells, tile.core
+    source, target = neighbour_pairs(cells)  # forward pairs: each counted in its source's tile
+    mine = core[source]
+    cosine = np.abs(np.einsum("ij,ij->i", cells.normal[source[mine]], cells.normal[target[mine]]))
+    return (
+        cells.residual[core & cells.defined],
+        cells.variation[core],
+        cells.count[core],
+        cells.defined[core],
+        np.arccos(np.clip(cosine, 0.0, 1.0)),
+        _far_pairs(cells, core),
+    )
+
+
+def combined_statistics(parts, spacing: float) -> tuple[FacetThresholds, float]:
+    """The thresholds and the far scatter of the whole grid from every tile's
+    :func:`tile_statistics` (in any order): the medians and the percentile taken once."""
+    residual, variation, count, defined, angles = (np.concatenate([p[i] for p in parts]) for i in range(5))
+    far = [p[5] for p in parts]
     scatter = float(np.degrees(np.median(angles))) if len(angles) else 0.0
     thresholds = FacetThresholds(
         max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
