@@ -65,3 +65,23 @@ def test_the_thresholds_and_the_far_scatter_read_in_tiles_are_the_whole_grids():
     for name in ("max_angle", "max_offset", "max_variation"):
         assert getattr(tiled, name) == pytest.approx(getattr(whole, name), rel=1e-9)
     assert scatter == pytest.approx(far_scatter(cells), rel=1e-9)
+
+
+@pytest.mark.real_data
+def test_rough_rock_grown_in_small_tiles_is_the_whole_clouds():
+    """Rough rock's facets in tiles of 0.5 m on the real outcrop (7 x 10 m; its facets up
+    to a few metres): every point's facet and face the whole cloud's."""
+    from conftest import shared_file
+
+    from geostructure.core.density import point_spacing
+    from geostructure.detect.roughfacets import detect_rough_facets
+    from geostructure.detect.roughtiles import rough_facets_in_tiles
+
+    points = np.loadtxt(shared_file("dice_lastoni_sw/Lastoni_SW_3cm.txt"), usecols=(0, 1, 2))
+    points -= points.mean(axis=0)
+    spacing = point_spacing(points)
+    whole = detect_rough_facets(points, spacing)
+    tiled = rough_facets_in_tiles(points, spacing, edge=0.05, tile_cells=10)
+    assert whole.labels.max() + 1 > 200
+    assert (tiled.labels == whole.labels).mean() > 0.999
+    assert (tiled.on_face == whole.on_face).all()

@@ -111,6 +111,7 @@ def point_normals(
     points = np.asarray(points, dtype=np.float64)
     k, search = min(k, len(points)), min(max(k, search), len(points))
     distances, neighbours = cKDTree(points).query(points, k=search, workers=-1)
+    distances, neighbours = distances.reshape(len(points), -1), neighbours.reshape(len(points), -1)  # k = 1: (N,)
     normal, variation, residual = np.empty((len(points), 3)), np.empty(len(points)), np.empty(len(points))
     for start in range(0, len(points), BATCH):
         rel = points[neighbours[start : start + BATCH, :k]] - points[start : start + BATCH, None, :]
@@ -128,12 +129,41 @@ def envelope_normals(points: np.ndarray, divisions: int = ENVELOPE_DIVISIONS) ->
     about its cell, on a grid ``divisions`` times finer than the cloud's largest extent."""
     points = np.asarray(points, dtype=np.float64)
     extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
-    grid = CellGrid.of(points, max(extent / divisions, 1e-12))
+    return envelope_table(CellGrid.of(points, envelope_edge(extent, divisions))).at(points)
+
+
+def envelope_edge(extent: float, divisions: int = ENVELOPE_DIVISIONS) -> float:
+    """The envelope grid's edge for a cloud whose largest extent is ``extent``."""
+    return max(extent / divisions, 1e-12)
+
+
+@dataclass(frozen=True)
+class EnvelopeTable:
+    """The face's planes on the envelope's grid (``edge`` from ``lower``, codes packed with
+    ``dims``): each occupied cell's ``normal``, all in one sense (along their principal
+    axis, each cell weighted by its points), so that they can be averaged."""
+
+    edge: float
+    lower: np.ndarray
+    dims: np.ndarray
+    codes: np.ndarray
+    normal: np.ndarray
+
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """The face's normal (N, 3) at each of ``points`` (each in a cell of the grid)."""
+        key = np.floor((np.asarray(points, dtype=np.float64) - self.lower) / self.edge).astype(np.int64) + 1
+        code = (key[:, 0] * self.dims[1] + key[:, 1]) * self.dims[2] + key[:, 2]
+        return self.normal[np.minimum(np.searchsorted(self.codes, code), len(self.codes) - 1)]
+
+
+def envelope_table(grid: CellGrid) -> EnvelopeTable:
+    """:class:`EnvelopeTable` of the envelope's grid (its moments: the points' own, or a
+    survey's summed chunk by chunk)."""
     cells = with_sparse_cells_filled(grid_planes(grid), grid)
-    normal = cells.normal[cells.point_cell]
-    # One sense for all (along their principal axis), so that they can be averaged.
-    axis = np.linalg.eigh(normal.T @ normal)[1][:, 2]
-    return normal * np.where(normal @ axis < 0, -1.0, 1.0)[:, None]
+    count = grid.moments[: len(grid), 0]
+    axis = np.linalg.eigh((cells.normal * count[:, None]).T @ cells.normal)[1][:, 2]
+    normal = cells.normal * np.where(cells.normal @ axis < 0, -1.0, 1.0)[:, None]
+    return EnvelopeTable(grid.edge, grid.lower, grid.dims, grid.codes, normal)
 
 
 def join_angle(normal: np.ndarray, neighbours: np.ndarray) -> float:
@@ -231,6 +261,14 @@ def detect_rough_facets(points: np.ndarray, spacing: float) -> RoughFacets:
     # One whose points stray from its plane more than the cloud's own neighbourhoods do
     # from theirs has drifted round a curve while growing (a noisy wall's corner).
     plane, face, thin, rms = component_planes(points, component, envelope, kept)
-    flat = rms <= PLANAR_RESIDUALS * np.median(residual)
-    kept = kept[(np.abs(np.einsum("ij,ij->i", plane, face)) < np.cos(np.radians(FACE_CONE))) & thin & flat]
+    kept = kept[steps_off_the_face(plane, face, thin, rms, float(np.median(residual)))]
     return RoughFacets(numbered_by_size(component, kept, size), on_face, envelope, angle)
+
+
+def steps_off_the_face(plane, face, thin, rms, typical_residual: float) -> np.ndarray:
+    """Which grown groups (their ``plane`` normal, mean ``face`` normal, whether ``thin``, and
+    their points' ``rms`` off their plane) are steps cut into the face: their plane off the
+    face's by :data:`FACE_CONE`, thin, and their points within :data:`PLANAR_RESIDUALS`
+    times the ``typical_residual`` (the median of the points' neighbourhoods') of it."""
+    flat = rms <= PLANAR_RESIDUALS * typical_residual
+    return (np.abs(np.einsum("ij,ij->i", plane, face)) < np.cos(np.radians(FACE_CONE))) & thin & flat

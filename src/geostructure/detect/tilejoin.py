@@ -172,18 +172,8 @@ def join_pieces(tiles: list) -> JoinedFacets:
     points their cells hold, most first, ties by their least cell; those of fewer than two
     cells are none.
     """
-    starts = np.cumsum([0] + [len(t) for t in tiles])
-    n = int(starts[-1])
-    halo = np.concatenate([t.halo + [0, s] for t, s in zip(tiles, starts[:-1])] or [np.zeros((0, 2), int)])
-    border = np.concatenate([t.border + [0, s] for t, s in zip(tiles, starts[:-1])] or [np.zeros((0, 2), int)])
-    # Each halo cell's owner: the piece of another tile that holds it as its own.
-    order = np.argsort(border[:, 0], kind="stable")
-    codes = border[order, 0]
-    at = np.clip(np.searchsorted(codes, halo[:, 0]), 0, max(len(codes) - 1, 0))
-    found = codes[at] == halo[:, 0] if len(codes) else np.zeros(len(halo), dtype=bool)
-    a, b = halo[found, 1], border[order[at[found]], 1]
-    graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(n, n))
-    _, facet = connected_components(graph, directed=False)
+    starts, facet = piece_groups(tiles)
+    n = len(facet)
     cells = np.bincount(facet, weights=np.concatenate([t.cells for t in tiles] or [np.zeros(0)]), minlength=n)
     points = np.bincount(facet, weights=np.concatenate([t.points for t in tiles] or [np.zeros(0)]), minlength=n)
     least = np.full(n, np.iinfo(np.int64).max)
@@ -198,6 +188,36 @@ def join_pieces(tiles: list) -> JoinedFacets:
     return JoinedFacets([piece_rank[s:e] for s, e in zip(starts[:-1], starts[1:])], count, mean, covariance)
 
 
+def piece_groups(tiles: list) -> tuple[np.ndarray, np.ndarray]:
+    """Where each tile's pieces start in one list of all (T + 1,), and each piece's group
+    (P,): pieces are one group where a member (a cell or a point: its code or row) of one's
+    ``halo`` is a member of another's ``border``."""
+    starts = np.cumsum([0] + [len(t) for t in tiles])
+    n = int(starts[-1])
+    halo = np.concatenate([t.halo + [0, s] for t, s in zip(tiles, starts[:-1])] or [np.zeros((0, 2), int)])
+    border = np.concatenate([t.border + [0, s] for t, s in zip(tiles, starts[:-1])] or [np.zeros((0, 2), int)])
+    # Each halo member's owner: the piece of another tile that holds it as its own.
+    order = np.argsort(border[:, 0], kind="stable")
+    codes = border[order, 0]
+    at = np.clip(np.searchsorted(codes, halo[:, 0]), 0, max(len(codes) - 1, 0))
+    found = codes[at] == halo[:, 0] if len(codes) else np.zeros(len(halo), dtype=bool)
+    a, b = halo[found, 1], border[order[at[found]], 1]
+    graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(n, n))
+    return starts, connected_components(graph, directed=False)[1]
+
+
+def moved_moments(moments: np.ndarray, shift) -> np.ndarray:
+    """Moments (M, 10: count, sums, the six sums of products) of points about one reference,
+    moved to another: ``shift`` (3,) or (M, 3) the old reference less the new."""
+    shift = np.broadcast_to(np.asarray(shift, dtype=np.float64), (len(moments), 3))
+    k, s = moments[:, 0], moments[:, 1:4]
+    out = moments.copy()
+    out[:, 1:4] = s + k[:, None] * shift
+    for c, (a, b) in enumerate(((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
+        out[:, 4 + c] += shift[:, a] * s[:, b] + shift[:, b] * s[:, a] + k * shift[:, a] * shift[:, b]
+    return out
+
+
 def _facet_moments(tiles: list, ranks: list, n: int):
     """Each facet's count, centroid and covariance, its pieces' moments moved from their
     tile's corner to one reference (the first piece's corner) and added."""
@@ -209,14 +229,9 @@ def _facet_moments(tiles: list, ranks: list, n: int):
         m, r = tile.moments[on], rank[on]
         unset = np.isnan(first[r, 0])
         first[r[unset]] = tile.reference
-        shift = tile.reference - first[r]  # each point's offset from the facet's reference
-        k, s = m[:, 0], m[:, 1:4]
-        moved_sums = s + k[:, None] * shift
-        products = np.empty((len(m), 6))
-        for c, (a, b) in enumerate(((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
-            products[:, c] = m[:, 4 + c] + shift[:, a] * s[:, b] + shift[:, b] * s[:, a] + k * shift[:, a] * shift[:, b]
-        np.add.at(count, r, k)
-        np.add.at(total, r, np.column_stack([moved_sums, products]))
+        moved = moved_moments(m, tile.reference - first[r])
+        np.add.at(count, r, moved[:, 0])
+        np.add.at(total, r, moved[:, 1:])
     held = np.maximum(count, 1.0)
     mean_rel = total[:, :3] / held[:, None]
     covariance = np.empty((n, 3, 3))

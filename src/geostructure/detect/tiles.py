@@ -34,10 +34,10 @@ from geostructure.detect.facets import (
     FacetDetection,
     FacetThresholds,
     coarsened_planes,
-    detect_facets,
     sampled_edge,
 )
 from geostructure.detect.gridscatter import SCATTER_PERCENTILE, SURFACE_SHARE
+from geostructure.detect.roughtiles import rough_facets_in_tiles
 from geostructure.detect.tilejoin import UNSURE_CELLS, grow_tile, joined_labels
 
 #: Cells of halo round a tile: a sparse cell's coarse block reaches three fine cells out.
@@ -206,7 +206,8 @@ def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int 
     in tiles (:func:`grow_in_tiles`); the spacing, the grid's edge and the thresholds are the
     whole cloud's: the edge as in memory, the thresholds and the far scatter gathered over the
     tiles (:func:`grid_statistics_in_tiles`, docs/tiles.md, steps 1 to 3). On rock rough at
-    every scale the grid tries, the rough facets are not tiled yet: the whole cloud's are given.
+    every scale the grid tries, the rough facets in the same tiles
+    (:func:`~geostructure.detect.roughtiles.rough_facets_in_tiles`).
 
     Parameters
     ----------
@@ -226,6 +227,7 @@ def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int 
     --------
     >>> g = np.mgrid[0:4:160j, 0:4:160j].reshape(2, -1).T
     >>> roof = np.c_[g, np.where(g[:, 0] < 2, 0.5 * g[:, 0], 2 - 0.5 * g[:, 0])]
+    >>> from geostructure.detect.facets import detect_facets
     >>> found = detect_facets_in_tiles(roof, tile_cells=8)
     >>> bool((found.labels == detect_facets(roof).labels).all()), bool((found.labels >= 0).mean() > 0.9)
     (True, True)
@@ -242,7 +244,8 @@ def detect_facets_in_tiles(points: np.ndarray, tile_cells: int, halo_cells: int 
     thresholds, scatter = grid_statistics_in_tiles(points, edge, spacing, tile_cells, lower,
                                                    max(halo_cells, SCATTER_HALO_CELLS))  # fmt: skip
     if scatter > MAX_CELL_SCATTER:
-        return detect_facets(points)
+        rough = rough_facets_in_tiles(points, spacing, edge, tile_cells)
+        return FacetDetection(rough.labels, np.zeros(len(points), bool), thresholds, edge, scatter, rough)
     labels, curved = grow_in_tiles(points, edge, thresholds, tile_cells, lower, halo_cells)
     return FacetDetection(labels, curved, thresholds, edge, scatter)
 

@@ -23,8 +23,8 @@ The passes, each over the spill's chunks or over the tiles:
 
 The tile tasks (3 to 5) read only their own tile file, so they run as Dask tasks as they
 run here. On rock rough at every scale the grid tries (the far scatter over
-:data:`~geostructure.detect.facets.MAX_CELL_SCATTER`) the rough facets are needed, which
-are not tiled yet: the result says so (``rough``) and holds no labels.
+:data:`~geostructure.detect.facets.MAX_CELL_SCATTER`), rough rock's facets are grown in the
+same tiles instead (:mod:`.tiledrough`), as in memory.
 """
 
 from __future__ import annotations
@@ -47,6 +47,7 @@ from geostructure.detect.facets import (
     edge_blocks,
     edge_of_blocks,
 )
+from geostructure.detect.roughtiles import HALO_SPACINGS
 from geostructure.detect.tilejoin import aligned_counts, facet_normals, grow_tile, join_pieces, planar_renumbering
 from geostructure.detect.tiles import (
     SCATTER_HALO_CELLS,
@@ -59,6 +60,7 @@ from geostructure.detect.tiles import (
 from geostructure.stream.executor import SerialExecutor
 from geostructure.stream.passes import DROPPED, local_points
 from geostructure.stream.source import Spill
+from geostructure.stream.tiledrough import rough_facets_of_tiles
 
 #: Cells of halo round each tile: what the far scatter's pairs need (the growing needs one
 #: fewer), so one set of tile files serves every pass.
@@ -108,7 +110,8 @@ class TileContext:
 class StreamedFacets:
     """The facets of a spilled survey: each row's facet in ``labels_path`` (see the module),
     ``n_facets``, the points of curved groups, the thresholds, the grid's edge and far
-    scatter, the tiles; ``rough`` where the grid was not trusted (no labels then)."""
+    scatter, the tiles; ``rough``, where the grid was not trusted and the facets are rough
+    rock's, what ``run.json`` says of them."""
 
     labels_path: str | None
     n_facets: int
@@ -118,7 +121,7 @@ class StreamedFacets:
     far_scatter: float
     tile_cells: int
     n_tiles: int
-    rough: bool = False
+    rough: dict | None = None  # where the grid was not trusted: what the rough facets record
     seconds: dict = field(default_factory=dict)
 
     def labels(self, start: int = 0, stop: int | None = None) -> np.ndarray:
@@ -135,6 +138,7 @@ class StreamedFacets:
             "far_scatter_deg": self.far_scatter,
             "planar_facets": self.n_facets,
             "curved_points": self.curved_points,
+            **({} if self.rough is None else {"rough_facets": self.n_facets, **self.rough}),
             "tiles": self.n_tiles,
             "tile_cells": self.tile_cells,
         }
@@ -192,13 +196,16 @@ def detect_facets_spilled(
         across = spacing * np.sqrt(tile_points or chunk_points) / edge
         tile_cells = max(MIN_TILE_HALOS * HALO_CELLS, int(across // 2) * 2)
     bound = cell_keys(upper[None], edge, lower)[0] + 2
-    context = TileContext(edge, lower, bound, int(tile_cells))
+    # One halo for both detectors: the grid's far scatter needs HALO_CELLS, rough rock's
+    # points their neighbours' neighbours (roughtiles.HALO_SPACINGS).
+    halo = max(HALO_CELLS, int(np.ceil(HALO_SPACINGS * spacing / edge)))
+    context = TileContext(edge, lower, bound, int(tile_cells), halo)
     folder = spill.folder / "tiles"
     try:
         t = time.perf_counter()
         tiles = route_to_tiles(chunks, offset, keep, context, folder, report)
         seconds["route"] = time.perf_counter() - t
-        total, done = 3 * len(tiles), [0]
+        total, done = 3 * len(tiles), [0]  # the thresholds, the growing, the labels
 
         def step():
             done[0] += 1
@@ -213,26 +220,31 @@ def detect_facets_spilled(
         del parts
         seconds["thresholds"] = time.perf_counter() - t
         found = StreamedFacets(None, 0, 0, thresholds, edge, scatter, int(tile_cells), len(tiles))
-        if scatter > MAX_CELL_SCATTER:
-            found.rough, found.seconds = True, seconds
-            return found
         t = time.perf_counter()
-        context = TileContext(edge, lower, bound, int(tile_cells), HALO_CELLS, thresholds)
-        pieces = []
-        for piece in executor.map(_tile_pieces, tiles, context):
-            pieces.append(piece)
-            step()
-        joined = join_pieces(pieces)
-        normal, _ = facet_normals(joined)
-        aligned = np.zeros(len(joined))
-        for counts in executor.map(_tile_aligned, list(zip(tiles, joined.rank)), (normal, thresholds)):
-            aligned += counts
-        renumber = planar_renumbering(joined, aligned, thresholds)
+        if scatter > MAX_CELL_SCATTER:
+            # Rough at every scale the grid tries: rough rock's facets, in the same tiles.
+            settings = {"edge": edge, "lower": lower, "tile_cells": int(tile_cells), "halo_cells": halo,
+                        "spacing": spacing}  # fmt: skip
+            ranks, found.rough = rough_facets_of_tiles(tiles, chunks, executor, offset, keep, lower, upper,
+                                                       settings, step)  # fmt: skip
+            renumber = np.r_[np.arange(max((int(r.max(initial=-1)) for r in ranks), default=-1) + 1), -1]
+        else:
+            context = TileContext(edge, lower, bound, int(tile_cells), halo, thresholds)
+            pieces = []
+            for piece in executor.map(_tile_pieces, tiles, context):
+                pieces.append(piece)
+                step()
+            joined = join_pieces(pieces)
+            normal, _ = facet_normals(joined)
+            aligned = np.zeros(len(joined))
+            for counts in executor.map(_tile_aligned, list(zip(tiles, joined.rank)), (normal, thresholds)):
+                aligned += counts
+            renumber, ranks = planar_renumbering(joined, aligned, thresholds), joined.rank
         seconds["grow"] = time.perf_counter() - t
         t = time.perf_counter()
         found.labels_path = str(spill.folder / FACETS_FILE)
-        found.curved_points = _write_labels(spill, keep, chunk_points, tiles, joined.rank, renumber,
-                                            found.labels_path, step)  # fmt: skip
+        found.curved_points = _write_labels(spill, keep, chunk_points, tiles, ranks, renumber, found.labels_path,
+                                            step)  # fmt: skip
         found.n_facets = int(renumber.max(initial=-1)) + 1
         seconds["label"] = time.perf_counter() - t
         found.seconds = seconds
@@ -269,6 +281,7 @@ def route_to_tiles(chunks, offset, keep, context: TileContext, folder: Path, rep
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)
     tile_cells, halo = context.tile_cells, context.halo_cells
+    span = (np.asarray(context.bound, dtype=np.int64) + halo) // tile_cells + 3  # tiles a side, and room
     index, sizes = {}, {}
     for done, chunk in enumerate(chunks, 1):
         local = local_points(chunk, offset)
@@ -276,30 +289,34 @@ def route_to_tiles(chunks, offset, keep, context: TileContext, folder: Path, rep
         rows = chunk.start + np.flatnonzero(kept)
         local = local[kept]
         key = cell_keys(local, context.edge, context.lower) - 1
-        low, high = (key - halo) // tile_cells, (key + halo) // tile_cells
+        # Tile indices from -1 (a halo below the first cell) to the last, packed one an int.
+        low, high = (key - halo) // tile_cells + 1, (key + halo) // tile_cells + 1
+        del key
         reach = int((high - low).max(initial=0)) + 1  # 2 where the halo is under half a tile
         for step in np.ndindex(reach, reach, reach):
-            step = np.array(step)
-            held = np.all(low + step <= high, axis=1)
+            held = np.all(low + step <= high, axis=1) if any(step) else slice(None)
             tile = low[held] + step
-            found, inverse = np.unique(tile, axis=0, return_inverse=True)
-            order = np.argsort(inverse.ravel(), kind="stable")
-            starts = np.searchsorted(inverse.ravel()[order], np.arange(len(found) + 1))
+            if not len(tile):
+                continue
+            code = (tile[:, 0] * span[1] + tile[:, 1]) * span[2] + tile[:, 2]
+            order = np.argsort(code, kind="stable")
+            code = code[order]
+            starts = np.flatnonzero(np.r_[True, code[1:] != code[:-1], True])
             points, point_rows = local[held][order], rows[held][order]
-            for i, triple in enumerate(map(tuple, found)):
-                at = index.setdefault(triple, len(index))
-                part = slice(starts[i], starts[i + 1])
+            for a, b in zip(starts[:-1], starts[1:]):
+                at = index.setdefault(int(code[a]), len(index))
                 with open(folder / f"{at}.f8", "ab") as out:
-                    points[part].astype("<f8").tofile(out)
+                    points[a:b].tofile(out)
                 with open(folder / f"{at}.rows", "ab") as out:
-                    point_rows[part].astype("<i8").tofile(out)
-                sizes[at] = sizes.get(at, 0) + part.stop - part.start
+                    point_rows[a:b].astype("<i8").tofile(out)
+                sizes[at] = sizes.get(at, 0) + int(b - a)
         if report is not None:
             report("tiles", done, len(chunks))
-    ordered = sorted(index.items())
-    return [
-        TileFile(str(folder), at, tuple(int(v) * tile_cells + 1 for v in triple), sizes[at]) for triple, at in ordered
-    ]
+    tiles = []
+    for code, at in sorted(index.items()):
+        triple = np.array([code // (span[1] * span[2]), code // span[2] % span[1], code % span[2]]) - 1
+        tiles.append(TileFile(str(folder), at, tuple(int(v) * tile_cells + 1 for v in triple), sizes[at]))
+    return tiles
 
 
 def _write_labels(spill, keep, chunk_points, tiles, ranks, renumber, path, step) -> int:
