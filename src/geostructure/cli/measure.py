@@ -188,16 +188,20 @@ def measure_thinned(args, paths, frame, engine: str, extra: dict | None, *, trut
     with thinned_survey(args, paths, engine) as survey:
         record = {**(extra or {}), "engine": engine, "thinned": survey.record()}
         seconds = {"read": time.perf_counter() - t}
+        # The facets on every point of the survey, in tiles; the rest on the thinned cloud.
+        facets = survey.full_resolution_facets if base_params(args).detector == "facets" else None
         return measure_cloud(survey.cloud(), args, frame, seconds, record, truth=truth, inputs=inputs,
-                             point_files=survey.write_points)  # fmt: skip
+                             point_files=survey.write_points, facets=facets)  # fmt: skip
 
 
 def measure_cloud(
-    cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=(), point_files=True
-) -> int:
+    cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=(), point_files=True,
+    facets=None,
+) -> int:  # fmt: skip
     """Measure (:func:`~geostructure.workflows.outcrop.measure_outcrop`); write the outputs, the
     evaluation and the report as one set; print the planes. ``point_files`` writes
-    ``regions.ply`` and ``regions.laz`` (:func:`~geostructure.workflows.saving.save_measurement`)."""
+    ``regions.ply`` and ``regions.laz`` (:func:`~geostructure.workflows.saving.save_measurement`);
+    ``facets`` the facets found elsewhere, as :func:`~geostructure.detect.pipeline.measure` takes them."""
     unit = getattr(args, "unit", None)  # checked against the CRS before reading (a reconstruction has none)
 
     t = time.perf_counter()
@@ -205,7 +209,7 @@ def measure_cloud(
         run = measure_outcrop(cloud, frame=frame, params=base_params(args), auto=args.auto, given=given_factors(args),
                               crs=crs_from(args), unit=unit, grid_north=args.grid_north, sets=wants_sets(args),
                               n_sets=getattr(args, "n_sets", None), kinematics=kinematic_settings(args), progress=progress,
-                              seconds=seconds, on_choice=choice_teller(args))  # fmt: skip
+                              seconds=seconds, on_choice=choice_teller(args), facets=facets)  # fmt: skip
         result, sets, rock = run.result, run.sets, run.rock
         if truth is not None and run.record.get("north"):  # a compass's azimuths are true: read in the turned frame
             truth = read_truth(args.truth, result.frame)

@@ -173,6 +173,7 @@ class FacetDetection:
     cell_edge: float  # the grid's edge the local planes were computed on
     far_scatter: float
     rough: RoughFacets | None = None  # where no grid was trusted: the rough rock's facets
+    extra: dict | None = None  # more for run.json: a survey's facets found in tiles say so
 
     def record(self) -> dict:
         """What ``run.json`` says of the detection."""
@@ -184,6 +185,7 @@ class FacetDetection:
             "planar_facets": int(self.labels.max(initial=-1)) + 1,
             "curved_points": int(self.curved.sum()),
             **({} if self.rough is None else self.rough.record()),
+            **(self.extra or {}),
         }
 
 

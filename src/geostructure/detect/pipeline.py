@@ -136,7 +136,9 @@ def check_measurable(cloud: Cloud) -> None:
         raise InputError(f"{cloud.source}: all points lie on one line; there is no plane to measure.")
 
 
-def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None, *, moments=None) -> Result:
+def measure(
+    cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), progress=None, *, moments=None, facets=None
+) -> Result:
     """Find the planar regions of a cloud and measure their strike, dip and dip direction.
 
     Parameters
@@ -150,6 +152,12 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
     moments : :class:`~geostructure.detect.voxel.CloudMoments`, optional
         The cloud's voxel moments at ``params.zeta``, as :func:`~geostructure.detect.auto.choose_params`
         keeps them (``AutoChoice.moments``): the local filter then does not sum them again.
+    facets : callable, optional
+        ``facets(filtered, keep, progress)``, the facet detection of the filtered cloud
+        (a :class:`~geostructure.detect.facets.FacetDetection`) found elsewhere, given the
+        filtered cloud and the filter's decisions: a survey larger than memory, measured on
+        a thinned cloud, has its facets found on every point, in tiles
+        (:meth:`~geostructure.stream.survey.ThinnedSurvey.full_resolution_facets`).
 
     Returns
     -------
@@ -186,8 +194,9 @@ def measure(cloud: Cloud, params: Params = Params(), frame: Frame = Frame(), pro
     facet_record, facet_region, envelope = {}, np.zeros(0, dtype=bool), None
     if params.detector == "facets":
         with _stage(seconds, "regions", report):
+            found = detect_facets(filtered.local) if facets is None else facets(filtered, filt.keep, report)
             point_region, region_of_voxel, facet_record, facet_region, envelope = _grow_facets_then_voxels(
-                filtered, voxels, params, report, counts
+                filtered, voxels, params, report, counts, found
             )
     else:
         with _stage(seconds, "regions"):  # region growing reports its own progress
@@ -310,12 +319,11 @@ def _grow_voxel_regions(filtered: Cloud, voxels: VoxelPlanes, params: Params, re
     return point_region, region_of_voxel
 
 
-def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict):
-    """Facets grown on a fine grid's local planes (:func:`~geostructure.detect.facets.detect_facets`); where a grown group
+def _grow_facets_then_voxels(filtered: Cloud, voxels: VoxelPlanes, params: Params, report, counts: dict, found):
+    """Facets grown on a fine grid's local planes (``found``, :func:`~geostructure.detect.facets.detect_facets`'s); where a grown group
     is not planar (it drifted round a curved surface), or where most points of a voxel are in
     no facet (a surface noisier than the grid was chosen for), the paper's voxel region
     growing over those voxels. Also returns which of the regions are facets."""
-    found = detect_facets(filtered.local)
     sub_counts: dict = {}
     if found.rough is not None:
         # Rough rock: the paper's voxel growing over the whole cloud, as before the rough

@@ -276,13 +276,13 @@ def _spacing_and_edge(chunks, executor, offset, keep, n: int, lower, upper) -> t
 def route_to_tiles(chunks, offset, keep, context: TileContext, folder: Path, report=None) -> list[TileFile]:
     """Write each chunk's kept points to the files of the tiles whose core or halo holds
     them (a point near a border goes to up to eight, where the halo is under half a tile), with
-    their rows; the tiles in key order."""
+    their rows; the tiles that own a point, in key order."""
     folder = Path(folder)
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)
     tile_cells, halo = context.tile_cells, context.halo_cells
     span = (np.asarray(context.bound, dtype=np.int64) + halo) // tile_cells + 3  # tiles a side, and room
-    index, sizes = {}, {}
+    index, sizes, owning = {}, {}, set()
     for done, chunk in enumerate(chunks, 1):
         local = local_points(chunk, offset)
         kept = np.ones(len(local), dtype=bool) if keep is None else keep.keep(local, chunk)
@@ -291,7 +291,10 @@ def route_to_tiles(chunks, offset, keep, context: TileContext, folder: Path, rep
         key = cell_keys(local, context.edge, context.lower) - 1
         # Tile indices from -1 (a halo below the first cell) to the last, packed one an int.
         low, high = (key - halo) // tile_cells + 1, (key + halo) // tile_cells + 1
-        del key
+        mine = key // tile_cells + 1
+        for code in np.unique((mine[:, 0] * span[1] + mine[:, 1]) * span[2] + mine[:, 2]):
+            owning.add(int(code))
+        del key, mine
         reach = int((high - low).max(initial=0)) + 1  # 2 where the halo is under half a tile
         for step in np.ndindex(reach, reach, reach):
             held = np.all(low + step <= high, axis=1) if any(step) else slice(None)
@@ -314,6 +317,10 @@ def route_to_tiles(chunks, offset, keep, context: TileContext, folder: Path, rep
             report("tiles", done, len(chunks))
     tiles = []
     for code, at in sorted(index.items()):
+        if code not in owning:  # halo only: every point of it is another tile's own
+            for suffix in ("f8", "rows"):
+                (folder / f"{at}.{suffix}").unlink()
+            continue
         triple = np.array([code // (span[1] * span[2]), code // span[2] % span[1], code % span[2]]) - 1
         tiles.append(TileFile(str(folder), at, tuple(int(v) * tile_cells + 1 for v in triple), sizes[at]))
     return tiles

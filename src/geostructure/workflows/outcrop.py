@@ -169,6 +169,7 @@ def measure_outcrop(
     progress=None,
     seconds: dict | None = None,
     on_choice=None,
+    facets=None,
 ) -> OutcropRun:
     """Measure an outcrop as ``geostructure measure`` does, automatic parameters included.
 
@@ -203,6 +204,9 @@ def measure_outcrop(
         Times already spent (reading), for ``run.json``.
     on_choice : callable, optional
         Called with the automatic choice's description, before the measure.
+    facets : callable, optional
+        The facets found elsewhere, as :func:`~geostructure.detect.pipeline.measure` takes
+        them (a thinned survey's, found on every point in tiles).
 
     Returns
     -------
@@ -243,7 +247,7 @@ def measure_outcrop(
     report("auto", 0, None)
     params, choice, moments = chosen_params(cloud, params, auto, dict(given or {}), on_choice)
     auto_seconds = time.perf_counter() - t
-    result = measure(cloud, params, frame, progress, moments=moments)
+    result = measure(cloud, params, frame, progress, moments=moments, facets=facets)
     del moments
     result.seconds = {**(seconds or {}), "auto": auto_seconds, **result.seconds}
     run = OutcropRun(result, record={"auto": choice, **record})
