@@ -67,9 +67,10 @@ def add_engine_options(p) -> None:
         choices=ENGINES,
         default="auto",
         help="memory: the whole cloud at once (all detectors); stream: in chunks, the voxel detector, memory "
-        "bounded by --max-memory (with --sets, --kinematics or --detector facets: the survey thinned to what "
-        "fits, measured in memory, every point labelled); dask: the chunks as tasks on a dask.distributed "
-        "cluster; auto (default): memory when the cloud fits in --max-memory, else stream",
+        "bounded by --max-memory (with --sets, --kinematics or --detector facets: the facets found on every point "
+        "in tiles with halos, the rest on the survey thinned to what fits, every point labelled); dask: the chunks "
+        "and tiles as tasks on a dask.distributed cluster; auto (default): memory when the cloud fits in "
+        "--max-memory, else stream",
     )
     g.add_argument(
         "--max-memory",
@@ -82,6 +83,12 @@ def add_engine_options(p) -> None:
         "--scheduler", metavar="ADDRESS", help="--engine dask: a running scheduler (default: a local cluster)"
     )
     g.add_argument("--workers", type=int, default=None, help="--engine dask: local workers (default 2)")
+    g.add_argument(
+        "--thin",
+        action="store_true",
+        help="with --engine stream or dask and --sets, --kinematics or --detector facets: find the facets on the "
+        "thinned survey too, not on every point (faster; joints under about ten thinned cells across are lost)",
+    )
     g.add_argument(
         "--spill-dir", metavar="FOLDER", help="where a streamed run spills the points (default: the temporary folder)"
     )
@@ -136,6 +143,8 @@ def chosen_engine(args, paths) -> str:
     given = [name for name, value in (("--scheduler", args.scheduler), ("--workers", args.workers)) if value]
     if given and engine != "dask":
         raise ParameterError(f"{' and '.join(given)} set up a Dask cluster: give them with --engine dask.")
+    if getattr(args, "thin", False) and engine == "memory":
+        raise ParameterError("--thin thins a survey larger than memory: give it with --engine stream, dask or auto.")
     if args.workers is not None and args.workers < 1:
         raise ParameterError(f"--workers must be at least 1, not {args.workers}.")
     if args.scheduler:

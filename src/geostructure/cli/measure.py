@@ -189,7 +189,8 @@ def measure_thinned(args, paths, frame, engine: str, extra: dict | None, *, trut
         record = {**(extra or {}), "engine": engine, "thinned": survey.record()}
         seconds = {"read": time.perf_counter() - t}
         # The facets on every point of the survey, in tiles; the rest on the thinned cloud.
-        facets = survey.full_resolution_facets if base_params(args).detector == "facets" else None
+        full = base_params(args).detector == "facets" and not args.thin
+        facets = survey.full_resolution_facets if full else None
         return measure_cloud(survey.cloud(), args, frame, seconds, record, truth=truth, inputs=inputs,
                              point_files=survey.write_points, facets=facets)  # fmt: skip
 

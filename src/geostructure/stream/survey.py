@@ -39,7 +39,8 @@ class ThinnedSurvey:
     thinned: Thinned
     executor: object
     chunk_points: int
-    #: Cells on a side of a facet tile (by default as many points as a chunk's).
+    #: Points a facet tile's core holds, about (a chunk's by default), or cells on its side.
+    tile_points: int | None = None
     tile_cells: int | None = None
     #: The facets found on every point, once :meth:`full_resolution_facets` ran.
     facets: StreamedFacets | None = None
@@ -72,14 +73,16 @@ class ThinnedSurvey:
             **({"cell": None} if grid is None else grid.to_record()),
         }
 
-    def note(self, limit: int, unit: str | None = None) -> None:
+    def note(self, limit: int, unit: str | None = None, full_resolution: bool = True) -> None:
+        """Tell the user the survey was thinned (and how), when it was."""
         grid, n = self.thinned.grid, self.spill.n_points
         if grid is None:
             return
+        facets = "its facets found on every point, in tiles, " if full_resolution else ""
         warnings.warn(
             f"{self.spill.source}: its {n:,} points do not fit in {limit / 2**30:.3g} GiB (--max-memory); "
             f"measured on {len(self.thinned):,} of them, the first in each cell of {grid.edge:.3g} {cloud_unit(self.spill.crs, unit)['symbol']} on a side, "
-            f"and every point labelled in regions.ply and regions.laz.",
+            f"{facets}and every point labelled in regions.ply and regions.laz.",
             GeoStructureNote,
             stacklevel=2,
         )
@@ -98,7 +101,8 @@ class ThinnedSurvey:
                 keep[found].tofile(out)
         context = FilterContext("none", 0.0, path=str(path), written=True)
         self.facets = found = detect_facets_spilled(spill, self.chunk_points, self.executor, keep=context,
-                                                    tile_cells=self.tile_cells, progress=report)  # fmt: skip
+                                                    tile_points=self.tile_points, tile_cells=self.tile_cells,
+                                                    progress=report)  # fmt: skip
         every = np.memmap(found.labels_path, dtype="<i4", mode="r", shape=(spill.n_points,))
         labels = np.asarray(every[self.thinned.rows[keep]], dtype=np.int64)
         del every
