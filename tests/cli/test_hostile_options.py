@@ -139,17 +139,26 @@ def test_a_folder_where_an_output_goes_is_refused_before_the_work(flat, tmp_path
         assert not (out / ".geostructure-staging").exists()
 
 
-def test_dask_leaves_nothing_in_the_temporary_folder(flat, tmp_path, capsys, monkeypatch):
+@pytest.mark.parametrize("extra", [[], ["--sets"]], ids=["voxel", "tiles"])
+def test_dask_leaves_nothing_in_the_temporary_folder(flat, tmp_path, capsys, monkeypatch, extra):
+    """Neither the chunks' passes nor the facet tiles (``--sets``) leave a scratch folder, a
+    spill, a tile file or a worker process behind."""
     pytest.importorskip("distributed")
     import tempfile
+
+    import psutil
 
     scratch = tmp_path / "tmp"
     scratch.mkdir()
     monkeypatch.setenv("TMPDIR", str(scratch))
     monkeypatch.setattr(tempfile, "tempdir", str(scratch))
-    code, _, err = run_cli(capsys, "measure", flat, "-o", tmp_path / "o", "-q", "--engine", "dask", "--workers", "1")
+    code, _, err = run_cli(capsys, "measure", flat, "-o", tmp_path / "o", "-q", "--engine", "dask", "--workers", "2",
+                           *extra)  # fmt: skip
     assert code == 0, err
     assert sorted(p.name for p in scratch.iterdir()) == []  # was: dask-scratch-space
+    # No worker left; Python's own resource tracker lives as long as this interpreter.
+    left = [" ".join(p.cmdline()) for p in psutil.Process().children(recursive=True)]
+    assert [line for line in left if "resource_tracker" not in line] == []
 
 
 @pytest.fixture(scope="module")

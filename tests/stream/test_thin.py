@@ -185,3 +185,25 @@ def test_sets_and_kinematics_on_a_thinned_folder_read_the_measured_points(survey
     code, _, err = run_cli(capsys, "kinematics", out, "--friction", "30", "-q")
     assert code == 0, err
     assert abs(json.loads((out / "kinematics.json").read_text())["slope"]["dip"] - 75.0) < 3.0
+
+
+def test_a_thinned_surveys_facets_are_found_on_every_point(survey, tmp_path, capsys):
+    """The facets of a survey that does not fit are found on every point, in tiles (issue 46):
+    more of the exposed facets found than with ``--thin`` (the facets on the thinned cloud
+    too), and more of the survey's points labelled with a plane (measured 2026-12-06: 0.82
+    against 0.77 of the facets, 89% against 78% of the points)."""
+    scene, tiles, _ = survey
+    recall, labelled = {}, {}
+    for name, extra in (("tiles", []), ("thin", ["--thin"])):
+        out = tmp_path / name
+        code, _, err = run_cli(capsys, "measure", tiles, "-o", out, "--sets", "--max-memory", BOUND, *extra)
+        assert code == 0, err
+        assert ("its facets found on every point, in tiles" in err) == (name == "tiles")
+        detection = json.loads((out / "run.json").read_text())["detection"]
+        assert ("full_resolution" in detection) == (name == "tiles")
+        rows, normals, centroids = read_planes_csv(out / "planes.csv")
+        match = match_facets(Planes(normal=normals, local_centroid=centroids - UTM, fit_residual=0.0), scene)
+        recall[name] = match.recall
+        labelled[name] = (np.asarray(laspy.read(str(out / "regions.laz")).region_id) >= 0).mean()
+    assert recall["tiles"] > recall["thin"] and recall["tiles"] > 0.78
+    assert labelled["tiles"] > labelled["thin"] + 0.05

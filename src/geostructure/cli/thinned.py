@@ -8,6 +8,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 from geostructure.cli.engine import MEMORY_BASE_BYTES, chunk_points, default_max_memory, memory_bytes_per_point
+from geostructure.cli.options import base_params
 from geostructure.cli.progress import StageProgress
 from geostructure.errors import ParameterError
 from geostructure.stream import DaskExecutor, SerialExecutor, spill_inputs
@@ -46,7 +47,7 @@ def thinned_survey(args, paths, engine: str):
         # A facet tile is worked while the thinned cloud is held, before its rock mass (which
         # takes the most): a tile of at most 4/5 of the thinned points stays under that peak.
         survey = ThinnedSurvey(spill, thinned, executor, rows, tile_points=min(rows, max(1, target * 4 // 5)))
-        full = getattr(args, "detector", "facets") == "facets" and not args.thin
+        full = base_params(args).detector == "facets" and not args.thin
         survey.note(args.max_memory or default_max_memory(), args.unit, full_resolution=full)
         yield survey
     finally:

@@ -118,8 +118,11 @@ class Spill:
         return [Chunk(self.points_path, a, b, self.normals_path) for a, b in zip(edges[:-1], edges[1:])]
 
     def close(self) -> None:
+        import shutil
+
         for name in ("points.f8", "normals.f8", "vegetation.u1", "labels.i4", "keep.u1", "facets.i4"):
             (self.folder / name).unlink(missing_ok=True)
+        shutil.rmtree(self.folder / "tiles", ignore_errors=True)  # the facet tiles' files
         try:
             self.folder.rmdir()
         except OSError:
