@@ -27,6 +27,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from geostructure.core.bounds import column_min
 from geostructure.detect.cells import SURFACE_VARIATION
 from geostructure.detect.roughfacets import (
     FACE_CONE,
@@ -35,10 +36,11 @@ from geostructure.detect.roughfacets import (
     MIN_FACET_POINTS,
     NORMAL_NEIGHBOURS,
     RoughFacets,
+    envelope_normals,
     point_normals,
     steps_off_the_face,
 )
-from geostructure.detect.tilejoin import _facet_moments, piece_groups, piece_moments
+from geostructure.detect.tilejoin import added_moments, cell_keys, piece_groups, piece_moments
 
 #: A tile's halo, in point spacings: an own point's partners lie within JOIN_RADIUS (2)
 #: spacings, and their 16 nearest neighbours within about 2.3 more on a surface.
@@ -200,7 +202,7 @@ def join_rough_pieces(tiles: list, typical_residual: float) -> list:
     index = np.full(n, -1)
     index[candidate] = np.arange(len(candidate))
     per_tile = [index[group[s:e]] for s, e in zip(starts[:-1], starts[1:])]
-    _, _, covariance = _facet_moments(tiles, per_tile, len(candidate))
+    _, _, covariance = added_moments(tiles, per_tile, len(candidate))
     values, vectors = np.linalg.eigh(covariance) if len(candidate) else (np.zeros((0, 3)), np.zeros((0, 3, 3)))
     thin = values[:, 0] <= SURFACE_VARIATION * np.maximum(values.sum(axis=1), 1e-300)
     rms = np.sqrt(np.maximum(values[:, 0], 0.0))
@@ -216,10 +218,6 @@ def rough_facets_in_tiles(points: np.ndarray, spacing: float, edge: float, tile_
     """:func:`~.roughfacets.detect_rough_facets` in tiles of ``tile_cells`` cells of ``edge``
     on a side, each with a halo of :data:`HALO_SPACINGS` spacings, in memory: what a stream
     does tile by tile. The medians are read to within a bin (see the module)."""
-    from geostructure.core.bounds import column_min
-    from geostructure.detect.roughfacets import envelope_normals
-    from geostructure.detect.tiles import cell_keys
-
     points = np.asarray(points, dtype=np.float64)
     lower = column_min(points)
     envelope = envelope_normals(points)

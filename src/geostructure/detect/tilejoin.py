@@ -29,6 +29,16 @@ from geostructure.detect.facets import FacetThresholds, agreeing_pairs
 UNSURE_CELLS = 3
 
 
+def cell_keys(points: np.ndarray, edge: float, lower) -> np.ndarray:
+    """Each point's cell key on the grid of ``edge`` anchored at ``lower``, as
+    :class:`~geostructure.detect.cells.CellGrid` numbers its cells (a ring of empty cells
+    round the grid: the least key is 1)."""
+    return (
+        np.floor((np.asarray(points, dtype=np.float64) - np.asarray(lower, dtype=np.float64)) / edge).astype(np.int64)
+        + 1
+    )
+
+
 @dataclass
 class TilePieces:
     """One tile's facet pieces before the join (P pieces).
@@ -183,7 +193,7 @@ def join_pieces(tiles: list) -> JoinedFacets:
     rank_of = np.full(n, -1)
     rank_of[ranked] = np.arange(len(ranked))
     piece_rank = rank_of[facet]
-    count, mean, covariance = _facet_moments(tiles, [piece_rank[s:e] for s, e in zip(starts[:-1], starts[1:])],
+    count, mean, covariance = added_moments(tiles, [piece_rank[s:e] for s, e in zip(starts[:-1], starts[1:])],
                                              len(ranked))  # fmt: skip
     return JoinedFacets([piece_rank[s:e] for s, e in zip(starts[:-1], starts[1:])], count, mean, covariance)
 
@@ -218,7 +228,7 @@ def moved_moments(moments: np.ndarray, shift) -> np.ndarray:
     return out
 
 
-def _facet_moments(tiles: list, ranks: list, n: int):
+def added_moments(tiles: list, ranks: list, n: int):
     """Each facet's count, centroid and covariance, its pieces' moments moved from their
     tile's corner to one reference (the first piece's corner) and added."""
     count, first, total = np.zeros(n), np.full((n, 3), np.nan), np.zeros((n, 9))

@@ -38,7 +38,7 @@ from geostructure.detect.facets import (
 )
 from geostructure.detect.gridscatter import SCATTER_PERCENTILE, SURFACE_SHARE
 from geostructure.detect.roughtiles import rough_facets_in_tiles
-from geostructure.detect.tilejoin import UNSURE_CELLS, grow_tile, joined_labels
+from geostructure.detect.tilejoin import UNSURE_CELLS, cell_keys, grow_tile, joined_labels
 
 #: Cells of halo round a tile: a sparse cell's coarse block reaches three fine cells out.
 HALO_CELLS = 4
@@ -57,16 +57,6 @@ class CellTile:
     key: np.ndarray
     core: np.ndarray
     first: np.ndarray  # the least key of its own cells
-
-
-def cell_keys(points: np.ndarray, edge: float, lower) -> np.ndarray:
-    """Each point's cell key on the grid of ``edge`` anchored at ``lower``, as
-    :class:`~geostructure.detect.cells.CellGrid` numbers its cells (a ring of empty cells
-    round the grid: the least key is 1)."""
-    return (
-        np.floor((np.asarray(points, dtype=np.float64) - np.asarray(lower, dtype=np.float64)) / edge).astype(np.int64)
-        + 1
-    )
 
 
 def cell_tiles(points: np.ndarray, edge: float, tile_cells: int, lower=None, halo_cells: int = HALO_CELLS):
