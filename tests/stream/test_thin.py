@@ -188,10 +188,11 @@ def test_sets_and_kinematics_on_a_thinned_folder_read_the_measured_points(survey
 
 
 def test_a_thinned_surveys_facets_are_found_on_every_point(survey, tmp_path, capsys):
-    """The facets of a survey that does not fit are found on every point, in tiles (issue 46):
-    more of the exposed facets found than with ``--thin`` (the facets on the thinned cloud
-    too), and more of the survey's points labelled with a plane (measured 2026-12-06: 0.82
-    against 0.77 of the facets, 89% against 78% of the points)."""
+    """The facets of a survey that does not fit are found on every point, in tiles, and
+    measured on them (issue 46): more of the exposed facets found than with ``--thin`` (the
+    facets on the thinned cloud too), and more of the survey's points labelled with a plane
+    (measured 2026-12-06: 0.91 against 0.77 of the facets, 0.93 in memory; 91% against 78%
+    of the points)."""
     scene, tiles, _ = survey
     recall, labelled = {}, {}
     for name, extra in (("tiles", []), ("thin", ["--thin"])):
@@ -205,5 +206,5 @@ def test_a_thinned_surveys_facets_are_found_on_every_point(survey, tmp_path, cap
         match = match_facets(Planes(normal=normals, local_centroid=centroids - UTM, fit_residual=0.0), scene)
         recall[name] = match.recall
         labelled[name] = (np.asarray(laspy.read(str(out / "regions.laz")).region_id) >= 0).mean()
-    assert recall["tiles"] > recall["thin"] and recall["tiles"] > 0.78
+    assert recall["tiles"] > recall["thin"] + 0.05 and recall["tiles"] > 0.85
     assert labelled["tiles"] > labelled["thin"] + 0.05

@@ -27,6 +27,9 @@ LABELS = {
     "stream": "Streamed passes",
     "thin": "Thinning",
     "label": "Labelling points",
+    "keep": "The filter on every point",
+    "route": "Cutting into tiles",
+    "tiles": "Facets in tiles",
 }
 
 

@@ -174,19 +174,36 @@ class FacetDetection:
     far_scatter: float
     rough: RoughFacets | None = None  # where no grid was trusted: the rough rock's facets
     extra: dict | None = None  # more for run.json: a survey's facets found in tiles say so
+    #: A thinned survey's facets: each one's plane from all the survey's points of it
+    #: (:class:`~geostructure.detect.tilejoin.FacetPlanes`), by the labels' numbers.
+    survey: object = None
 
     def record(self) -> dict:
         """What ``run.json`` says of the detection."""
         return {
-            "detector": "facets",
-            "facet_thresholds": {k: float(v) for k, v in vars(self.thresholds).items()},
-            "cell_edge": self.cell_edge,
-            "far_scatter_deg": self.far_scatter,
-            "planar_facets": int(self.labels.max(initial=-1)) + 1,
-            "curved_points": int(self.curved.sum()),
+            **detection_record(
+                self.thresholds,
+                self.cell_edge,
+                self.far_scatter,
+                int(self.labels.max(initial=-1)) + 1,
+                int(self.curved.sum()),
+            ),  # fmt: skip
             **({} if self.rough is None else self.rough.record()),
             **(self.extra or {}),
         }
+
+
+def detection_record(thresholds: FacetThresholds, cell_edge: float, far_scatter: float, n_facets: int,
+                     curved_points: int) -> dict:  # fmt: skip
+    """What ``run.json`` says of a facet detection, in memory or in tiles."""
+    return {
+        "detector": "facets",
+        "facet_thresholds": {k: float(v) for k, v in vars(thresholds).items()},
+        "cell_edge": cell_edge,
+        "far_scatter_deg": far_scatter,
+        "planar_facets": n_facets,
+        "curved_points": curved_points,
+    }
 
 
 def voxel_majority(point_voxel: np.ndarray, labels: np.ndarray, n_voxels: int) -> np.ndarray:

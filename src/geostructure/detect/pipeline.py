@@ -21,6 +21,7 @@ from geostructure.detect.merge import MERGE_MIN_POINTS, merge_coplanar
 from geostructure.detect.regionplanes import absorb_sparse_facets, region_planes, without_ribbons
 from geostructure.detect.regions import grow_regions
 from geostructure.detect.roughfacets import FACE_CONE, MIN_FACET_POINTS, mean_directions, numbered_by_size
+from geostructure.detect.surveyplanes import on_survey_planes, survey_min_points, whole_facets
 from geostructure.detect.uncertainty import normal_standard_errors
 from geostructure.detect.voxel import VoxelPlanes, fit_voxels, subset_voxels, voxel_edge
 from geostructure.errors import InputError, ParameterError
@@ -191,7 +192,7 @@ def measure(
         )
         counts["voxel_planes"] = len(voxels)
 
-    facet_record, facet_region, envelope = {}, np.zeros(0, dtype=bool), None
+    facet_record, facet_region, envelope, found = {}, np.zeros(0, dtype=bool), None, None
     if params.detector == "facets":
         with _stage(seconds, "regions", report):
             found = detect_facets(filtered.local) if facets is None else facets(filtered, filt.keep, report)
@@ -210,11 +211,12 @@ def measure(
         is_facet = np.zeros(n_regions, dtype=bool)
         is_facet[: len(facet_region)] = facet_region[:n_regions]
         rough = envelope is not None  # the facets were grown on rough rock's own points
-        min_points = np.where(
-            is_facet,
-            params.min_points or (MIN_FACET_POINTS if rough else default_min_points(len(filtered), "facets")),
-            params.min_points or default_min_points(len(filtered), "voxel"),
-        )
+        facet_rule = params.min_points or (MIN_FACET_POINTS if rough else default_min_points(len(filtered), "facets"))
+        min_points = np.where(is_facet, facet_rule, params.min_points or default_min_points(len(filtered), "voxel"))
+        survey = None if found is None else found.survey  # a thinned survey's facets, on all its points
+        if survey is not None:
+            min_points = survey_min_points(min_points, whole_facets(point_region, found.labels, n_regions), survey,
+                                           facet_rule)  # fmt: skip
         regions, kept = region_planes(
             filtered.local,
             point_region,
@@ -249,6 +251,8 @@ def measure(
         counts["labelled_points"] = int((labels >= 0).sum())
 
     with _stage(seconds, "orientation", report):
+        if survey is not None:  # a plane that is one whole facet: on all the survey's points of it
+            regions = on_survey_planes(regions, whole_facets(labels, found.labels, len(regions)), survey)
         outward = _outward(filtered, labels, len(regions))
         planes = plane_table(
             regions,

@@ -40,7 +40,7 @@ from geostructure.detect.roughfacets import (
     point_normals,
     steps_off_the_face,
 )
-from geostructure.detect.tilejoin import added_moments, cell_keys, piece_groups, piece_moments
+from geostructure.detect.tilejoin import FacetPlanes, added_moments, cell_keys, piece_groups, piece_moments
 
 #: A tile's halo, in point spacings: an own point's partners lie within JOIN_RADIUS (2)
 #: spacings, and their 16 nearest neighbours within about 2.3 more on a surface.
@@ -186,11 +186,12 @@ def grow_rough_tile(points, rows, own, box, envelope, spacing: float, join_angle
     )
 
 
-def join_rough_pieces(tiles: list, typical_residual: float) -> list:
+def join_rough_pieces(tiles: list, typical_residual: float):
     """Every tile's :class:`RoughPieces` joined into the cloud's rough facets: each tile's
     pieces' facet (0, 1, ... by size, ties by the least point; -1 for none), one array per
     tile, with the groups' sizes, planes and faces added over their pieces and kept as
-    :func:`~.roughfacets.detect_rough_facets` keeps them."""
+    :func:`~.roughfacets.detect_rough_facets` keeps them; and the facets' planes from all
+    their points (:class:`~.tilejoin.FacetPlanes`)."""
     starts, group = piece_groups(tiles)
     n = len(group)
     size = np.bincount(group, weights=np.concatenate([t.size for t in tiles] or [np.zeros(0)]), minlength=n)
@@ -202,7 +203,7 @@ def join_rough_pieces(tiles: list, typical_residual: float) -> list:
     index = np.full(n, -1)
     index[candidate] = np.arange(len(candidate))
     per_tile = [index[group[s:e]] for s, e in zip(starts[:-1], starts[1:])]
-    _, _, covariance = added_moments(tiles, per_tile, len(candidate))
+    count, mean, covariance = added_moments(tiles, per_tile, len(candidate))
     values, vectors = np.linalg.eigh(covariance) if len(candidate) else (np.zeros((0, 3)), np.zeros((0, 3, 3)))
     thin = values[:, 0] <= SURFACE_VARIATION * np.maximum(values.sum(axis=1), 1e-300)
     rms = np.sqrt(np.maximum(values[:, 0], 0.0))
@@ -211,7 +212,8 @@ def join_rough_pieces(tiles: list, typical_residual: float) -> list:
     kept = kept[np.lexsort((least[kept], -size[kept]))]
     number = np.full(n, -1)
     number[kept] = np.arange(len(kept))
-    return [number[group[s:e]] for s, e in zip(starts[:-1], starts[1:])]
+    planes = FacetPlanes.of(count, mean, covariance).take(index[kept])
+    return [number[group[s:e]] for s, e in zip(starts[:-1], starts[1:])], planes
 
 
 def rough_facets_in_tiles(points: np.ndarray, spacing: float, edge: float, tile_cells: int) -> RoughFacets:
@@ -240,7 +242,8 @@ def rough_facets_in_tiles(points: np.ndarray, spacing: float, edge: float, tile_
     pieces = [grow_rough_tile(points[held], held, own, box, envelope[held], spacing, angle, core_box)
               for held, own, box, core_box in boxes]  # fmt: skip
     labels, on_face = np.full(len(points), -1), np.zeros(len(points), dtype=bool)
-    for (held, _, _, _), piece, number in zip(boxes, pieces, join_rough_pieces(pieces, residual)):
+    numbers, _ = join_rough_pieces(pieces, residual)
+    for (held, _, _, _), piece, number in zip(boxes, pieces, numbers):
         at = held[piece.point]
         labels[at] = np.where(piece.piece >= 0, number[np.maximum(piece.piece, 0)], -1) if len(number) else -1
         on_face[at] = piece.on_face

@@ -1,5 +1,5 @@
 """Facets grown tile by tile and joined across the tiles' borders, one entry per facet piece
-(docs/tiles.md, step 4): what lets a survey larger than memory be grown tile by tile.
+(docs/tiles.md): what lets a survey larger than memory be grown tile by tile.
 
 Each tile grows its own facets over its core and the sure ring of its halo
 (:func:`grow_tile`): the connected components of its agreeing pairs, each a **piece**. Every
@@ -8,7 +8,7 @@ in its sure ring, so a facet of the whole grid is the union of pieces that share
 cell of one tile's halo that another tile owns. :func:`join_pieces` joins them with
 union-find over the pieces alone (a survey's cells never held at once), then ranks the
 facets by their points as :func:`~geostructure.detect.facets.ranked_components` does, the
-ties by their least cell. The planarity test (:func:`planar_pieces`) adds the pieces'
+ties by their least cell. The planarity test (:func:`planar_renumbering`) adds the pieces'
 moments about each tile's corner and counts, per facet, the points whose cell's plane lies
 along the facet's.
 """
@@ -248,6 +248,33 @@ def added_moments(tiles: list, ranks: list, n: int):
     for c, (a, b) in enumerate(((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
         covariance[:, a, b] = covariance[:, b, a] = total[:, 3 + c] / held - mean_rel[:, a] * mean_rel[:, b]
     return count, np.nan_to_num(first) + mean_rel, covariance
+
+
+@dataclass(frozen=True)
+class FacetPlanes:
+    """Each facet's plane from all its points (F facets): their ``count`` (F,), ``centroid``
+    (F, 3), the ``normal`` (F, 3) of their least-squares plane and their RMS distance to it,
+    ``residual`` (F,)."""
+
+    count: np.ndarray
+    centroid: np.ndarray
+    normal: np.ndarray
+    residual: np.ndarray
+
+    @classmethod
+    def of(cls, count, mean, covariance) -> FacetPlanes:
+        """From each facet's count, mean and covariance (population) of its points."""
+        if not len(count):
+            return cls(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        values, vectors = np.linalg.eigh(covariance)
+        return cls(np.asarray(count, dtype=np.float64), np.asarray(mean, dtype=np.float64), vectors[:, :, 0],
+                   np.sqrt(np.maximum(values[:, 0], 0.0)))  # fmt: skip
+
+    def __len__(self) -> int:
+        return len(self.count)
+
+    def take(self, rows) -> FacetPlanes:
+        return FacetPlanes(self.count[rows], self.centroid[rows], self.normal[rows], self.residual[rows])
 
 
 def facet_normals(joined: JoinedFacets) -> tuple[np.ndarray, np.ndarray]:

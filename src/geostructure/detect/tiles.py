@@ -1,4 +1,6 @@
-"""The facet detector's grid in tiles with halos (docs/tiles.md, step 1 of issue 46).
+"""The facet detector in tiles with halos, in memory (docs/tiles.md): the grid's cells, the
+thresholds and the growing tile by tile, as a stream does them over a spilled survey
+(:mod:`geostructure.stream.tiledfacets`).
 
 A cloud is cut into tiles of whole cells of the detector's grid, all anchored at one
 corner, so that a cell has the same key in every tile. Each tile is read with a halo of

@@ -91,13 +91,15 @@ class ThinnedSurvey:
         """The facets of every point of the survey (:func:`~.tiledfacets.detect_facets_spilled`),
         each of the survey's points kept where its cell's thinned point is (``keep``, the
         filter's decisions on the thinned cloud), as the facet detection of the ``filtered``
-        thinned cloud: each of its points carries its own facet. Where nothing was thinned,
-        these are the in-memory detector's facets."""
+        thinned cloud: each of its points carries its own facet, and each facet its plane from
+        all the survey's points of it (:mod:`geostructure.detect.surveyplanes`). Where nothing
+        was thinned, these are the in-memory detector's facets."""
         report = progress or (lambda stage, done, total: None)
         spill, keep = self.spill, np.asarray(keep, dtype=bool)
         path = spill.folder / "keep.u1"
         with open(path, "wb") as out:  # each point kept where its cell's point is
-            for _, _, found in label_survey(spill, self.thinned, self.chunk_points, self.executor):
+            told = lambda stage, done, total: report("keep", done, total)  # noqa: E731
+            for _, _, found in label_survey(spill, self.thinned, self.chunk_points, self.executor, told):
                 keep[found].tofile(out)
         context = FilterContext("none", 0.0, path=str(path), written=True)
         self.facets = found = detect_facets_spilled(spill, self.chunk_points, self.executor, keep=context,
@@ -119,7 +121,8 @@ class ThinnedSurvey:
                                      "tile_cells": found.tile_cells}}  # fmt: skip
         if rough is not None:
             extra["face_points"] = found.rough["face_points"]  # of the survey's points
-        return FacetDetection(labels, curved, found.thresholds, found.cell_edge, found.far_scatter, rough, extra)
+        return FacetDetection(labels, curved, found.thresholds, found.cell_edge, found.far_scatter, rough, extra,
+                              survey=None if self.thinned.grid is None else found.planes.take(present))  # fmt: skip
 
     def plane_of_facet(self, result) -> np.ndarray | None:
         """Each full-resolution facet's plane (the plane most of its thinned points are in),

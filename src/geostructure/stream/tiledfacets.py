@@ -43,11 +43,19 @@ from geostructure.detect.facets import (
     MAX_CELL_SCATTER,
     FacetThresholds,
     coarsened_planes,
+    detection_record,
     edge_blocks,
     edge_of_blocks,
 )
 from geostructure.detect.roughtiles import HALO_SPACINGS
-from geostructure.detect.tilejoin import aligned_counts, facet_normals, grow_tile, join_pieces, planar_renumbering
+from geostructure.detect.tilejoin import (
+    FacetPlanes,
+    aligned_counts,
+    facet_normals,
+    grow_tile,
+    join_pieces,
+    planar_renumbering,
+)
 from geostructure.detect.tiles import (
     SCATTER_HALO_CELLS,
     cell_keys,
@@ -76,8 +84,9 @@ FACETS_FILE = "facets.i4"
 class StreamedFacets:
     """The facets of a spilled survey: each row's facet in ``labels_path`` (see the module),
     ``n_facets``, the points of curved groups, the thresholds, the grid's edge and far
-    scatter, the tiles; ``rough``, where the grid was not trusted and the facets are rough
-    rock's, what ``run.json`` says of them."""
+    scatter, the tiles, each facet's plane from all its points (``planes``); ``rough``,
+    where the grid was not trusted and the facets are rough rock's, what ``run.json`` says
+    of them."""
 
     labels_path: str | None
     n_facets: int
@@ -88,6 +97,7 @@ class StreamedFacets:
     tile_cells: int
     n_tiles: int
     rough: dict | None = None  # where the grid was not trusted: what the rough facets record
+    planes: FacetPlanes | None = None  # each facet's plane from all its points
     seconds: dict = field(default_factory=dict)
 
     def labels(self, start: int = 0, stop: int | None = None) -> np.ndarray:
@@ -98,12 +108,7 @@ class StreamedFacets:
     def record(self) -> dict:
         """What ``run.json`` says of the detection, as in memory, with the tiles."""
         return {
-            "detector": "facets",
-            "facet_thresholds": {k: float(v) for k, v in vars(self.thresholds).items()},
-            "cell_edge": self.cell_edge,
-            "far_scatter_deg": self.far_scatter,
-            "planar_facets": self.n_facets,
-            "curved_points": self.curved_points,
+            **detection_record(self.thresholds, self.cell_edge, self.far_scatter, self.n_facets, self.curved_points),
             **({} if self.rough is None else {"rough_facets": self.n_facets, **self.rough}),
             "tiles": self.n_tiles,
             "tile_cells": self.tile_cells,
@@ -141,7 +146,7 @@ def detect_facets_spilled(
     tile_cells : int, optional
         Cells on a side of a tile's core (even), instead of ``tile_points``.
     progress : callable, optional
-        ``progress(stage, done, total)``, the stage ``tiles``.
+        ``progress(stage, done, total)``: the stages ``route`` (over the chunks) and ``tiles``.
 
     Returns
     -------
@@ -191,9 +196,9 @@ def detect_facets_spilled(
             # Rough at every scale the grid tries: rough rock's facets, in the same tiles.
             settings = {"edge": edge, "lower": lower, "tile_cells": int(tile_cells), "halo_cells": halo,
                         "spacing": spacing}  # fmt: skip
-            ranks, found.rough = rough_facets_of_tiles(tiles, chunks, executor, offset, keep, lower, upper,
-                                                       settings, step)  # fmt: skip
-            renumber = np.r_[np.arange(max((int(r.max(initial=-1)) for r in ranks), default=-1) + 1), -1]
+            ranks, found.planes, found.rough = rough_facets_of_tiles(tiles, chunks, executor, offset, keep, lower,
+                                                                     upper, settings, step)  # fmt: skip
+            renumber = np.r_[np.arange(len(found.planes)), -1]
         else:
             context = TileContext(edge, lower, bound, int(tile_cells), halo, thresholds)
             pieces = []
@@ -206,6 +211,8 @@ def detect_facets_spilled(
             for counts in executor.map(_tile_aligned, list(zip(tiles, joined.rank)), (normal, thresholds)):
                 aligned += counts
             renumber, ranks = planar_renumbering(joined, aligned, thresholds), joined.rank
+            planar = np.flatnonzero(renumber[:-1] >= 0)  # in rank order, as they are numbered
+            found.planes = FacetPlanes.of(joined.count, joined.mean, joined.covariance).take(planar)
         seconds["grow"] = time.perf_counter() - t
         t = time.perf_counter()
         found.labels_path = str(spill.folder / FACETS_FILE)

@@ -102,7 +102,7 @@ def grow_rough_task(tile, context: RoughContext):
 
 def rough_facets_of_tiles(tiles, chunks, executor, offset, keep, lower, upper, context: dict, step):
     """The rough facets of the routed ``tiles``: each tile's pieces' facet (one array per
-    tile), and what ``run.json`` says of them: the join angle, the points on the face, and
+    tile), the facets' planes from all their points, and what ``run.json`` says of them: the join angle, the points on the face, and
     how many points had a neighbour past their tile's halo (their planes may differ from
     the whole cloud's)."""
     envelope = envelope_of_chunks(chunks, executor, offset, keep, lower, upper)
@@ -119,4 +119,5 @@ def rough_facets_of_tiles(tiles, chunks, executor, offset, keep, lower, upper, c
         face_points += on_face
         step()
     record = {"rough_join_angle_deg": angle, "face_points": face_points, "points_past_halo": reading.short}
-    return join_rough_pieces(pieces, residual), record
+    numbers, planes = join_rough_pieces(pieces, residual)
+    return numbers, planes, record

@@ -92,7 +92,7 @@ def route_to_tiles(chunks, offset, keep, context: TileContext, folder: Path, rep
                     point_rows[a:b].astype("<i8").tofile(out)
                 sizes[at] = sizes.get(at, 0) + int(b - a)
         if report is not None:
-            report("tiles", done, len(chunks))
+            report("route", done, len(chunks))
     tiles = []
     for code, at in sorted(index.items()):
         if code not in owning:  # halo only: every point of it is another tile's own
