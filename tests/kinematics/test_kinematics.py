@@ -514,3 +514,25 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
         for s in wedge["sets"]:
             circle = np.column_stack(great_circle_xy(means[s]["mean_dip_direction"], means[s]["mean_dip"]))
             assert distance_to_polyline(np.array([trace.x[0], trace.y[0]]), circle) < 2e-3  # chords' sag: 2e-4
+
+
+def test_a_face_of_more_joints_than_the_wedge_test_takes_is_tested_on_its_largest():
+    """A 100M-point face held 3,753 joints: the wedges among joints were refused for more
+    than MAX_WEDGE_PLANES, and with them the whole command. The largest are tested, as the
+    largest planes are."""
+    from geostructure.core.planes import Planes
+    from geostructure.kinematics.modes import Slope
+    from geostructure.kinematics.summary import MAX_WEDGE_PLANES, kinematics_of
+
+    rng = np.random.default_rng(0)
+    n = MAX_WEDGE_PLANES + 300
+    dip, dd = rng.uniform(20, 85, n), rng.uniform(0, 360, n)
+    normals = normal_from_orientation(dd, dip).reshape(-1, 3)
+    planes = Planes(normal=normals, area=np.sort(rng.uniform(0.1, 2.0, n))[::-1]).with_columns(
+        joint=np.arange(n), set=np.zeros(n, dtype=int)
+    )
+    summary = kinematics_of(planes, [], Slope(65.0, 180.0), 30.0)[0]
+    wedge = summary["wedge_sliding"]
+    k = MAX_WEDGE_PLANES
+    assert 0.9 * k * (k - 1) // 2 < wedge["joint_pairs_tested"] <= k * (k - 1) // 2  # (near-parallel pairs aside)
+    assert wedge["critical_joint_pairs"] > 0

@@ -200,6 +200,8 @@ def _tests(planes, sets, slope: Slope, friction, lateral_limit, strength) -> _Te
         np.array([r["dip"] for r in sets]), np.array([r["dip_direction"] for r in sets]), slope, friction, **block
     )
     joints = joint_orientations(planes)
+    if joints is not None:  # the largest joints, as the largest planes (a 100M-point face held 3,753)
+        joints = tuple(values[:MAX_WEDGE_PLANES] for values in joints)
     joint_wedges = None if joints is None else wedges(*joints, slope, friction, max_planes=MAX_WEDGE_PLANES, **block)
     return _Tests(
         planar_sliding(dip, dd, slope, friction, lateral_limit),
