@@ -122,6 +122,9 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[10_000_000, 50_000_000, 100_000_000])
     parser.add_argument("--max-memory", default="8G")
     parser.add_argument("--dir", type=Path, help="where the files go (default: a temporary folder)")
+    parser.add_argument(
+        "--methods", nargs="+", default=["tiles", "thin", "memory"], choices=["tiles", "thin", "memory"]
+    )
     args = parser.parse_args()
     the_commands_memory_settings()
     compile_package()
@@ -134,7 +137,7 @@ def main() -> None:
             paths = [str(p) for p in write_panels(base / f"panels_{n}", n)]
             print(f"{len(paths)} panels for {n:,} points (written in {time.perf_counter() - t:.0f} s, not timed)")
             rows = {}
-            for method in ("tiles", "thin", "memory"):
+            for method in args.methods:
                 out = base / f"out_{method}"
                 rows[method] = timed(command(method, paths, out, args.max_memory))
                 if "error" not in rows[method]:
@@ -143,7 +146,7 @@ def main() -> None:
                     )
                 shutil.rmtree(out, ignore_errors=True)
                 print(describe(method, rows[method]), flush=True)
-            if "error" not in rows["tiles"] and "error" not in rows["memory"]:
+            if "error" not in rows.get("tiles", {"error": 1}) and "error" not in rows.get("memory", {"error": 1}):
                 ratio = (rows["tiles"]["points"] / rows["tiles"]["seconds"]) / (
                     rows["memory"]["points"] / rows["memory"]["seconds"])  # fmt: skip
                 print(f"  tiles / memory, points per second: {ratio:.2f}")

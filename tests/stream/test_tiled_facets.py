@@ -31,7 +31,9 @@ def check_same_facets(found, whole):
     # Facet by facet, each point's: the issue asks 99% of the facets, this gives them all.
     assert (np.maximum(labels, -1) == whole.labels).mean() > 0.999
     assert ((labels == -2) == whole.curved).mean() > 0.999
-    assert found.thresholds.max_angle == pytest.approx(whole.thresholds.max_angle, rel=1e-9)
+    # The medians read from counts in bins that add over the tiles: within half a bin.
+    assert found.thresholds.max_angle == pytest.approx(whole.thresholds.max_angle, abs=1e-3)
+    assert found.thresholds.max_offset == pytest.approx(whole.thresholds.max_offset, rel=1e-3)
 
 
 @pytest.mark.parametrize("tile_cells", [6, 20])

@@ -8,8 +8,8 @@ What the rough detector reads from the whole cloud, and how the tiles read it:
   they are summed over the whole cloud first (:func:`~.roughfacets.envelope_table`), and
   each tile looks its points' normals up in it;
 - **the join angle and the typical residual**, medians over every point: each tile counts
-  its own points' values in fine bins (:data:`ANGLE_BIN` degrees, :data:`RESIDUAL_BIN` of a
-  decade), and the medians are read from the summed counts, to within a bin;
+  its own points' values in fine bins (:mod:`.bins`), and the medians are read from the
+  summed counts, to within a bin;
 - **the groups**: each tile grows its own (:func:`grow_rough_tile`) over its core and halo,
   from the points whose nearest neighbours lie inside the tile; they are joined as the
   grid's facet pieces are (:func:`~.tilejoin.piece_groups`), by the points one tile holds as
@@ -28,6 +28,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from geostructure.core.bounds import column_min
+from geostructure.detect.bins import angle_counts, angle_quantile, log_counts, log_quantile
 from geostructure.detect.cells import SURFACE_VARIATION
 from geostructure.detect.roughfacets import (
     FACE_CONE,
@@ -45,11 +46,6 @@ from geostructure.detect.tilejoin import FacetPlanes, added_moments, cell_keys, 
 #: A tile's halo, in point spacings: an own point's partners lie within JOIN_RADIUS (2)
 #: spacings, and their 16 nearest neighbours within about 2.3 more on a surface.
 HALO_SPACINGS = 8.0
-#: The join angle's bins (degrees) over 0 to 90.
-ANGLE_BIN = 1e-4
-#: The residual's bins: this fraction of a decade, from 1e-12 to 1e3 of the cloud's unit.
-RESIDUAL_BIN = 1e-4
-RESIDUAL_DECADES = (-12.0, 3.0)
 
 
 def inside_room(points: np.ndarray, box_lower, box_upper) -> np.ndarray:
@@ -59,8 +55,8 @@ def inside_room(points: np.ndarray, box_lower, box_upper) -> np.ndarray:
 
 @dataclass
 class RoughReading:
-    """One tile's counts for the medians: its own points' neighbour angles (in
-    :data:`ANGLE_BIN` bins) and residuals (in :data:`RESIDUAL_BIN` bins of log10), and how
+    """One tile's counts for the medians: its own points' neighbour angles and residuals (in
+    the bins of :mod:`.bins`), and how
     many of its own points had a neighbour past the tile's box (their planes may differ
     from the whole cloud's)."""
 
@@ -72,16 +68,6 @@ class RoughReading:
         return RoughReading(self.angles + other.angles, self.residuals + other.residuals, self.short + other.short)
 
 
-def _angle_bin(angle_deg: np.ndarray) -> np.ndarray:
-    return np.minimum((angle_deg / ANGLE_BIN).astype(np.int64), int(round(90.0 / ANGLE_BIN)))
-
-
-def _residual_bin(residual: np.ndarray) -> np.ndarray:
-    low, high = RESIDUAL_DECADES
-    scaled = (np.log10(np.maximum(residual, 10.0**low)) - low) / RESIDUAL_BIN
-    return np.clip(scaled.astype(np.int64), 0, int(round((high - low) / RESIDUAL_BIN)))
-
-
 def read_rough_tile(points: np.ndarray, own: np.ndarray, box) -> RoughReading:
     """One tile's :class:`RoughReading`: ``points`` its core and halo (local coordinates),
     ``own`` (N,) which are its own, ``box`` (lower, upper) the box the tile's points fill."""
@@ -90,19 +76,7 @@ def read_rough_tile(points: np.ndarray, own: np.ndarray, box) -> RoughReading:
     cos = np.abs(np.einsum("ij,ikj->ik", normal[mine], normal[neighbours[mine, 1:NORMAL_NEIGHBOURS]]))
     angle = np.degrees(np.arccos(np.clip(cos.ravel(), 0.0, 1.0)))
     short = int((distances[mine, -1] > inside_room(points[mine], *box)).sum())
-    return RoughReading(
-        np.bincount(_angle_bin(angle), minlength=int(round(90.0 / ANGLE_BIN)) + 1),
-        np.bincount(_residual_bin(residual[mine]), minlength=int(round(np.ptp(RESIDUAL_DECADES) / RESIDUAL_BIN)) + 1),
-        short,
-    )
-
-
-def _median_bin(counts: np.ndarray) -> float:
-    """The middle bin's centre, in bins, of a histogram's counts."""
-    total = counts.sum()
-    if not total:
-        return 0.0
-    return float(np.searchsorted(np.cumsum(counts), (total + 1) / 2.0)) + 0.5
+    return RoughReading(angle_counts(angle), log_counts(residual[mine]), short)
 
 
 def rough_medians(reading: RoughReading) -> tuple[float, float]:
@@ -110,9 +84,8 @@ def rough_medians(reading: RoughReading) -> tuple[float, float]:
     to) and the typical residual from the tiles' summed counts."""
     if not reading.angles.sum():
         return JOIN_ANGLE_RANGE[1], 0.0
-    angle = float(np.clip(_median_bin(reading.angles) * ANGLE_BIN, *JOIN_ANGLE_RANGE))
-    residual = 10.0 ** (RESIDUAL_DECADES[0] + _median_bin(reading.residuals) * RESIDUAL_BIN)
-    return angle, float(residual)
+    angle = float(np.clip(angle_quantile(reading.angles), *JOIN_ANGLE_RANGE))
+    return angle, log_quantile(reading.residuals)
 
 
 @dataclass

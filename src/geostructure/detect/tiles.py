@@ -19,6 +19,7 @@ import numpy as np
 
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.density import point_spacing
+from geostructure.detect.bins import angle_counts, angle_quantile, log_counts, log_quantile
 from geostructure.detect.cells import (
     CENTRE,
     SURFACE_VARIATION,
@@ -338,6 +339,56 @@ def combined_statistics(parts, spacing: float) -> tuple[FacetThresholds, float]:
     far_angles = np.concatenate([pick[1] if surface else pick[0] for pick in far])
     far_scatter = float(np.degrees(np.percentile(far_angles, SCATTER_PERCENTILE))) if len(far_angles) else 0.0
     return thresholds, far_scatter
+
+
+@dataclass
+class BinnedStatistics:
+    """:func:`tile_statistics` as counts in fine bins (:mod:`.bins`), which add over the tiles
+    where the values themselves would not fit: a survey's cells each give about twenty
+    numbers (at 100M points on a 1 cm face, gigabytes). The medians and the percentile come
+    out within half a bin (1e-4 degree, 1e-4 of a decade) of the exact ones."""
+
+    residual: np.ndarray
+    variation: np.ndarray
+    angles: np.ndarray
+    far_defined: np.ndarray
+    far_thin: np.ndarray
+    thin_points: float
+    defined_points: float
+    defined: int
+
+    def __add__(self, other: BinnedStatistics) -> BinnedStatistics:
+        return BinnedStatistics(*(getattr(self, f) + getattr(other, f) for f in self.__dataclass_fields__))
+
+
+def binned_statistics(part: tuple) -> BinnedStatistics:
+    """One tile's :func:`tile_statistics` as :class:`BinnedStatistics`."""
+    residual, variation, count, defined, angles, (far_defined, far_thin) = part
+    thin = defined & (variation <= SURFACE_VARIATION)
+    return BinnedStatistics(
+        log_counts(residual),
+        log_counts(variation[defined]),
+        angle_counts(np.degrees(angles)),
+        angle_counts(np.degrees(far_defined)),
+        angle_counts(np.degrees(far_thin)),
+        float(count[thin].sum()),
+        float(count[defined].sum()),
+        int(defined.sum()),
+    )
+
+
+def binned_thresholds(binned: BinnedStatistics, spacing: float) -> tuple[FacetThresholds, float]:
+    """:func:`combined_statistics` from every tile's :class:`BinnedStatistics`, added."""
+    scatter = angle_quantile(binned.angles)
+    thresholds = FacetThresholds(
+        max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
+        max_offset=max(3.0 * log_quantile(binned.residual), spacing / 3.0) if binned.defined else spacing,
+        max_variation=float(np.clip(3.0 * log_quantile(binned.variation), 0.01, 0.1)) if binned.defined else 0.01,
+        spacing=spacing,
+    )
+    surface = binned.thin_points >= SURFACE_SHARE * binned.defined_points
+    far = binned.far_thin if surface else binned.far_defined
+    return thresholds, angle_quantile(far, SCATTER_PERCENTILE / 100.0)
 
 
 def _far_pairs(cells: CellPlanes, core: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

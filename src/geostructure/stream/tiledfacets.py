@@ -11,8 +11,9 @@ The passes, each over the spill's chunks or over the tiles:
    read whole for them, as in memory.
 2. **The tiles**: each chunk's points are written to the tile files whose core or halo
    holds them (:data:`HALO_CELLS` cells of halo), with their rows in the spill.
-3. **The thresholds**: each tile's core cells' statistics, their medians taken once
-   (:func:`~geostructure.detect.tiles.combined_statistics`).
+3. **The thresholds**: each tile's core cells' statistics counted in fine bins that add,
+   the medians read from the sums to within a bin
+   (:func:`~geostructure.detect.tiles.binned_thresholds`).
 4. **The pieces**: each tile grows its facet pieces
    (:func:`~geostructure.detect.tilejoin.grow_tile`); its points' pieces and cell normals go
    to its own files, the pieces' entries come back and are joined
@@ -58,8 +59,9 @@ from geostructure.detect.tilejoin import (
 )
 from geostructure.detect.tiles import (
     SCATTER_HALO_CELLS,
+    binned_statistics,
+    binned_thresholds,
     cell_keys,
-    combined_statistics,
     key_codes,
     tile_cells_of,
     tile_statistics,
@@ -183,12 +185,11 @@ def detect_facets_spilled(
             report("tiles", done[0], total)
 
         t = time.perf_counter()
-        parts = []
+        binned = None  # the cells' values in bins that add: a survey's would not fit
         for part in executor.map(_tile_statistics, tiles, context):
-            parts.append(part)
+            binned = part if binned is None else binned + part
             step()
-        thresholds, scatter = combined_statistics(parts, spacing)
-        del parts
+        thresholds, scatter = binned_thresholds(binned, spacing)
         seconds["thresholds"] = time.perf_counter() - t
         found = StreamedFacets(None, 0, 0, thresholds, edge, scatter, int(tile_cells), len(tiles))
         t = time.perf_counter()
@@ -300,8 +301,8 @@ def _tile_cells(tile: TileFile, context: TileContext):
     return points, tile_cells_of(points, context.edge, context.lower, np.array(tile.first), context.tile_cells)
 
 
-def _tile_statistics(tile: TileFile, context: TileContext) -> tuple:
-    return tile_statistics(_tile_cells(tile, context)[1])
+def _tile_statistics(tile: TileFile, context: TileContext):
+    return binned_statistics(tile_statistics(_tile_cells(tile, context)[1]))
 
 
 def _tile_pieces(tile: TileFile, context: TileContext):
