@@ -244,10 +244,20 @@ def facet_thresholds(cells: CellPlanes, spacing: float, pairs=None) -> FacetThre
     source, target = neighbour_pairs(cells) if pairs is None else pairs
     cosine = np.abs(pair_dots(cells.normal, source, cells.normal, target))
     scatter = float(np.degrees(np.median(np.arccos(np.clip(cosine, 0.0, 1.0))))) if len(source) else 0.0
+    if not defined.any():
+        return thresholds_from_medians(scatter, None, None, spacing)
+    return thresholds_from_medians(scatter, float(np.median(cells.residual[defined])),
+                                   float(np.median(cells.variation[defined])), spacing)  # fmt: skip
+
+
+def thresholds_from_medians(scatter: float, residual: float | None, variation: float | None, spacing: float):
+    """:func:`facet_thresholds`' rule from the medians it reads (the angle between touching
+    cells' planes in degrees, and the defined cells' residual and variation, None where no
+    cell is defined), however they were read: on the whole grid, or over tiles."""
     return FacetThresholds(
         max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
-        max_offset=max(3.0 * float(np.median(cells.residual[defined])), spacing / 3.0) if defined.any() else spacing,
-        max_variation=float(np.clip(3.0 * np.median(cells.variation[defined]), 0.01, 0.1)) if defined.any() else 0.01,
+        max_offset=spacing if residual is None else max(3.0 * residual, spacing / 3.0),
+        max_variation=0.01 if variation is None else float(np.clip(3.0 * variation, 0.01, 0.1)),
         spacing=spacing,
     )
 

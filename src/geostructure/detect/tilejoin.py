@@ -285,15 +285,15 @@ def facet_normals(joined: JoinedFacets) -> tuple[np.ndarray, np.ndarray]:
     return vectors[:, :, 0], np.sqrt(np.maximum(values[:, 0], 0.0))
 
 
-def aligned_counts(tile: TilePieces, rank: np.ndarray, normal: np.ndarray, thresholds: FacetThresholds) -> np.ndarray:
-    """Per facet (``normal`` (F, 3)), how many of one tile's points (its pieces' ``rank``)
-    have their cell's plane within twice the angle of the facet's:
+def aligned_counts(piece: np.ndarray, cell_normal: np.ndarray, rank: np.ndarray, normal: np.ndarray,
+                   thresholds: FacetThresholds) -> np.ndarray:  # fmt: skip
+    """Per facet (``normal`` (F, 3)), how many of one tile's own points (each one's ``piece``
+    and its cell's plane ``cell_normal``; the pieces' facets ``rank``) have their cell's
+    plane within twice the angle of the facet's:
     :func:`~geostructure.detect.facets.planar_components`' share, counted tile by tile."""
-    facet = (
-        np.where(tile.piece >= 0, rank[np.maximum(tile.piece, 0)], -1) if len(rank) else np.full(len(tile.piece), -1)
-    )
+    facet = piece_facets(piece, rank)
     on = facet >= 0
-    dot = np.abs(np.einsum("ij,ij->i", tile.normal[on], normal[facet[on]]))
+    dot = np.abs(np.einsum("ij,ij->i", cell_normal[on], normal[facet[on]]))
     return np.bincount(facet[on], weights=dot >= np.cos(np.radians(2.0 * thresholds.max_angle)), minlength=len(normal))
 
 
@@ -315,10 +315,18 @@ def planar_renumbering(joined: JoinedFacets, aligned: np.ndarray, thresholds: Fa
 def piece_labels(tile: TilePieces, rank: np.ndarray, renumber: np.ndarray) -> np.ndarray:
     """Each of the tile's own points' facet (its ``point``): its piece's facet renumbered by
     :func:`planar_renumbering` (-1 none, -2 a curved group's)."""
-    facet = (
-        np.where(tile.piece >= 0, rank[np.maximum(tile.piece, 0)], -1) if len(rank) else np.full(len(tile.piece), -1)
-    )
-    return renumber[facet]
+    return renumber[piece_facets(tile.piece, rank)]
+
+
+def piece_facets(piece: np.ndarray, rank: np.ndarray) -> np.ndarray:
+    """Each point's facet from its ``piece`` (-1 none) and the pieces' facets ``rank``.
+
+    Examples
+    --------
+    >>> piece_facets(np.array([1, -1, 0]), np.array([4, 2])).tolist()
+    [2, -1, 4]
+    """
+    return np.where(piece >= 0, rank[np.maximum(piece, 0)], -1) if len(rank) else np.full(len(piece), -1)
 
 
 def joined_labels(pieces: list, thresholds: FacetThresholds):
@@ -331,6 +339,6 @@ def joined_labels(pieces: list, thresholds: FacetThresholds):
     normal, _ = facet_normals(joined)
     aligned = np.zeros(len(joined))
     for piece, rank in zip(pieces, joined.rank):
-        aligned += aligned_counts(piece, rank, normal, thresholds)
+        aligned += aligned_counts(piece.piece, piece.normal, rank, normal, thresholds)
     renumber = planar_renumbering(joined, aligned, thresholds)
     return [piece_labels(piece, rank, renumber) for piece, rank in zip(pieces, joined.rank)]

@@ -30,7 +30,6 @@ from geostructure.detect.cells import (
     with_sparse_cells_filled,
 )
 from geostructure.detect.facets import (
-    ANGLE_FACTOR,
     CELL_EDGE,
     MAX_CELL_SCATTER,
     SCATTER_SAMPLE_POINTS,
@@ -38,6 +37,7 @@ from geostructure.detect.facets import (
     FacetThresholds,
     coarsened_planes,
     sampled_edge,
+    thresholds_from_medians,
 )
 from geostructure.detect.gridscatter import SCATTER_PERCENTILE, SURFACE_SHARE
 from geostructure.detect.roughtiles import rough_facets_in_tiles
@@ -326,12 +326,9 @@ def combined_statistics(parts, spacing: float) -> tuple[FacetThresholds, float]:
     residual, variation, count, defined, angles = (np.concatenate([p[i] for p in parts]) for i in range(5))
     far = [p[5] for p in parts]
     scatter = float(np.degrees(np.median(angles))) if len(angles) else 0.0
-    thresholds = FacetThresholds(
-        max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
-        max_offset=max(3.0 * float(np.median(residual)), spacing / 3.0) if defined.any() else spacing,
-        max_variation=float(np.clip(3.0 * np.median(variation[defined]), 0.01, 0.1)) if defined.any() else 0.01,
-        spacing=spacing,
-    )
+    any_defined = defined.any()
+    thresholds = thresholds_from_medians(scatter, float(np.median(residual)) if any_defined else None,
+                                         float(np.median(variation[defined])) if any_defined else None, spacing)  # fmt: skip
     # The far scatter on the surface's cells (gridscatter.surface_cells): the thin cells when
     # they hold half the points or more, a share that adds over the tiles.
     thin = defined & (variation <= SURFACE_VARIATION)
@@ -379,13 +376,9 @@ def binned_statistics(part: tuple) -> BinnedStatistics:
 
 def binned_thresholds(binned: BinnedStatistics, spacing: float) -> tuple[FacetThresholds, float]:
     """:func:`combined_statistics` from every tile's :class:`BinnedStatistics`, added."""
-    scatter = angle_quantile(binned.angles)
-    thresholds = FacetThresholds(
-        max_angle=float(np.clip(ANGLE_FACTOR * scatter, 5.0, 15.0)),
-        max_offset=max(3.0 * log_quantile(binned.residual), spacing / 3.0) if binned.defined else spacing,
-        max_variation=float(np.clip(3.0 * log_quantile(binned.variation), 0.01, 0.1)) if binned.defined else 0.01,
-        spacing=spacing,
-    )
+    some = binned.defined > 0
+    thresholds = thresholds_from_medians(angle_quantile(binned.angles), log_quantile(binned.residual) if some else None,
+                                         log_quantile(binned.variation) if some else None, spacing)  # fmt: skip
     surface = binned.thin_points >= SURFACE_SHARE * binned.defined_points
     far = binned.far_thin if surface else binned.far_defined
     return thresholds, angle_quantile(far, SCATTER_PERCENTILE / 100.0)

@@ -55,6 +55,7 @@ from geostructure.detect.tilejoin import (
     facet_normals,
     grow_tile,
     join_pieces,
+    piece_facets,
     planar_renumbering,
 )
 from geostructure.detect.tiles import (
@@ -261,8 +262,7 @@ def _write_labels(spill, keep, chunk_points, tiles, ranks, renumber, path, step)
     for tile, rank in zip(tiles, ranks):
         own = np.fromfile(tile.path("own"), dtype="<i8")
         piece = np.fromfile(tile.path("piece"), dtype="<i4")
-        facet = np.where(piece >= 0, rank[np.maximum(piece, 0)], -1) if len(rank) else np.full(len(piece), -1)
-        found = renumber[facet].astype("<i4")
+        found = renumber[piece_facets(piece, rank)].astype("<i4")
         out[own] = found
         curved += int((found == -2).sum())
         step()
@@ -322,13 +322,5 @@ def _tile_aligned(item, context) -> np.ndarray:
     tile, rank = item
     normal, thresholds = context
     piece = np.fromfile(tile.path("piece"), dtype="<i4")
-    own = _Own(piece, np.fromfile(tile.path("normal"), dtype="<f8").reshape(-1, 3))
-    return aligned_counts(own, rank, normal, thresholds)
-
-
-@dataclass
-class _Own:
-    """A tile's own points' pieces and cell normals, read back for :func:`aligned_counts`."""
-
-    piece: np.ndarray
-    normal: np.ndarray
+    cell_normal = np.fromfile(tile.path("normal"), dtype="<f8").reshape(-1, 3)
+    return aligned_counts(piece, cell_normal, rank, normal, thresholds)
