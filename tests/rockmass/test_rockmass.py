@@ -17,7 +17,8 @@ from geostructure.evaluation.groundtruth import match_facets
 from geostructure.io.crs import metres_per_unit
 from geostructure.io.results import TEXT_SET_COLUMNS
 from geostructure.kinematics.slope import fit_slope
-from geostructure.rockmass.exposure import exposure, plane_persistence
+from geostructure.rockmass import spacing
+from geostructure.rockmass.exposure import Persistence, exposure, plane_persistence
 from geostructure.rockmass.face import clutter_points, face_members
 from geostructure.rockmass.mass import RockMass
 from geostructure.rockmass.notes import (
@@ -29,7 +30,7 @@ from geostructure.rockmass.notes import (
     unmeasured_spacing,
 )
 from geostructure.rockmass.rqd import block_size_class, rqd_from_jv, rqd_range
-from geostructure.rockmass.spacing import Scanlines, spacing_class, spacing_statistics
+from geostructure.rockmass.spacing import Scanlines, nearest_plane_gaps, spacing_class, spacing_statistics
 from geostructure.rockmass.traces import persistence_class
 from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
 from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
@@ -319,6 +320,22 @@ def test_a_patch_at_the_border_is_censored_and_one_inside_is_not():
     np.testing.assert_allclose(p.trace_strike, [1.0, 1.0], atol=0.02)  # strike is x here (up is y)
     np.testing.assert_allclose(p.trace_dip, [0.5, 0.5], atol=0.02)
     assert face.area == pytest.approx(18.0, rel=0.02)
+
+
+def test_nearest_plane_gaps_of_stacked_discs_in_blocks_of_rows(monkeypatch):
+    # Columns of discs 1 m across, 0.3 m apart along z, side by side 2 m apart (no overlap
+    # between columns): each disc's nearest overlapping neighbour is 0.3 m away.
+    rng = np.random.default_rng(4)
+    columns, per_column = 40, 25
+    centres = np.array([[2.0 * c, 0.0, 0.3 * k] for c in range(columns) for k in range(per_column)])
+    centres[:, :2] += rng.uniform(-0.05, 0.05, (len(centres), 2))  # still overlapping in a column
+    n = len(centres)
+    persistence = Persistence(np.ones(n), np.full(n, 0.5), np.ones(n), np.zeros(n, bool))
+    members, mean = rng.permutation(n), np.array([0.0, 0.0, 1.0])
+    whole = nearest_plane_gaps(np.tile(mean, (n, 1)), centres, members, mean, persistence)
+    assert len(whole) == n and np.allclose(whole, 0.3)
+    monkeypatch.setattr(spacing, "PAIRS_AT_ONCE", 3 * n)  # 3 rows at a time
+    np.testing.assert_array_equal(nearest_plane_gaps(np.tile(mean, (n, 1)), centres, members, mean, persistence), whole)
 
 
 def test_jv_and_block_volume_of_three_orthogonal_sets():

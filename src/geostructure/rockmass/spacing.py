@@ -35,6 +35,8 @@ LINE_SPACING = 1.0
 CROSSING_TOLERANCE = 0.005
 #: Scanlines meet a set too obliquely below this cosine between line and mean normal.
 MIN_SCANLINE_COSINE = 0.25
+#: Plane pairs compared at once by :func:`nearest_plane_gaps`: some 32 MB per pair array.
+PAIRS_AT_ONCE = 1 << 22
 
 
 @dataclass
@@ -184,10 +186,16 @@ def nearest_plane_gaps(normals, centroids, members, mean, persistence: Persisten
     depth = c @ mean
     flat = c - depth[:, None] * mean
     radius = 0.5 * np.maximum(persistence.trace_strike[members], persistence.trace_dip[members])
-    lateral = np.linalg.norm(flat[:, None, :] - flat[None, :, :], axis=2)
-    apart = np.abs(depth[:, None] - depth[None, :])
-    facing = (lateral < radius[:, None] + radius[None, :]) & (apart > SAME_JOINT_TOLERANCE)
-    nearest = np.where(facing, apart, np.inf).min(axis=1)
+    nearest = np.full(len(members), np.inf)
+    # Every pair is compared, a block of rows at a time: a set of 10,000 planes (a 100M-point
+    # face's) made its whole pair arrays gigabytes at once.
+    rows = max(1, PAIRS_AT_ONCE // len(members))
+    for start in range(0, len(members), rows):
+        block = slice(start, start + rows)
+        lateral = np.linalg.norm(flat[block, None, :] - flat[None, :, :], axis=2)
+        apart = np.abs(depth[block, None] - depth[None, :])
+        facing = (lateral < radius[block, None] + radius[None, :]) & (apart > SAME_JOINT_TOLERANCE)
+        nearest[block] = np.where(facing, apart, np.inf).min(axis=1)
     return nearest[np.isfinite(nearest)]
 
 
