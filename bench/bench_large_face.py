@@ -21,6 +21,7 @@ area), and the joint sets found.
 
     python bench/bench_large_face.py                       # 10M, 50M and 100M points
     python bench/bench_large_face.py --sizes 10000000      # one size
+    python bench/bench_large_face.py --keep-panels /data   # panels kept, used again next time
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import laspy
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -58,8 +60,12 @@ def write_panels(folder: Path, n_points: int) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     paths, total, index = [], 0, 0
     while total < n_points:
-        cloud = outcrop_scene(width=PANEL_WIDTH, height=PANEL_HEIGHT, point_spacing=SPACING, seed=index).cloud
         paths.append(folder / f"panel_{index:03d}.laz")
+        if paths[-1].exists():  # kept from a run before (--keep-panels)
+            with laspy.open(paths[-1]) as reader:
+                total, index = total + reader.header.point_count, index + 1
+            continue
+        cloud = outcrop_scene(width=PANEL_WIDTH, height=PANEL_HEIGHT, point_spacing=SPACING, seed=index).cloud
         write_laz(paths[-1], cloud.points + [index * (PANEL_WIDTH + 0.5), 0.0, 0.0], {}, offset=cloud.offset)
         total, index = total + len(cloud.points), index + 1
     return paths
@@ -123,6 +129,10 @@ def main() -> None:
     parser.add_argument("--max-memory", default="8G")
     parser.add_argument("--dir", type=Path, help="where the files go (default: a temporary folder)")
     parser.add_argument(
+        "--keep-panels", type=Path, metavar="FOLDER",
+        help="write the panels under FOLDER and keep them; panels already there are used again",
+    )  # fmt: skip
+    parser.add_argument(
         "--methods", nargs="+", default=["tiles", "thin", "memory"], choices=["tiles", "thin", "memory"]
     )
     args = parser.parse_args()
@@ -134,7 +144,8 @@ def main() -> None:
     try:
         for n in args.sizes:
             t = time.perf_counter()
-            paths = [str(p) for p in write_panels(base / f"panels_{n}", n)]
+            panels = (args.keep_panels or base) / f"panels_{n}"
+            paths = [str(p) for p in write_panels(panels, n)]
             print(f"{len(paths)} panels for {n:,} points (written in {time.perf_counter() - t:.0f} s, not timed)")
             rows = {}
             for method in args.methods:
@@ -150,7 +161,8 @@ def main() -> None:
                 ratio = (rows["tiles"]["points"] / rows["tiles"]["seconds"]) / (
                     rows["memory"]["points"] / rows["memory"]["seconds"])  # fmt: skip
                 print(f"  tiles / memory, points per second: {ratio:.2f}")
-            shutil.rmtree(base / f"panels_{n}", ignore_errors=True)
+            if not args.keep_panels:
+                shutil.rmtree(panels, ignore_errors=True)
     finally:
         shutil.rmtree(base, ignore_errors=True)
 
