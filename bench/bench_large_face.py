@@ -17,7 +17,8 @@ files to the folder written, with the default options:
 
 Prints seconds, points per second, the peak resident memory of the process, the planes of
 at least 0.3 x 0.3 m (``area_m2`` of 0.09 or more) per square metre of face (its panels'
-area), and the joint sets found.
+area), the same on the crop's panels alone (the panels differ, so this is the comparison
+with the in-memory crop, like for like), and the joint sets found.
 
     python bench/bench_large_face.py                       # 10M, 50M and 100M points
     python bench/bench_large_face.py --sizes 10000000      # one size
@@ -80,17 +81,28 @@ def command(method: str, paths: list[str], out: Path, max_memory: str) -> list[s
     return [*base, str(Path(paths[0]).parent), *options, *streamed]
 
 
-def found(out: Path) -> dict:
-    """What a folder holds: points measured, large planes, sets and the tiles' record."""
+def crop_span(paths: list[str]) -> tuple[float, float]:
+    """The x range of the crop's panels (the first ``CROP_PANELS``), from their headers."""
+    crop = paths[: min(CROP_PANELS, len(paths))]
+    with laspy.open(crop[0]) as first, laspy.open(crop[-1]) as last:
+        return float(first.header.mins[0]), float(last.header.maxs[0])
+
+
+def found(out: Path, crop: tuple[float, float]) -> dict:
+    """What a folder holds: points measured, large planes (on the whole face and on the
+    crop's panels), sets and the tiles' record."""
     with open(out / "planes.csv", newline="") as fh:
-        area = np.array([float(row["area_m2"]) for row in csv.DictReader(fh)])
+        rows = [(float(row["area_m2"]), float(row["centroid_x"])) for row in csv.DictReader(fh)]
+    area, x = np.array(rows).reshape(-1, 2).T
     with open(out / "sets.csv", newline="") as fh:
         sets = sum(1 for _ in csv.DictReader(fh))
     record = json.loads((out / "run.json").read_text())
     thinned = record.get("thinned") or {}
     full = (record.get("detection") or {}).get("full_resolution") or {}
     points = thinned.get("survey_points") or record["counts"]["input"]
-    return {"points": points, "planes": len(area), "large": int((area >= MIN_FACET_AREA).sum()), "sets": sets,
+    large = area >= MIN_FACET_AREA
+    in_crop = int((large & (x >= crop[0]) & (x <= crop[1])).sum())
+    return {"points": points, "planes": len(area), "large": int(large.sum()), "in_crop": in_crop, "sets": sets,
             "thinned": thinned.get("points"), "tiles": full.get("tiles")}  # fmt: skip
 
 
@@ -114,12 +126,13 @@ def describe(name: str, row: dict) -> str:
     if "error" in row:
         return f"  {name:<7} {row['error']}"
     per_m2 = row["large"] / (row["panels"] * PANEL_WIDTH * PANEL_HEIGHT)
+    crop_m2 = row["in_crop"] / (row["crop_panels"] * PANEL_WIDTH * PANEL_HEIGHT)
     thinned = f"; thinned to {row['thinned']:,}" if row.get("thinned") else ""
     tiles = f", facets in {row['tiles']} tiles" if row.get("tiles") else ""
     return (
         f"  {name:<7} {row['points']:>12,} points {row['seconds']:8.1f} s ({row['points'] / row['seconds']:>9,.0f}"
         f" points/s), peak {row['peak_mib']:>7,.0f} MiB; {row['planes']:,} planes, {row['large']:,} of 0.3 m or "
-        f"more ({per_m2:.2f} per m^2), {row['sets']} sets{thinned}{tiles}"
+        f"more ({per_m2:.2f} per m^2; {crop_m2:.2f} on the crop's panels), {row['sets']} sets{thinned}{tiles}"
     )
 
 
@@ -152,8 +165,11 @@ def main() -> None:
                 out = base / f"out_{method}"
                 rows[method] = timed(command(method, paths, out, args.max_memory))
                 if "error" not in rows[method]:
+                    crop_panels = min(CROP_PANELS, len(paths))
                     rows[method].update(
-                        found(out), panels=min(CROP_PANELS, len(paths)) if method == "memory" else len(paths)
+                        found(out, crop_span(paths)),
+                        panels=crop_panels if method == "memory" else len(paths),
+                        crop_panels=crop_panels,
                     )
                 shutil.rmtree(out, ignore_errors=True)
                 print(describe(method, rows[method]), flush=True)
