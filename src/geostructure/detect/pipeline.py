@@ -12,6 +12,7 @@ import numpy as np
 
 from geostructure.core.bounds import column_max, column_min, first_bad_coordinates
 from geostructure.core.cloud import MAX_COORDINATE, Cloud
+from geostructure.core.density import point_spacing
 from geostructure.core.orientation import Frame, Orientation, face_side, orientation_from_normals, upward
 from geostructure.core.params import Params
 from geostructure.core.planes import Planes
@@ -236,9 +237,16 @@ def measure(
             narrow_checked = np.ones(n_regions, dtype=bool) if trusted else is_facet & ~rough
             regions, kept, counts["ribbons"] = without_ribbons(regions, kept, narrow_checked, facet_record["cell_edge"])
             if n_facets and params.merge and not rough:  # rough rock's facets are steps, not sparse pieces of a plane
+                # A facet is sparse against the cloud its regions were counted on: a thinned
+                # survey's facets hold thinned points, and against the survey's own spacing
+                # (the facets' thresholds) every one read sparse. On a 100M-point face 444
+                # were absorbed, into planes of 26 cm RMS facing out of the face (a 4th set).
+                spacing = (
+                    facet_record["facet_thresholds"]["spacing"] if survey is None else point_spacing(filtered.local)
+                )
                 regions, kept, alias = absorb_sparse_facets(
-                    filtered.local, point_region, regions, kept, params.theta, params.psi * voxels.edge,
-                    facet_record["facet_thresholds"]["spacing"], params.rectangle,
+                    filtered.local, point_region, regions, kept, params.theta, params.psi * voxels.edge, spacing,
+                    params.rectangle,
                 )  # fmt: skip
                 counts["absorbed"] = len(alias)
         # Old region id -> plane number (largest first); -1 (the table's last entry) stays -1.
