@@ -10,6 +10,9 @@ files to the folder written, with the default options:
 - **tiles**: ``geostructure measure PANELS -o OUT -q --sets --kinematics --friction 30
   --engine stream --max-memory 8G``: the facets on every point, the rest on the survey
   thinned to what fits;
+- **dask** (with ``--methods``): the same as **tiles** with ``--engine dask --workers 2``, a
+  local cluster of two worker processes; its peak memory is that of all its processes
+  summed (sampled every 0.25 s), the others' that of the one process;
 - **thin**: the same with ``--thin``: everything on the thinned survey (the path before);
 - **memory**: ``geostructure measure PANELS... -o OUT -q --sets --kinematics --friction 30
   --engine memory`` on the first eight panels (11M points), the named peer: the same command
@@ -23,6 +26,7 @@ with the in-memory crop, like for like), and the joint sets found.
     python bench/bench_large_face.py                       # 10M, 50M and 100M points
     python bench/bench_large_face.py --sizes 10000000      # one size
     python bench/bench_large_face.py --keep-panels /data   # panels kept, used again next time
+    python bench/bench_large_face.py --methods tiles dask  # streamed against Dask
 """
 
 from __future__ import annotations
@@ -77,7 +81,8 @@ def command(method: str, paths: list[str], out: Path, max_memory: str) -> list[s
     options = ["-o", str(out), "-q", "--sets", "--kinematics", "--friction", "30"]
     if method == "memory":
         return [*base, *paths[:CROP_PANELS], *options, "--engine", "memory"]
-    streamed = ["--engine", "stream", "--max-memory", max_memory] + (["--thin"] if method == "thin" else [])
+    engine = ["dask", "--workers", "2"] if method == "dask" else ["stream"]
+    streamed = ["--engine", *engine, "--max-memory", max_memory] + (["--thin"] if method == "thin" else [])
     return [*base, str(Path(paths[0]).parent), *options, *streamed]
 
 
@@ -106,8 +111,26 @@ def found(out: Path, crop: tuple[float, float]) -> dict:
             "thinned": thinned.get("points"), "tiles": full.get("tiles")}  # fmt: skip
 
 
-def timed(arguments: list[str]) -> dict:
-    """Wall seconds and peak resident memory of a command in a process of its own."""
+def timed(arguments: list[str], tree: bool = False) -> dict:
+    """Wall seconds and peak resident memory of a command in a process of its own; with
+    ``tree``, the peak of its processes' memory summed (a Dask cluster's workers too),
+    sampled every quarter second."""
+    if tree:
+        import psutil
+
+        t = time.perf_counter()
+        process = subprocess.Popen(arguments, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        root, peak = psutil.Process(process.pid), 0
+        while process.poll() is None:
+            try:
+                peak = max(peak, sum(p.memory_info().rss for p in [root, *root.children(recursive=True)]))
+            except psutil.Error:  # a process ended while sampled
+                pass
+            time.sleep(0.25)
+        seconds, err = time.perf_counter() - t, process.stderr.read()
+        if process.returncode != 0:
+            return {"error": err.strip()[-300:]}
+        return {"seconds": seconds, "peak_mib": peak / 2**20}
     probe = (
         "import resource, subprocess, sys, time; t = time.perf_counter(); "
         "done = subprocess.run(sys.argv[1:], capture_output=True, text=True); "
@@ -146,7 +169,7 @@ def main() -> None:
         help="write the panels under FOLDER and keep them; panels already there are used again",
     )  # fmt: skip
     parser.add_argument(
-        "--methods", nargs="+", default=["tiles", "thin", "memory"], choices=["tiles", "thin", "memory"]
+        "--methods", nargs="+", default=["tiles", "thin", "memory"], choices=["tiles", "dask", "thin", "memory"]
     )
     args = parser.parse_args()
     the_commands_memory_settings()
@@ -163,7 +186,7 @@ def main() -> None:
             rows = {}
             for method in args.methods:
                 out = base / f"out_{method}"
-                rows[method] = timed(command(method, paths, out, args.max_memory))
+                rows[method] = timed(command(method, paths, out, args.max_memory), tree=method == "dask")
                 if "error" not in rows[method]:
                     crop_panels = min(CROP_PANELS, len(paths))
                     rows[method].update(
