@@ -3,11 +3,15 @@
 
 from __future__ import annotations
 
-from geostructure.errors import GeoStructureError, ParameterError
+import warnings
+
+from geostructure.errors import GeoStructureError, GeoStructureNote, ParameterError
 
 #: Chunks in flight at once on a cluster, per worker: enough to keep each busy, few enough
 #: that results waiting to be added stay small.
 IN_FLIGHT_PER_WORKER = 2
+#: Times a pass's context is scattered to the workers again after all that held it died.
+MAX_SCATTERS = 3
 
 
 class SerialExecutor:
@@ -26,7 +30,12 @@ class SerialExecutor:
 class DaskExecutor:
     """Each chunk as a task on a ``dask.distributed`` cluster: the scheduler at ``address``, or
     a ``LocalCluster`` of ``workers`` processes started here. Workers read the spill file,
-    so on a real cluster it must lie on a disk they share (``--spill-dir``)."""
+    so on a real cluster it must lie on a disk they share (``--spill-dir``).
+
+    A worker that dies (out of memory, its machine lost) has its tasks run again by Dask on
+    the others or on the one its nanny starts again (up to Dask's
+    ``distributed.scheduler.allowed-failures`` times a task), and the run says so in a note;
+    a task that kills every worker it is given ends the run with an error that says so."""
 
     name = "dask"
 
@@ -58,22 +67,66 @@ class DaskExecutor:
                     local_directory=self._scratch,
                 )
                 self.client = Client(self._cluster)
-        self.n_workers = max(1, len(self.client.scheduler_info()["workers"]))
+        self._workers = set(self.client.scheduler_info()["workers"])
+        self.n_workers = max(1, len(self._workers))
+        #: Workers that left the cluster while a pass ran, over the whole run.
+        self.workers_lost = 0
 
     def map(self, fn, chunks, context):
         from collections import deque
+        from concurrent.futures import CancelledError
 
-        # One future for the whole context (a tuple would be scattered element by element),
-        # not keyed by its content: two passes with equal contexts must not share one.
-        [shared] = self.client.scatter([context], broadcast=True, hash=False)
+        from distributed import KilledWorker
+
+        self._workers = set(self.client.scheduler_info()["workers"])  # as the pass starts
+        shared, scattered = self._scatter(context), 1
         waiting, queue = deque(chunks), deque()
         window = IN_FLIGHT_PER_WORKER * self.n_workers
         while waiting or queue:
             while waiting and len(queue) < window:
-                queue.append(self.client.submit(fn, waiting.popleft(), shared, pure=False))
-            future = queue.popleft()
-            yield future.result()
+                chunk = waiting.popleft()
+                queue.append((chunk, self.client.submit(fn, chunk, shared, pure=False)))
+            chunk, future = queue.popleft()
+            try:
+                result = future.result()
+            except (KilledWorker, CancelledError):
+                # Every worker that held the scattered context died at once (it is data, not
+                # a task Dask can run again): scatter it again and send the chunks again.
+                if scattered > MAX_SCATTERS:
+                    raise GeoStructureError(
+                        "a task of the run's was given up after the Dask workers that ran it died in turn: a "
+                        "worker may have too little memory for a chunk or a tile; give the workers more."
+                    ) from None
+                again = [chunk, *(c for c, _ in queue)]
+                for _, pending in queue:
+                    pending.release()
+                queue.clear()
+                waiting.extendleft(reversed(again))
+                shared, scattered = self._scatter(context), scattered + 1
+                continue
             future.release()
+            yield result
+        self._note_lost_workers()
+
+    def _scatter(self, context):
+        # One future for the whole context (a tuple would be scattered element by element),
+        # not keyed by its content: two passes with equal contexts must not share one.
+        [shared] = self.client.scatter([context], broadcast=True, hash=False)
+        return shared
+
+    def _note_lost_workers(self) -> None:
+        """Say so when workers left the cluster during the pass: their tasks were run again."""
+        now = set(self.client.scheduler_info()["workers"])
+        lost = len(self._workers - now)
+        self._workers = now
+        if lost:
+            self.workers_lost += lost
+            warnings.warn(
+                f"{lost} Dask worker{'s' if lost > 1 else ''} died or left during the run; Dask ran "
+                f"{'their' if lost > 1 else 'its'} tasks again, so the result is whole.",
+                GeoStructureNote,
+                stacklevel=2,
+            )
 
     def close(self) -> None:
         import shutil

@@ -1,0 +1,66 @@
+"""The executors: a Dask worker that dies has its tasks run again and the run says so; a task
+that kills every worker it is given ends the run with one sentence."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from geostructure.errors import GeoStructureError, GeoStructureNote
+
+pytest.importorskip("distributed")
+
+
+def die_once(chunk: int, marker: str) -> int:
+    """The chunk's square; the first worker to run chunk 3 dies instead (a crash, an
+    out-of-memory kill), once for the whole cluster (the marker file)."""
+    if chunk == 3 and not Path(marker).exists():
+        Path(marker).touch()
+        os._exit(1)
+    return chunk * chunk
+
+
+def plus_context(chunk: int, context: int) -> int:
+    return chunk + context
+
+
+def always_die(chunk: int, _context) -> int:
+    os._exit(1)
+
+
+@pytest.fixture(scope="module")
+def executor():
+    from geostructure.stream import DaskExecutor
+
+    executor = DaskExecutor(workers=2)
+    yield executor
+    executor.close()
+
+
+def test_a_worker_that_dies_has_its_task_run_again_and_the_run_says_so(executor, tmp_path):
+    # One worker dies: the other still holds the scattered context, and Dask runs the task
+    # again.
+    with pytest.warns(GeoStructureNote, match=r"1 Dask worker died or left during the run; Dask ran its tasks again"):
+        results = list(executor.map(die_once, range(8), str(tmp_path / "died")))
+    assert results == [c * c for c in range(8)]  # whole and in chunk order
+    assert (tmp_path / "died").exists() and executor.workers_lost == 1
+
+
+def test_workers_that_all_die_at_once_have_the_context_scattered_again(executor):
+    # Every worker stopped at once mid-pass (a restart): the context scattered to them is
+    # gone with them; it is scattered again to the new workers and the chunks sent again.
+    results = executor.map(plus_context, range(12), 100)
+    first = next(results)
+    executor.client.restart()
+    with pytest.warns(
+        GeoStructureNote, match=r"Dask workers? died or left during the run; Dask ran (its|their) tasks again"
+    ):
+        rest = list(results)
+    assert [first, *rest] == [100 + c for c in range(12)]
+
+
+def test_a_task_that_kills_every_worker_ends_the_run_with_one_sentence(executor):
+    with pytest.raises(GeoStructureError, match=r"given up after the Dask workers that ran it died in turn"):
+        list(executor.map(always_die, range(2), None))
