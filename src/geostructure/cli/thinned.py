@@ -36,7 +36,7 @@ def thinned_survey(args, paths, engine: str):
     """Spill ``paths`` and thin them to what ``--max-memory`` holds; the spill is removed
     when the block ends, however it ends."""
     target = thinned_points(args)  # a bound too small is refused before any work
-    executor = DaskExecutor(args.scheduler, args.workers) if engine == "dask" else SerialExecutor()
+    executor = DaskExecutor(args.scheduler, args.workers, background=True) if engine == "dask" else SerialExecutor()
     spill = None
     rows = chunk_points(args)
     try:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import threading
 import warnings
 
 from geostructure.errors import GeoStructureError, GeoStructureNote, ParameterError
@@ -39,25 +40,39 @@ class DaskExecutor:
 
     name = "dask"
 
-    def __init__(self, address: str | None = None, workers: int | None = None):
+    def __init__(self, address: str | None = None, workers: int | None = None, background: bool = False):
         try:
-            from distributed import Client, LocalCluster
+            from distributed import Client
         except ImportError:
             raise GeoStructureError("--engine dask needs dask.distributed: pip install 'geostructure[dask]'.") from None
-        self._cluster, self._scratch = None, None
-        if address:
+        self._cluster, self._scratch, self._client, self._starting, self._failure = None, None, None, None, None
+        self._workers, self.n_workers = set(), 0
+        #: Workers that left the cluster while a pass ran, over the whole run.
+        self.workers_lost = 0
+        if address:  # a scheduler is asked at once: one that does not answer is refused before any work
             try:
-                self.client = Client(address, timeout="10s")
+                self._client = Client(address, timeout="10s")
             except (OSError, TimeoutError) as error:
                 raise ParameterError(f"{address}: no Dask scheduler answers there ({error}).") from None
+            self._ready()
+            return
+        # The workers' scratch space in a folder of this run's, removed on close: Dask's
+        # default, dask-scratch-space in the temporary folder, outlived every run.
+        import tempfile
+
+        self._scratch = tempfile.mkdtemp(prefix="geostructure-dask-")
+        if background:  # its start (some 3 s) while this process reads the survey
+            self._starting = threading.Thread(target=self._start_local, args=(workers,), daemon=True)
+            self._starting.start()
         else:
-            # The workers' scratch space in a folder of this run's, removed on close: Dask's
-            # default, dask-scratch-space in the temporary folder, outlived every run.
-            import tempfile
+            self._start_local(workers)
+            self._ready()
 
-            import dask
+    def _start_local(self, workers: int | None) -> None:
+        import dask
+        from distributed import Client, LocalCluster
 
-            self._scratch = tempfile.mkdtemp(prefix="geostructure-dask-")
+        try:
             with dask.config.set({"temporary-directory": self._scratch}):
                 self._cluster = LocalCluster(
                     n_workers=workers or 2,
@@ -66,11 +81,27 @@ class DaskExecutor:
                     dashboard_address=None,
                     local_directory=self._scratch,
                 )
-                self.client = Client(self._cluster)
-        self._workers = set(self.client.scheduler_info()["workers"])
-        self.n_workers = max(1, len(self._workers))
-        #: Workers that left the cluster while a pass ran, over the whole run.
-        self.workers_lost = 0
+                self._client = Client(self._cluster)
+        except Exception as error:  # raised where the cluster is first needed
+            self._failure = error
+
+    def _ready(self) -> None:
+        """Wait for a cluster started in the background; raise its failure to start."""
+        if self._starting is not None:
+            self._starting.join()
+            self._starting = None
+        if self._failure is not None:
+            failure, self._failure = self._failure, None
+            raise GeoStructureError(f"the local Dask cluster did not start ({failure}).")
+        if self._client is not None and not self.n_workers:
+            self._workers = set(self._client.scheduler_info()["workers"])
+            self.n_workers = max(1, len(self._workers))
+
+    @property
+    def client(self):
+        """The cluster's client, once the cluster has started."""
+        self._ready()
+        return self._client
 
     def map(self, fn, chunks, context):
         from collections import deque
@@ -132,7 +163,10 @@ class DaskExecutor:
         import shutil
 
         try:
-            self.client.close()
+            if self._starting is not None:  # closed before it was needed: wait for its start
+                self._starting.join()
+            if self._client is not None:
+                self._client.close()
             if self._cluster is not None:
                 self._cluster.close()
         finally:
