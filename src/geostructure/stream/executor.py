@@ -169,6 +169,19 @@ class DaskExecutor:
                 self._client.close()
             if self._cluster is not None:
                 self._cluster.close()
+                _stop_resource_tracker()
         finally:
             if self._scratch is not None:
                 shutil.rmtree(self._scratch, ignore_errors=True)
+
+
+def _stop_resource_tracker() -> None:
+    """Stop and reap the process Python starts beside the local cluster's workers to clean up
+    after them: it would otherwise outlive the command by a moment (it exits when it sees
+    this process gone), a process left behind for whoever lists them. Started again if
+    anything here needs it later."""
+    from multiprocessing import resource_tracker
+
+    stop = getattr(resource_tracker._resource_tracker, "_stop", None)  # Python >= 3.8's own
+    if stop is not None:
+        stop()
