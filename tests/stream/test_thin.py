@@ -191,7 +191,7 @@ def test_a_thinned_surveys_facets_are_found_on_every_point(survey, tmp_path, cap
     """The facets of a survey that does not fit are found on every point, in tiles, and
     measured on them (issue 46): more of the exposed facets found than with ``--thin`` (the
     facets on the thinned cloud too), and more of the survey's points labelled with a plane
-    (measured 2026-12-06: 0.91 against 0.77 of the facets, 0.93 in memory; 91% against 78%
+    (measured 2026-12-06: 0.93 against 0.77 of the facets, 0.93 in memory; 90.5% against 78%
     of the points)."""
     scene, tiles, _ = survey
     recall, labelled = {}, {}
@@ -210,5 +210,5 @@ def test_a_thinned_surveys_facets_are_found_on_every_point(survey, tmp_path, cap
         match = match_facets(Planes(normal=normals, local_centroid=centroids - UTM, fit_residual=0.0), scene)
         recall[name] = match.recall
         labelled[name] = (np.asarray(laspy.read(str(out / "regions.laz")).region_id) >= 0).mean()
-    assert recall["tiles"] > recall["thin"] + 0.05 and recall["tiles"] > 0.85
+    assert recall["tiles"] > recall["thin"] + 0.05 and recall["tiles"] > 0.9
     assert labelled["tiles"] > labelled["thin"] + 0.05
