@@ -27,6 +27,7 @@ with the in-memory crop, like for like), and the joint sets found.
     python bench/bench_large_face.py --sizes 10000000      # one size
     python bench/bench_large_face.py --keep-panels /data   # panels kept, used again next time
     python bench/bench_large_face.py --methods tiles dask  # streamed against Dask
+    python bench/bench_large_face.py --facet-size 0.3      # finer joints, that thinning loses
 """
 
 from __future__ import annotations
@@ -56,9 +57,9 @@ MIN_FACET_AREA = 0.09
 CROP_PANELS = 8
 
 
-def write_panels(folder: Path, n_points: int) -> list[Path]:
+def write_panels(folder: Path, n_points: int, facet_size: float = 0.5) -> list[Path]:
     """Whole panels of the synthetic outcrop side by side along x, one LAZ each, until they
-    hold ``n_points`` or more."""
+    hold ``n_points`` or more; its facets drawn about ``facet_size`` (m) across."""
     from geostructure.io.laz import write_laz
     from geostructure.synthetic import outcrop_scene
 
@@ -70,7 +71,9 @@ def write_panels(folder: Path, n_points: int) -> list[Path]:
             with laspy.open(paths[-1]) as reader:
                 total, index = total + reader.header.point_count, index + 1
             continue
-        cloud = outcrop_scene(width=PANEL_WIDTH, height=PANEL_HEIGHT, point_spacing=SPACING, seed=index).cloud
+        cloud = outcrop_scene(
+            width=PANEL_WIDTH, height=PANEL_HEIGHT, point_spacing=SPACING, facet_size=facet_size, seed=index
+        ).cloud
         write_laz(paths[-1], cloud.points + [index * (PANEL_WIDTH + 0.5), 0.0, 0.0], {}, offset=cloud.offset)
         total, index = total + len(cloud.points), index + 1
     return paths
@@ -163,6 +166,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[10_000_000, 50_000_000, 100_000_000])
     parser.add_argument("--max-memory", default="8G")
+    parser.add_argument(
+        "--facet-size", type=float, default=0.5,
+        help="the facets' median diameter (m); 0.3 makes joints that thinning loses (default 0.5)",
+    )  # fmt: skip
     parser.add_argument("--dir", type=Path, help="where the files go (default: a temporary folder)")
     parser.add_argument(
         "--keep-panels", type=Path, metavar="FOLDER",
@@ -175,13 +182,14 @@ def main() -> None:
     the_commands_memory_settings()
     compile_package()
     print(f"{os.cpu_count()} cores; a synthetic outcrop at {SPACING * 100:.0f} cm in LAZ panels of "
-          f"{PANEL_WIDTH:.0f} x {PANEL_HEIGHT:.0f} m; measure --sets --kinematics, --max-memory {args.max_memory}")  # fmt: skip
+          f"{PANEL_WIDTH:.0f} x {PANEL_HEIGHT:.0f} m, facets of {args.facet_size:g} m; measure --sets --kinematics, --max-memory {args.max_memory}")  # fmt: skip
     base = Path(tempfile.mkdtemp(dir=args.dir))
     try:
         for n in args.sizes:
             t = time.perf_counter()
-            panels = (args.keep_panels or base) / f"panels_{n}"
-            paths = [str(p) for p in write_panels(panels, n)]
+            size = "" if args.facet_size == 0.5 else f"_facets_{args.facet_size:g}"  # kept panels of one face
+            panels = (args.keep_panels or base) / f"panels_{n}{size}"
+            paths = [str(p) for p in write_panels(panels, n, args.facet_size)]
             print(f"{len(paths)} panels for {n:,} points (written in {time.perf_counter() - t:.0f} s, not timed)")
             rows = {}
             for method in args.methods:
