@@ -96,12 +96,13 @@ def crop_span(paths: list[str]) -> tuple[float, float]:
         return float(first.header.mins[0]), float(last.header.maxs[0])
 
 
-def found(out: Path, crop: tuple[float, float]) -> dict:
+def found(out: Path, crop: tuple[float, float], crop_panels: int, facet_size: float) -> dict:
     """What a folder holds: points measured, large planes (on the whole face and on the
-    crop's panels), sets and the tiles' record."""
+    crop's panels), the crop's facets of 0.3 m or more found, sets and the tiles' record."""
     with open(out / "planes.csv", newline="") as fh:
-        rows = [(float(row["area_m2"]), float(row["centroid_x"])) for row in csv.DictReader(fh)]
-    area, x = np.array(rows).reshape(-1, 2).T
+        rows = [[float(row[k]) for k in PLANE_COLUMNS] for row in csv.DictReader(fh)]
+    table = np.array(rows).reshape(-1, len(PLANE_COLUMNS))
+    area, x = table[:, 0], table[:, 1]
     with open(out / "sets.csv", newline="") as fh:
         sets = sum(1 for _ in csv.DictReader(fh))
     record = json.loads((out / "run.json").read_text())
@@ -111,7 +112,43 @@ def found(out: Path, crop: tuple[float, float]) -> dict:
     large = area >= MIN_FACET_AREA
     in_crop = int((large & (x >= crop[0]) & (x <= crop[1])).sum())
     return {"points": points, "planes": len(area), "large": int(large.sum()), "in_crop": in_crop, "sets": sets,
-            "thinned": thinned.get("points"), "tiles": full.get("tiles")}  # fmt: skip
+            "thinned": thinned.get("points"), "tiles": full.get("tiles"),
+            "recall": crop_recall(table, crop_panels, facet_size)}  # fmt: skip
+
+
+#: planes.csv's columns read: the area, the centroid, the normal and the fit's RMS.
+PLANE_COLUMNS = (
+    "area_m2",
+    "centroid_x",
+    "centroid_y",
+    "centroid_z",
+    "normal_x",
+    "normal_y",
+    "normal_z",
+    "fit_residual",
+)
+
+
+def crop_recall(table: np.ndarray, crop_panels: int, facet_size: float) -> float:
+    """The share of the crop's panels' facets of 0.3 m or more that the planes found (their
+    centroid on the facet, their normal within 5 degrees:
+    :func:`~geostructure.evaluation.groundtruth.match_facets`), each panel's scene drawn
+    again from its seed (not timed)."""
+    from geostructure.core.planes import Planes
+    from geostructure.evaluation.groundtruth import match_facets
+    from geostructure.synthetic import outcrop_scene
+
+    found = eligible = 0
+    for index in range(crop_panels):
+        shift = index * (PANEL_WIDTH + 0.5)
+        on = (table[:, 1] >= shift - 0.25) & (table[:, 1] < shift + PANEL_WIDTH + 0.25)
+        scene = outcrop_scene(
+            width=PANEL_WIDTH, height=PANEL_HEIGHT, point_spacing=SPACING, facet_size=facet_size, seed=index
+        )
+        centroid = table[on, 1:4] - [shift, 0.0, 0.0]
+        match = match_facets(Planes(normal=table[on, 4:7], local_centroid=centroid, fit_residual=table[on, 7]), scene)
+        found, eligible = found + int(match.found[match.eligible].sum()), eligible + int(match.eligible.sum())
+    return found / max(eligible, 1)
 
 
 def timed(arguments: list[str], tree: bool = False) -> dict:
@@ -158,7 +195,8 @@ def describe(name: str, row: dict) -> str:
     return (
         f"  {name:<7} {row['points']:>12,} points {row['seconds']:8.1f} s ({row['points'] / row['seconds']:>9,.0f}"
         f" points/s), peak {row['peak_mib']:>7,.0f} MiB; {row['planes']:,} planes, {row['large']:,} of 0.3 m or "
-        f"more ({per_m2:.2f} per m^2; {crop_m2:.2f} on the crop's panels), {row['sets']} sets{thinned}{tiles}"
+        f"more ({per_m2:.2f} per m^2; {crop_m2:.2f} on the crop's panels), the crop's facets of 0.3 m or more "
+        f"found: {row['recall']:.3f}, {row['sets']} sets{thinned}{tiles}"
     )
 
 
@@ -198,7 +236,7 @@ def main() -> None:
                 if "error" not in rows[method]:
                     crop_panels = min(CROP_PANELS, len(paths))
                     rows[method].update(
-                        found(out, crop_span(paths)),
+                        found(out, crop_span(paths), crop_panels, args.facet_size),
                         panels=crop_panels if method == "memory" else len(paths),
                         crop_panels=crop_panels,
                     )
