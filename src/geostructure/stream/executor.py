@@ -121,8 +121,9 @@ class DaskExecutor:
             try:
                 result = future.result()
             except (KilledWorker, CancelledError):
-                # Every worker that held the scattered context died at once (it is data, not
-                # a task Dask can run again): scatter it again and send the chunks again.
+                # Given up (the workers that ran it died in turn), or cancelled: every worker
+                # that held the scattered context died at once, and it is data, not a task
+                # Dask can run again. Scatter it again and send the chunks again, a few times.
                 if scattered > MAX_SCATTERS:
                     raise GeoStructureError(
                         "a task of the run's was given up after the Dask workers that ran it died in turn: a "
@@ -182,6 +183,6 @@ def _stop_resource_tracker() -> None:
     anything here needs it later."""
     from multiprocessing import resource_tracker
 
-    stop = getattr(resource_tracker._resource_tracker, "_stop", None)  # Python >= 3.8's own
+    stop = getattr(resource_tracker._resource_tracker, "_stop", None)  # private: absent, left as it is
     if stop is not None:
         stop()
