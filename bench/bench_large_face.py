@@ -89,14 +89,13 @@ def command(method: str, paths: list[str], out: Path, max_memory: str) -> list[s
     return [*base, str(Path(paths[0]).parent), *options, *streamed]
 
 
-def crop_span(paths: list[str]) -> tuple[float, float]:
-    """The x range of the crop's panels (the first ``CROP_PANELS``), from their headers."""
-    crop = paths[: min(CROP_PANELS, len(paths))]
-    with laspy.open(crop[0]) as first, laspy.open(crop[-1]) as last:
-        return float(first.header.mins[0]), float(last.header.maxs[0])
+def on_panel(x: np.ndarray, index: int) -> np.ndarray:
+    """Which of the x coordinates lie on panel ``index`` (with half its gap either side)."""
+    shift = index * (PANEL_WIDTH + 0.5)
+    return (x >= shift - 0.25) & (x < shift + PANEL_WIDTH + 0.25)
 
 
-def found(out: Path, crop: tuple[float, float], crop_panels: int, facet_size: float) -> dict:
+def found(out: Path, crop_panels: int, facet_size: float) -> dict:
     """What a folder holds: points measured, large planes (on the whole face and on the
     crop's panels), the crop's facets of 0.3 m or more found, sets and the tiles' record."""
     with open(out / "planes.csv", newline="") as fh:
@@ -110,7 +109,7 @@ def found(out: Path, crop: tuple[float, float], crop_panels: int, facet_size: fl
     full = (record.get("detection") or {}).get("full_resolution") or {}
     points = thinned.get("survey_points") or record["counts"]["input"]
     large = area >= MIN_FACET_AREA
-    in_crop = int((large & (x >= crop[0]) & (x <= crop[1])).sum())
+    in_crop = int((large & np.any([on_panel(x, i) for i in range(crop_panels)], axis=0)).sum())
     return {"points": points, "planes": len(area), "large": int(large.sum()), "in_crop": in_crop, "sets": sets,
             "thinned": thinned.get("points"), "tiles": full.get("tiles"),
             "recall": crop_recall(table, crop_panels, facet_size)}  # fmt: skip
@@ -140,12 +139,11 @@ def crop_recall(table: np.ndarray, crop_panels: int, facet_size: float) -> float
 
     found = eligible = 0
     for index in range(crop_panels):
-        shift = index * (PANEL_WIDTH + 0.5)
-        on = (table[:, 1] >= shift - 0.25) & (table[:, 1] < shift + PANEL_WIDTH + 0.25)
+        on = on_panel(table[:, 1], index)
         scene = outcrop_scene(
             width=PANEL_WIDTH, height=PANEL_HEIGHT, point_spacing=SPACING, facet_size=facet_size, seed=index
         )
-        centroid = table[on, 1:4] - [shift, 0.0, 0.0]
+        centroid = table[on, 1:4] - [index * (PANEL_WIDTH + 0.5), 0.0, 0.0]
         match = match_facets(Planes(normal=table[on, 4:7], local_centroid=centroid, fit_residual=table[on, 7]), scene)
         found, eligible = found + int(match.found[match.eligible].sum()), eligible + int(match.eligible.sum())
     return found / max(eligible, 1)
@@ -229,14 +227,13 @@ def main() -> None:
             panels = (args.keep_panels or base) / f"panels_{n}{size}"
             paths = [str(p) for p in write_panels(panels, n, args.facet_size)]
             print(f"{len(paths)} panels for {n:,} points (written in {time.perf_counter() - t:.0f} s, not timed)")
-            rows = {}
+            rows, crop_panels = {}, min(CROP_PANELS, len(paths))
             for method in args.methods:
                 out = base / f"out_{method}"
                 rows[method] = timed(command(method, paths, out, args.max_memory), tree=method == "dask")
                 if "error" not in rows[method]:
-                    crop_panels = min(CROP_PANELS, len(paths))
                     rows[method].update(
-                        found(out, crop_span(paths), crop_panels, args.facet_size),
+                        found(out, crop_panels, args.facet_size),
                         panels=crop_panels if method == "memory" else len(paths),
                         crop_panels=crop_panels,
                     )

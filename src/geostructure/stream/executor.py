@@ -46,6 +46,7 @@ class DaskExecutor:
         except ImportError:
             raise GeoStructureError("--engine dask needs dask.distributed: pip install 'geostructure[dask]'.") from None
         self._cluster, self._scratch, self._client, self._starting, self._failure = None, None, None, None, None
+        #: The workers as a pass starts (to tell the ones it lost), and how many there were.
         self._workers, self.n_workers = set(), 0
         #: Workers that left the cluster while a pass ran, over the whole run.
         self.workers_lost = 0
@@ -94,8 +95,7 @@ class DaskExecutor:
             failure, self._failure = self._failure, None
             raise GeoStructureError(f"the local Dask cluster did not start ({failure}).")
         if self._client is not None and not self.n_workers:
-            self._workers = set(self._client.scheduler_info()["workers"])
-            self.n_workers = max(1, len(self._workers))
+            self.n_workers = max(1, len(self._client.scheduler_info()["workers"]))
 
     @property
     def client(self):
