@@ -176,6 +176,50 @@ def test_a_wedge_that_lifts_off_one_plane_slides_on_the_other():
     assert w.factor_of_safety[0] == pytest.approx(planar_factor_of_safety(40.0, 30.0))
 
 
+def test_a_wedge_lifted_onto_a_plane_dipping_into_the_face_cannot_move():
+    # Slope 70/180, friction 30. Planes 35/070 and 65/030 meet along a line trending 104.4
+    # and plunging 30.03: steeper than friction, and it daylights (the face's apparent dip
+    # along 104.4 is atan(tan 70 cos 75.6) = 35.0). But the normal force on 65/030 comes out
+    # negative (-0.42): the block lifts off it onto 35/070 alone, which would give
+    # FS = tan 30 / tan 35 = 0.82. 35/070 dips 110 degrees away from the face's dip
+    # direction, into the rock: the block has nowhere to go.
+    slope = Slope(70.0, 180.0)
+    w = wedges([35.0, 65.0], [70.0, 30.0], slope, 30.0)
+    assert len(w) == 0 and w.lifted_into_face == 1
+    assert not planar_sliding([35.0], [70.0], slope, 30.0)[0]
+    # The same pair's line under a face it does not lift into: 35/160 slides out within the
+    # lateral limits, and the wedge on it alone stays, at that plane's planar factor.
+    w = wedges([35.0, 40.0], [160.0, 130.0], slope, 30.0)
+    assert len(w) == 1 and w.single_plane[0] == 0 and w.lifted_into_face == 0
+    assert w.factor_of_safety[0] == pytest.approx(np.tan(np.radians(30.0)) / np.tan(np.radians(35.0)))
+    # 35/140 and 50/190: the block lifts off 50/190 onto 35/140, which daylights but dips
+    # 40 degrees off the slope's dip direction: critical within lateral limits of 45, not 20.
+    assert len(wedges([35.0, 50.0], [140.0, 190.0], slope, 30.0, lateral_limit=20.0)) == 0
+    assert wedges([35.0, 50.0], [140.0, 190.0], slope, 30.0, lateral_limit=45.0).single_plane.tolist() == [0]
+
+
+def test_kinematics_leaves_out_clutter_ground_and_the_face_itself():
+    # Four planes that would all slide out of a 70/180 slope at friction 30; three are marked
+    # as no discontinuity. Only the joint is tested, and the shares divide by it alone.
+    from geostructure.core.planes import Planes
+    from geostructure.kinematics.summary import kinematics_of
+
+    normals = normal_from_orientation([180.0, 175.0, 185.0, 180.0], [45.0, 50.0, 40.0, 55.0]).reshape(-1, 3)
+    planes = Planes(normal=normals, area=[1.0, 2.0, 3.0, 4.0], n_points=np.array([500, 500, 500, 8]))
+    planes = planes.with_columns(clutter=np.array([0, 1, 0, 0]), ground=np.array([0, 0, 1, 0]),
+                                 face_surface=np.array([0, 0, 0, 0]))  # fmt: skip
+    summary, rows, _, _ = kinematics_of(planes, [], Slope(70.0, 180.0), 30.0)
+    assert [r["left_out"] for r in rows] == ["", "clutter", "ground", ""]
+    assert [r["planar_sliding"] for r in rows] == [True, False, False, True]
+    assert summary["planes_tested"] == 2 and summary["left_out"] == {"ground": 1, "clutter": 1, "face_surface": 0}
+    planar = summary["planar_sliding"]
+    assert planar["planes"] == 2 and planar["percent_by_count"] == pytest.approx(100.0)
+    # The headline comes from the 500-point plane, not the 8-point sliver of 55 degrees.
+    assert planar["min_fs"] == pytest.approx(np.tan(np.radians(30.0)) / np.tan(np.radians(45.0)))
+    assert planar["min_fs_any_size"] == pytest.approx(np.tan(np.radians(30.0)) / np.tan(np.radians(55.0)))
+    assert planar["headline_planes"] == 1
+
+
 def test_planar_factor_of_safety():
     assert planar_factor_of_safety([30.0, 45.0], 30.0) == pytest.approx([1.0, np.tan(np.radians(30.0))])
 

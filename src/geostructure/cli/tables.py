@@ -162,6 +162,9 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         f"Kinematics: {slope_text(summary)}, friction {summary['friction_deg']:g}°, "
         f"lateral limits {summary['lateral_limit_deg']:g}°"
     )
+    left_out = {why: count for why, count in summary.get("left_out", {}).items() if count}
+    if left_out:
+        title += f"; {summary['planes_tested']:,} planes tested, " + left_out_phrase(left_out)
     table = Table(title=title)
     for column in ("failure mode", "planes", "% by count", "% by area", "joints"):
         table.add_column(column, justify="right")
@@ -176,7 +179,7 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
             if strength.get("cohesion_kpa")
             else "dry, frictional"
         )
-        console.print(f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median.")
+        console.print(planar_fs_line(planar, basis))
     wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
     of_joints = (
         f"; of the joints' planes, {wedge['critical_joint_pairs']:,} of {wedge['joint_pairs_tested']:,}"
@@ -209,6 +212,43 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         print_set_kinematics(summary["sets"], console, sectioned=bool(summary.get("sections")))
     for wedge in summary.get("set_mean_wedges", []):
         console.print(set_mean_wedge_line(wedge))
+
+
+#: What each left-out reason of the kinematic tests reads as.
+LEFT_OUT_WORDS = {"ground": "on the ground", "clutter": "in clutter (vegetation, debris)",
+                  "face_surface": "of the face's own surface"}  # fmt: skip
+
+
+def left_out_phrase(left_out: dict) -> str:
+    """The planes the kinematic tests left out, in words.
+
+    Examples
+    --------
+    >>> print(left_out_phrase({"clutter": 52, "face_surface": 33}))
+    left out: 52 in clutter (vegetation, debris), 33 of the face's own surface
+    """
+    return "left out: " + ", ".join(f"{count:,} {LEFT_OUT_WORDS.get(why, why)}" for why, count in left_out.items())
+
+
+def planar_fs_line(planar: dict, basis: str) -> str:
+    """The planar factors of safety's sentence: from planes large enough to carry it.
+
+    Examples
+    --------
+    >>> print(planar_fs_line({"min_fs": 0.8, "median_fs": 0.9, "headline_min_points": 100, "headline_planes": 3,
+    ...                       "planes": 5, "min_fs_any_size": 0.2}, "dry, frictional"))
+    Planar FS (dry, frictional): 0.80 at least, 0.90 median, on the 3 critical planes of 100 points or more (2 smaller, down to 0.20).
+    """
+    fewest, large = planar.get("headline_min_points", 0), planar.get("headline_planes", planar["planes"])
+    if not fewest:
+        return f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median."
+    smaller = planar["planes"] - large
+    rest = f" ({smaller:,} smaller, down to {planar['min_fs_any_size']:.2f})" if smaller else ""
+    if not large:
+        return (f"Planar FS ({basis}): no critical plane holds {fewest} points or more; "
+                f"{smaller:,} smaller, down to {planar['min_fs_any_size']:.2f}.")  # fmt: skip
+    return (f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median, on the "
+            f"{counted(large, 'critical plane')} of {fewest} points or more{rest}.")  # fmt: skip
 
 
 #: The failure modes of a kinematics summary (``kinematics.json``), in table order.

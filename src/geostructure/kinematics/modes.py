@@ -13,7 +13,9 @@ All angles are degrees; orientations are dip and dip direction (of planes), tren
   the friction angle and daylights (its plunge is less than the slope's apparent dip along its
   trend). The wedge rides on both planes when the normal forces that hold it up are both
   pushing; otherwise it lifts off one and slides on the other alone (Hocking 1976), which is
-  the planar test's case and is flagged ``single_plane``.
+  the planar test's case and is flagged ``single_plane``: such a wedge is critical only where
+  that plane passes the planar test (daylight, lateral limits); a block lifted onto a plane
+  dipping into the face cannot move.
 - **Flexural toppling** (:func:`flexural_toppling`; Goodman 1980): the plane dips into the slope,
   its dip direction within ``lateral_limit`` of the slope's opposite, and its pole lies outside
   Dips' slip limit plane (dip: slope dip - friction, dip direction: the slope's): the pole's
@@ -274,7 +276,9 @@ class Wedges:
     """Every pair of planes ``a`` < ``b`` whose intersection is critical, with its line's
     ``trend`` and ``plunge``, ``factor_of_safety`` and ``single_plane`` (-1 when the wedge rides
     on both planes, else the index of the one it slides on alone); ``pairs_tested`` counts the pairs
-    at least :data:`MIN_PAIR_ANGLE` apart that were tested."""
+    at least :data:`MIN_PAIR_ANGLE` apart that were tested; ``lifted_into_face`` the pairs whose
+    line daylights but whose block lifts off one plane onto one that cannot slide out (it dips
+    into the face or outside the lateral limits), left out as not critical."""
 
     a: np.ndarray
     b: np.ndarray
@@ -283,6 +287,7 @@ class Wedges:
     factor_of_safety: np.ndarray
     single_plane: np.ndarray
     pairs_tested: int = 0
+    lifted_into_face: int = 0
 
     def __len__(self) -> int:
         return len(self.a)
@@ -291,6 +296,7 @@ class Wedges:
 def wedges(
     dip, dip_direction, slope: Slope, friction: float, *, max_planes: int = 3000, cohesion: float = 0.0,
     height: float | None = None, unit_weight: float = UNIT_WEIGHT, upper_normal=(0.0, 0.0, 1.0),
+    lateral_limit: float = LATERAL_LIMIT,
 ) -> Wedges:  # fmt: skip
     """The critical wedges among all pairs of planes (see the module's description); with
     ``cohesion`` (kPa), their factor of safety is that of the tetrahedral block each pair cuts
@@ -327,7 +333,15 @@ def wedges(
         normals[a], normals[b], friction, cohesion_a=cohesion, blocks=blocks, unit_weight=unit_weight
     )
     single = np.where(single == 0, a, np.where(single == 1, b, -1))
-    return Wedges(a, b, trend, plunge, fs, single, pairs_tested)
+    # A block that lifts off one plane slides down the other's dip, not along the line: it
+    # moves only where that plane could slide out on its own (daylight, lateral limits).
+    rides = single >= 0
+    riding = np.maximum(single, 0)
+    can_move = ~rides | planar_sliding(dip[riding], np.asarray(dip_direction, dtype=np.float64)[riding], slope,
+                                       friction, lateral_limit)  # fmt: skip
+    keep = np.flatnonzero(can_move)
+    return Wedges(a[keep], b[keep], trend[keep], plunge[keep], fs[keep], single[keep], pairs_tested,
+                  int(len(a) - len(keep)))  # fmt: skip
 
 
 def plane_pairs(normals) -> tuple[np.ndarray, np.ndarray]:

@@ -106,8 +106,11 @@ def kinematics_of(
     from geostructure.report.kinematics_plot import kinematics_figure  # lazy: matplotlib
 
     strength = strength or {"cohesion_kpa": 0.0, "unit_weight_kn_m3": UNIT_WEIGHT}
+    everything = planes
     label, slopes = sections if sections is not None else (np.zeros(len(planes), dtype=np.int64), [slope])
-    label = np.asarray(label, dtype=np.int64)
+    reason = left_out_reasons(planes)
+    kept = np.flatnonzero(reason == "")
+    planes, label = planes.subset(kept), np.asarray(label, dtype=np.int64)[kept]
     n = len(planes)
     planar, toppling, base, oblique_base, in_wedge = (np.zeros(n, dtype=bool) for _ in range(5))
     fs = np.full(n, np.nan)
@@ -134,23 +137,8 @@ def kinematics_of(
             fig=fig, panel=(k, len(slopes)),
         )  # fmt: skip
     set_labels = planes.extra.get("set", np.full(n, -1))
-    joints = planes.extra.get("joint", np.full(n, -1))  # -1: no joint, or a folder from before them
-    rows = [
-        {
-            "region_id": int(planes.region_id[i]),
-            "set": int(set_labels[i]),
-            "joint": int(joints[i]),
-            "section": int(label[i]),
-            "dip": float(planes.dip[i]),
-            "dip_direction": float(planes.dip_direction[i]),
-            "planar_sliding": bool(planar[i]),
-            "flexural_toppling": bool(toppling[i]),
-            "planar_fs": float(fs[i]) if planar[i] else float("nan"),
-            "toppling_base": bool(base[i]),
-            "oblique_toppling_base": bool(oblique_base[i]),
-        }
-        for i in range(n)
-    ]
+    rows = _plane_rows(everything, kept, reason, np.asarray(sections[0]) if sections is not None else None,
+                       planar, toppling, fs, base, oblique_base)  # fmt: skip
     wedge_columns = {key: np.concatenate([w[key] for w in wedge_parts]) for key in wedge_parts[0]}
     if len(parts) == 1:
         common = {key: value for key, value in parts[0].items() if key not in ("section", "slope", "planes")}
@@ -168,10 +156,66 @@ def kinematics_of(
             if strength["cohesion_kpa"]
             else "frictional",
         },
+        "planes_tested": int(n),
+        "left_out": {why: int((reason == why).sum()) for why in LEFT_OUT},
         **common,
         **({"sections": parts} if len(parts) > 1 else {}),
     }
     return summary, rows, wedge_columns, fig
+
+
+#: Planes the kinematic tests leave out, by the column that marks them: no discontinuity can
+#: slide or topple on them (the level ground, vegetation and debris, the face's own surface).
+LEFT_OUT = ("ground", "clutter", "face_surface")
+
+
+def left_out_reasons(planes) -> np.ndarray:
+    """Per plane, why the kinematic tests leave it out ('' when tested): the first of
+    :data:`LEFT_OUT` whose column marks it.
+
+    Examples
+    --------
+    >>> from geostructure.core.planes import Planes
+    >>> planes = Planes(normal=[[0, 0, 1.0]] * 3).with_columns(clutter=np.array([0, 1, 0]),
+    ...                                                       face_surface=np.array([0, 0, 1]))
+    >>> left_out_reasons(planes).tolist()
+    ['', 'clutter', 'face_surface']
+    """
+    reason = np.full(len(planes), "", dtype=object)
+    for why in reversed(LEFT_OUT):
+        marked = np.asarray(planes.extra.get(why, np.zeros(len(planes))), dtype=np.float64) > 0
+        reason[marked] = why
+    return reason
+
+
+def _plane_rows(planes, kept, reason, section, planar, toppling, fs, base, oblique_base) -> list[dict]:
+    """``kinematics.csv``'s rows, one per plane of the table: the tested planes' results at
+    ``kept``, the others with why they were left out."""
+    n = len(planes)
+    at = np.full(n, -1)
+    at[kept] = np.arange(len(kept))
+    set_labels = planes.extra.get("set", np.full(n, -1))
+    joints = planes.extra.get("joint", np.full(n, -1))  # -1: no joint, or a folder from before them
+    section = np.zeros(n, dtype=np.int64) if section is None else np.asarray(section, dtype=np.int64)
+    rows = []
+    for i in range(n):
+        j = at[i]
+        tested = j >= 0
+        rows.append({
+            "region_id": int(planes.region_id[i]),
+            "set": int(set_labels[i]),
+            "joint": int(joints[i]),
+            "section": int(section[i]),
+            "dip": float(planes.dip[i]),
+            "dip_direction": float(planes.dip_direction[i]),
+            "planar_sliding": bool(tested and planar[j]),
+            "flexural_toppling": bool(tested and toppling[j]),
+            "planar_fs": float(fs[j]) if tested and planar[j] else float("nan"),
+            "toppling_base": bool(tested and base[j]),
+            "oblique_toppling_base": bool(tested and oblique_base[j]),
+            "left_out": str(reason[i]),
+        })  # fmt: skip
+    return rows
 
 
 def _tests(planes, sets, slope: Slope, friction, lateral_limit, strength) -> _Tests:
@@ -180,6 +224,7 @@ def _tests(planes, sets, slope: Slope, friction, lateral_limit, strength) -> _Te
                                  slope_dip=slope.dip, unit_weight=strength["unit_weight_kn_m3"])  # fmt: skip
     tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
     block = {  # the wedges' strength and the block under the face, for their factors of safety
+        "lateral_limit": lateral_limit,
         "cohesion": strength["cohesion_kpa"],
         "height": strength.get("height_m"),
         "unit_weight": strength["unit_weight_kn_m3"],
@@ -291,11 +336,22 @@ def critical_joints(critical, area, joint) -> dict:
     return {"joints": int(hit.sum()), "percent_of_joints": float(100.0 * hit.sum() / tested.sum())}
 
 
-def _planar(planar, fs, area, joint=None) -> dict:
+#: A plane carries the headline factors of safety when it holds this many points or more: a
+#: patch about ten spacings across, whatever the spacing (a 10-point plane of 0.01 m² on a
+#: 3 cm cloud is a sliver, not a discontinuity to design against).
+HEADLINE_POINTS = 100
+
+
+def _planar(planar, fs, area, joint=None, n_points=None) -> dict:
+    counted = n_points is not None and bool(np.any(np.asarray(n_points) > 0))  # 0: a table without counts
+    large = planar & (np.asarray(n_points) >= HEADLINE_POINTS) if counted else planar
     return {
         **_mode(planar, area, joint),
-        "min_fs": float(np.min(fs[planar])) if planar.any() else float("nan"),
-        "median_fs": float(np.median(fs[planar])) if planar.any() else float("nan"),
+        "min_fs": float(np.min(fs[large])) if large.any() else float("nan"),
+        "median_fs": float(np.median(fs[large])) if large.any() else float("nan"),
+        "headline_min_points": HEADLINE_POINTS if counted else 0,
+        "headline_planes": int(large.sum()),
+        "min_fs_any_size": float(np.min(fs[planar])) if planar.any() else float("nan"),
     }
 
 
@@ -305,7 +361,7 @@ def _summary(planes, sets, t: _Tests, slope, friction, lateral_limit) -> dict:
     set_labels = planes.extra.get("set", np.full(len(planes), -1))
     joint = planes.extra.get("joint")
     return {
-        "planar_sliding": _planar(t.planar, t.fs, area, joint),
+        "planar_sliding": _planar(t.planar, t.fs, area, joint, planes.n_points),
         "flexural_toppling": _mode(t.toppling, area, joint),
         "wedge_sliding": {
             **_mode(t.in_wedge, area, joint),
@@ -428,7 +484,7 @@ def _merged(parts: list[dict], planes, set_labels, planar, toppling, fs, in_wedg
         })  # fmt: skip
     joint = planes.extra.get("joint")
     return {
-        "planar_sliding": _planar(planar, fs, area, joint),
+        "planar_sliding": _planar(planar, fs, area, joint, planes.n_points),
         "flexural_toppling": _mode(toppling, area, joint),
         "wedge_sliding": {
             **_mode(in_wedge, area, joint),

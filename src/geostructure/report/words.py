@@ -50,7 +50,7 @@ FAILURE_MODES = (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge 
                  ("flexural_toppling", "flexural toppling"))  # fmt: skip
 #: The per-set kinematics table's columns (:func:`set_kinematic_cells`).
 SET_KINEMATIC_COLUMNS = ("set", "mean dip/dd", "mean slides", "% planar", "mean topples", "% toppling",
-                         "wedges with sets", "% in wedges")  # fmt: skip
+                         "mean's wedges", "% in wedges")  # fmt: skip
 
 
 #: The per-section kinematics table's columns (:func:`section_cells`).
@@ -138,7 +138,7 @@ def set_kinematic_cells(row: dict) -> list[str]:
     ...        "planar_percent_by_count": 99.4, "mean_flexural_toppling": False, "toppling_percent_by_count": 0.0,
     ...        "mean_wedges_with_sets": [0, 1], "wedge_percent_by_count": float("nan")}
     >>> set_kinematic_cells(row)
-    ['2', '41/000', 'critical', '99', '—', '0', '0, 1', '—']
+    ['2', '41/000', 'critical', '99', '—', '0', 'with sets 0, 1', '—']
     """
 
     def critical(flag: bool) -> str:
@@ -151,9 +151,22 @@ def set_kinematic_cells(row: dict) -> list[str]:
         shown(row["planar_percent_by_count"], 0),
         critical(row["mean_flexural_toppling"]),
         shown(row["toppling_percent_by_count"], 0),
-        ", ".join(str(s) for s in row["mean_wedges_with_sets"]) or "—",
+        with_sets(row["mean_wedges_with_sets"]),
         shown(row["wedge_percent_by_count"], 0),
     ]
+
+
+def with_sets(sets: list) -> str:
+    """The sets a set's mean forms critical wedges with, as words: a set number is no count.
+
+    Examples
+    --------
+    >>> with_sets([0]), with_sets([0, 2]), with_sets([])
+    ('with set 0', 'with sets 0, 2', '—')
+    """
+    if not sets:
+        return "—"
+    return ("with set " if len(sets) == 1 else "with sets ") + ", ".join(str(s) for s in sets)
 
 
 def set_mean_wedge_line(wedge: dict) -> str:

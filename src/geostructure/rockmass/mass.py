@@ -59,13 +59,23 @@ SPACING_NOT_MEASURED = "spacing_not_measured"
 TRACES_ALL_CENSORED = "traces_all_censored"
 FEW_WHOLE_TRACES_FLAG = "few_whole_traces"
 TRACE_BEYOND_EXPOSURE = "trace_longer_than_exposure"
+SPACING_FEW_GAPS = "spacing_few_gaps"
+TRACES_MOSTLY_CENSORED = "traces_mostly_censored"
+#: Gaps between a set's planes along the scanlines below which its spacing is a guess: an
+#: exponential mean from n gaps has a standard error of mean / sqrt(n), 45% at 5.
+MIN_SPACING_GAPS = 5
+#: The share of a set's traces running out of sight above which the mean length with
+#: censoring rests more on the model than on the traces seen whole.
+MOSTLY_CENSORED = 0.5
 
 
 def set_flags(row: dict) -> list[str]:
     """What in a set's row (:meth:`RockMass.set_rows`) is not a measurement as it stands:
     the spacing no scanline measures (a set along the face), traces that all run out of
     sight (the mean not measured, the length seen a lower bound), a mean resting on
-    :data:`FEW_WHOLE_TRACES` or fewer whole traces, a mean longer than the exposure spans.
+    :data:`FEW_WHOLE_TRACES` or fewer whole traces, a mean longer than the exposure spans, a
+    spacing from fewer than :data:`MIN_SPACING_GAPS` gaps, a mean trace from traces more than
+    :data:`MOSTLY_CENSORED` of which run out of sight.
 
     Examples
     --------
@@ -74,8 +84,14 @@ def set_flags(row: dict) -> list[str]:
     >>> set_flags({"spacing_m": 0.4, "joint_traces": 9, "joint_traces_censored": 9,
     ...            "joint_trace_estimate_m": float("nan"), "exposure_span_m": 20.0})
     ['traces_all_censored']
+    >>> set_flags({"spacing_m": 8.06, "spacing_n_gaps": 1, "joint_traces": 14, "joint_traces_censored": 10,
+    ...            "joint_trace_estimate_m": 5.3, "exposure_span_m": 20.0})
+    ['spacing_few_gaps', 'traces_mostly_censored']
     """
     flags = [] if np.isfinite(row["spacing_m"]) else [SPACING_NOT_MEASURED]
+    gaps = row.get("spacing_n_gaps")
+    if np.isfinite(row["spacing_m"]) and gaps is not None and int(gaps) < MIN_SPACING_GAPS:
+        flags.append(SPACING_FEW_GAPS)
     traces, hidden = int(row.get("joint_traces", 0)), int(row.get("joint_traces_censored", 0))
     estimate = float(row.get("joint_trace_estimate_m", np.nan))
     if traces and not np.isfinite(estimate):
@@ -84,6 +100,8 @@ def set_flags(row: dict) -> list[str]:
         flags.append(TRACE_BEYOND_EXPOSURE)
     elif traces and hidden and traces - hidden <= FEW_WHOLE_TRACES:
         flags.append(FEW_WHOLE_TRACES_FLAG)
+    elif traces and hidden > MOSTLY_CENSORED * traces:
+        flags.append(TRACES_MOSTLY_CENSORED)
     return flags
 
 

@@ -19,7 +19,15 @@ from geostructure.detect.uncertainty import MIN_TILT_FACETS
 from geostructure.errors import GeoStructureNote, GeoStructureWarning
 from geostructure.rockmass.exposure import BENT_FACE
 from geostructure.rockmass.face import CLUTTER
-from geostructure.rockmass.mass import BLOCK_SETS, FEW_WHOLE_TRACES, TRACE_BEYOND_EXPOSURE, RockMass
+from geostructure.rockmass.mass import (
+    BLOCK_SETS,
+    FEW_WHOLE_TRACES,
+    MIN_SPACING_GAPS,
+    SPACING_FEW_GAPS,
+    TRACE_BEYOND_EXPOSURE,
+    TRACES_MOSTLY_CENSORED,
+    RockMass,
+)
 from geostructure.rockmass.spacing import MIN_SCANLINE_COSINE
 
 
@@ -36,8 +44,52 @@ def set_notes(set_id: int, row: dict) -> list[str]:
         persistence_note(set_id, row),
         censored_traces_note(set_id, row),
         trace_beyond_exposure_note(set_id, row),
+        few_gaps_note(set_id, row),
+        mostly_censored_note(set_id, row),
     )
     return [note for note in notes if note]
+
+
+def _flagged(row: dict, flag: str) -> bool:
+    return flag in str(row.get("flags", "")).split(";")
+
+
+def few_gaps_note(set_id: int, row: dict) -> str | None:
+    """A sentence when set ``set_id``'s spacing rests on fewer than :data:`MIN_SPACING_GAPS`
+    gaps between its planes (``spacing_few_gaps``): a figure no exposure this size supports.
+
+    Examples
+    --------
+    >>> few_gaps_note(0, {"flags": "spacing_few_gaps", "spacing_m": 8.06, "spacing_n_gaps": 1})
+    "Set 0's spacing, 8.06 m, rests on 1 gap between its planes (fewer than 5): read it as a guess, not a measurement."
+    """
+    if not _flagged(row, SPACING_FEW_GAPS):
+        return None
+    gaps = int(float(row["spacing_n_gaps"]))
+    return (
+        f"Set {set_id}'s spacing, {float(row['spacing_m']):.2f} m, rests on {gaps} gap{'' if gaps == 1 else 's'} "
+        f"between its planes (fewer than {MIN_SPACING_GAPS}): read it as a guess, not a measurement."
+    )
+
+
+def mostly_censored_note(set_id: int, row: dict) -> str | None:
+    """A sentence when most of set ``set_id``'s joint traces run out of sight
+    (``traces_mostly_censored``): their mean length with censoring leans on its model.
+
+    Examples
+    --------
+    >>> mostly_censored_note(0, {"flags": "traces_mostly_censored", "joint_traces": 14, "joint_traces_censored": 10,
+    ...                          "joint_trace_mean_m": 5.3, "persistence": "medium"})
+    "10 of set 0's 14 joint traces (71%) run out of sight: their mean length, 5.3 m, leans on the censored model more than on the traces seen whole, so its persistence, medium, is an upper guide."
+    """
+    if not _flagged(row, TRACES_MOSTLY_CENSORED):
+        return None
+    traces, hidden = int(float(row["joint_traces"])), int(float(row["joint_traces_censored"]))
+    return (
+        f"{hidden} of set {set_id}'s {traces} joint traces ({hidden / traces:.0%}) run out of sight: their mean "
+        f"length, {float(row['joint_trace_mean_m']):.1f} m, leans on the censored model more than on the traces seen "
+        f"whole, so its persistence, {row['persistence']}, is an upper guide."
+    )
 
 
 def unmeasured_spacing(set_id: int, row: dict) -> str | None:

@@ -173,5 +173,6 @@ KINEMATICS_COLUMNS = (
     "planar_fs",
     "toppling_base",
     "oblique_toppling_base",
+    "left_out",
 )
 WEDGE_COLUMNS = ("region_id_a", "region_id_b", "section", "trend", "plunge", "wedge_fs", "slides_on")
