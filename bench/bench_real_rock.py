@@ -12,8 +12,10 @@ its default options:
 
 Each is scored by the data's rule (``geostructure.evaluation.fieldmap``): mapped fractures matched
 (a plane's centroid within 0.6 m, its normal within 10 degrees), precision (the share of
-the planes that match one), and each published set's angle to the nearest set found. It
-prints seconds, points per second, peak memory and the ratio of the peer's time to ours.
+the planes that match one), and each published set's angle to the nearest set found; and
+GeoStructure's traces by the data's trace rule, the null model's score beside them, with the
+seconds the dark lines take. It prints seconds, points per second, peak memory and the ratio
+of the peer's time to ours.
 
     python bench/bench_real_rock.py
 """
@@ -47,6 +49,32 @@ def scores(found: dict) -> dict:
             "set_errors_deg": {k: round(e, 1) for k, e in errors.items()}}  # fmt: skip
 
 
+def trace_scores(outdir: Path) -> dict:
+    """``evaluate --fractures`` on the run's traces (the data's trace rule, its null model beside),
+    and the seconds the traces take on the folder's points against the whole measure's."""
+    import time
+
+    from geostructure.detect.traces import find_traces
+    from geostructure.evaluation.scoring import add_validation
+    from geostructure.io.results import read_grey, read_regions
+
+    summary, _ = add_validation(outdir, DATA / "fit_planes.csv", set_means=DATA / "set_means.csv",
+                                fracture_sets=DATA / "set_labels.csv")  # fmt: skip
+    t = summary["traces"]
+    points, _, _ = read_regions(outdir)
+    points -= points.mean(axis=0)
+    grey = read_grey(outdir)
+    start = time.perf_counter()
+    find_traces(points, grey=grey)  # the dark lines, the traces' costly part
+    dark_seconds = time.perf_counter() - start
+    sets = {k: f"{v['found_chord_sum']:.1f}/{v['mapped_chord_sum']:.1f} m, median {v['found_chord_median']:.2f}/"
+               f"{v['mapped_chord_median']:.2f} m" for k, v in t.get("sets", {}).items()}  # fmt: skip
+    return {"traces": t["found"], "traced": f"{t['traced']}/432", "trace_precision": round(t["trace_precision"], 3),
+            "null": f"{t['null_traced']} at {t['null_precision']:.3f}", "found_by_plane_or_trace":
+            t["found_by_plane_or_trace"], "chords_found_over_map": sets,
+            "dark_line_seconds": round(dark_seconds, 2)}  # fmt: skip
+
+
 def main() -> None:
     cloud = DATA / "Lastoni_SW_3cm.txt"
     if not cloud.is_file():
@@ -57,6 +85,7 @@ def main() -> None:
     print(f"{cloud.name}: {n:,} points, default options, each method in its own process from the file")
     with tempfile.TemporaryDirectory() as tmp:
         runs = {"geostructure": run_geostructure(cloud, Path(tmp) / "out")}
+        traced = trace_scores(Path(tmp) / "out")
         for minimum in (30, 10):
             runs[f"DSE-style peer, clusters of {minimum}+"] = run_peer_process(
                 cloud, Path(tmp) / f"peer{minimum}.npz", minimum
@@ -65,7 +94,7 @@ def main() -> None:
     for name, run in runs.items():
         row = {"method": name, "seconds": round(run["seconds"], 2), "points_per_s": round(n / run["seconds"]),
                "peak_mb": round(run["peak_mb"]), "peer_seconds_over_ours": round(run["seconds"] / ours, 2),
-               **scores(run)}  # fmt: skip
+               **scores(run), **(traced if name == "geostructure" else {"traces": "none drawn"})}  # fmt: skip
         print(json.dumps(row))
 
 

@@ -28,15 +28,63 @@ def lastoni(tmp_path_factory):
     out = tmp_path_factory.mktemp("lastoni") / "out"
     assert main(["measure", str(cloud), "-o", str(out), "--sets", "-q"]) == 0
     fractures, means = shared_file(f"{SW}/fit_planes.csv"), shared_file(f"{SW}/set_means.csv")
-    assert main(["evaluate", str(out), "--fractures", str(fractures), "--set-means", str(means), "-q"]) == 0
+    labels = shared_file(f"{SW}/set_labels.csv")
+    assert main(["evaluate", str(out), "--fractures", str(fractures), "--set-means", str(means),
+                 "--fracture-sets", str(labels), "-q"]) == 0  # fmt: skip
     return out, json.loads((out / "validation.json").read_text())
 
 
 def test_the_default_finds_the_mapped_fractures(lastoni):
     _, scores = lastoni
     assert scores["mapped"] == 432
-    assert scores["matched"] >= 110, scores  # 125 on 2026-12-06; the DSE-style peer 51 to 99
+    assert scores["matched"] >= 110, (
+        scores
+    )  # 122 (125 before the face's grid went into spacings); the DSE-style peer 51 to 99
     assert scores["precision"] >= 0.25, scores  # 0.32
+
+
+def test_the_default_draws_traces_that_beat_the_null_model(lastoni):
+    # Measured at this commit: 42 of 432 traced by 176 traces at a precision of 0.27; as
+    # many random segments of the same chords trace 12 at 0.07. 149 found by a plane or a
+    # trace (125 by a plane). The issue's bar (150 at 0.40, 220 found) is not reached:
+    # docs/rockmass.md says what limits it. These bounds hold the figures reached.
+    _, scores = lastoni
+    traces = scores["traces"]
+    assert traces["traced"] >= 30, traces
+    assert traces["trace_precision"] >= 0.2, traces
+    assert traces["null_precision"] < 0.5 * traces["trace_precision"], traces
+    assert traces["null_traced"] < 0.5 * traces["traced"], traces
+    assert traces["found_by_plane_or_trace"] >= scores["matched"] + 15, traces
+
+
+def test_the_traces_median_chord_is_the_maps_within_a_factor_two(lastoni):
+    # set 1: 0.46 m found against the map's 0.70; set 2: 0.46 against 0.47. Their summed
+    # chords fall short (48 m of 219, 19 of 46): most mapped traces show no dark line here.
+    _, scores = lastoni
+    for label, figures in scores["traces"]["sets"].items():
+        assert figures["measured_set"] >= 0, (label, figures)
+        ratio = figures["found_chord_median"] / figures["mapped_chord_median"]
+        assert 0.5 <= ratio <= 2.0, (label, figures)
+
+
+def test_the_traces_files(lastoni):
+    out, _ = lastoni
+    import csv
+
+    with open(out / "traces.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert {"trace_id", "set", "length_m", "chord_m", "n_points", "dip", "dip_direction"} <= set(rows[0])
+    assert {r["source"] for r in rows} == {"plane", "dark line"}
+    vertices = np.genfromtxt(out / "trace_vertices.csv", delimiter=",", names=True)
+    assert set(np.unique(vertices["trace_id"]).astype(int)) == set(range(len(rows)))
+    cloud = np.loadtxt(shared_file(f"{SW}/Lastoni_SW_3cm.txt"), usecols=(0, 1, 2))
+    # on the cloud, in its own coordinates (UTM): every vertex within a few spacings of a point
+    from scipy.spatial import cKDTree
+
+    xyz = np.column_stack([vertices["x"], vertices["y"], vertices["z"]])
+    assert cKDTree(cloud).query(xyz)[0].max() < 0.15
+    sets = np.genfromtxt(out / "sets.csv", delimiter=",", names=True)
+    assert (sets["traces"] > 0).all() and (sets["trace_p21_per_m"] > 0).all()
 
 
 def test_both_published_sets_are_found(lastoni):
@@ -108,3 +156,49 @@ def test_a_bad_field_map_is_refused_in_one_sentence(lastoni, tmp_path, capsys, b
     assert code == 2
     assert_one_sentence(err, "map.csv", *words)
     assert (out / "validation.csv").read_bytes() == before
+
+
+def _measured(tmp_path, name, points, rgb, fractures, means):
+    from geostructure.cli import main
+
+    cloud = tmp_path / f"{name}.txt"
+    np.savetxt(cloud, np.column_stack([points, rgb]), fmt="%.6f %.6f %.6f %d %d %d")
+    out = tmp_path / name
+    assert main(["measure", str(cloud), "-o", str(out), "--sets", "-q"]) == 0
+    labels = shared_file(f"{SW}/set_labels.csv")
+    assert main(["evaluate", str(out), "--fractures", str(fractures), "--set-means", str(means),
+                 "--fracture-sets", str(labels), "-q"]) == 0  # fmt: skip
+    return json.loads((out / "validation.json").read_text())
+
+
+@pytest.mark.slow
+def test_one_outcrop_one_answer_turned_or_inside_a_survey(lastoni, tmp_path):
+    """The SW half turned 37 degrees about the vertical (its map turned with it), and inside a
+    survey of four copies of itself 1 m apart, against the half alone. Measured: matched
+    125 alone, 126 turned, 116 among copies; traced 42, 50 and 48. The planes hold within 8%;
+    the traces' count moves more, with the planes and sets upstream of them (the dark lines
+    themselves are the same to the bit when the same points are turned: test_fracture_traces.py)."""
+    _, alone = lastoni
+    table = np.loadtxt(shared_file(f"{SW}/Lastoni_SW_3cm.txt"))
+    xyz, rgb = table[:, :3], table[:, 3:]
+    centre = xyz.mean(axis=0)
+    t = np.radians(37.0)
+    turn = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1.0]])
+    mapped = np.genfromtxt(shared_file(f"{SW}/fit_planes.csv"), delimiter=",", names=True)
+    rows = ["Dip,DipDirection,Radius,Xcenter,Ycenter,Zcenter,Nx,Ny,Nz"]
+    for r in mapped:
+        c = turn @ (np.array([r["Xcenter"], r["Ycenter"], r["Zcenter"]]) - centre) + centre
+        n = turn @ np.array([r["Nx"], r["Ny"], r["Nz"]])
+        rows.append(",".join(repr(float(v)) for v in (r["Dip"], (r["DipDirection"] - 37.0) % 360, r["Radius"], *c, *n)))
+    (tmp_path / "map.csv").write_text("\n".join(rows) + "\n")
+    (tmp_path / "means.csv").write_text("Dip,DipDirection,Set\n71,222,1\n83,330,2\n")
+    turned = _measured(tmp_path, "turned", (xyz - centre) @ turn.T + centre, rgb, tmp_path / "map.csv",
+                       tmp_path / "means.csv")  # fmt: skip
+    span = np.ptp(xyz, axis=0) + 1.0
+    copies = np.vstack([xyz + [i * span[0], j * span[1], 0.0] for i in (0, 1) for j in (0, 1)])
+    survey = _measured(tmp_path, "survey", copies, np.tile(rgb, (4, 1)), shared_file(f"{SW}/fit_planes.csv"),
+                       shared_file(f"{SW}/set_means.csv"))  # fmt: skip
+    for other in (turned, survey):
+        assert abs(other["matched"] - alone["matched"]) <= 0.08 * alone["matched"], (other["matched"], alone)
+        assert abs(other["traces"]["traced"] - alone["traces"]["traced"]) <= 0.3 * alone["traces"]["traced"]
+        assert max(other["set_errors_deg"].values()) <= 12.0, other["set_errors_deg"]

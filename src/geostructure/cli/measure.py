@@ -93,6 +93,11 @@ def add_measure_commands(sub) -> None:
     )
     e.add_argument("--set-means", type=Path, help="with --fractures: published set means (dip, dip_direction[, set])")
     e.add_argument(
+        "--fracture-sets",
+        type=Path,
+        help="with --fractures: each mapped fracture's set, row for row (a CSV with a set column)",
+    )
+    e.add_argument(
         "--max-distance",
         type=float,
         default=MAX_DISTANCE,
@@ -252,13 +257,14 @@ def run_evaluate(args) -> int:
         raise ParameterError("evaluate needs --truth TRUTH.csv or --fractures MAP.csv (one of the two).")
     if args.fractures is not None:
         summary, paths = add_validation(args.outdir, args.fractures, set_means=args.set_means,
-                                        max_distance=args.max_distance, max_angle=args.max_angle)  # fmt: skip
+                                        max_distance=args.max_distance, max_angle=args.max_angle,
+                                        fracture_sets=args.fracture_sets)  # fmt: skip
         if not args.quiet:
             print(validation_lines(summary))
             print(f"wrote {', '.join(str(p) for p in paths.values())}")
         return 0
-    if args.set_means is not None:
-        raise ParameterError("--set-means goes with --fractures.")
+    if args.set_means is not None or args.fracture_sets is not None:
+        raise ParameterError("--set-means and --fracture-sets go with --fractures.")
     evaluation, extra, paths = add_evaluation(args.outdir, args.truth, fit_frame=args.fit_frame)
     if not args.quiet:
         print_evaluation(evaluation)

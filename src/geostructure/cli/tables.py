@@ -153,6 +153,31 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     for s, more in enumerate(rock_rows):
         for note in set_notes(s, more) if more else ():
             console.print(note)
+    if rock is not None and rock.traces is not None:
+        console.print(traces_line(rock.traces, rock_rows))
+
+
+def traces_line(traces, rows: list[dict]) -> str:
+    """The face's fracture traces in a sentence: how many, of which kind, and per set their
+    areal intensity and median chord (``sets.csv``'s trace columns).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from geostructure.detect.traces import Traces
+    >>> t = Traces.from_polylines([np.zeros((2, 3))] * 3, ["plane", "dark line", "dark line"], [0, -1, -1])
+    >>> print(traces_line(t, [{"traces": 2, "trace_p21_per_m": 1.234, "trace_chord_median_m": 0.5}]))
+    Traces: 3 drawn (2 dark lines, 1 plane's trace); set 0: 2, P21 1.23 /m, median chord 0.50 m.
+    """
+    dark = int(np.sum(traces.source == "dark line"))
+    planes = len(traces) - dark
+    kinds = f"{counted(dark, 'dark line')}, {planes:,} " + ("plane's trace" if planes == 1 else "planes' traces")
+    per_set = "; ".join(
+        f"set {s}: {row['traces']:,}, P21 {row['trace_p21_per_m']:.2f} /m, median chord {row['trace_chord_median_m']:.2f} m"
+        for s, row in enumerate(rows)
+        if row.get("traces")
+    )
+    return f"Traces: {len(traces):,} drawn ({kinds})" + (f"; {per_set}." if per_set else ".")
 
 
 def print_kinematics(summary: dict, console: Console | None = None) -> None:
@@ -336,6 +361,23 @@ def validation_lines(summary: dict) -> str:
         if summary["planes"]
         else "No plane was measured.",
     ]
+    traces = summary.get("traces")
+    if traces and "traced" in traces:
+        lines.append(
+            f"{traces['traced']} of {mapped} mapped fractures traced ({traces['traced'] / max(mapped, 1):.0%}) by "
+            f"{traces['found']} traces, trace precision {traces['trace_precision']:.2f}; for nothing (as many random "
+            f"segments of the same chords): {traces['null_traced']} at {traces['null_precision']:.2f}."
+        )
+        lines.append(f"{traces['found_by_plane_or_trace']} of {mapped} found by a plane or a trace.")
+        for label, s in traces.get("sets", {}).items():
+            measured = f"set {s['measured_set']}" if s["measured_set"] >= 0 else "no measured set"
+            lines.append(
+                f"Set {label} ({measured}): {s['found_traces']} traces, {s['found_chord_sum']:.1f} m of chords, median "
+                f"{s['found_chord_median']:.2f} m; mapped {s['mapped_traces']}, {s['mapped_chord_sum']:.1f} m, median "
+                f"{s['mapped_chord_median']:.2f} m."
+            )
+    elif traces:
+        lines.append(f"Traces: {traces['note']}.")
     errors = summary.get("set_errors_deg")
     if errors is None:
         lines.append("No sets to score: run 'geostructure sets OUTDIR' (or measure --sets) first.")

@@ -60,6 +60,9 @@ class Cloud:
     left_out : dict or None
         Points the input file held but marked to be left out, by why (``{"withheld": 300,
         "noise": 200}`` for a LAS/LAZ), for ``run.json``; None when there were none.
+    grey : (N,) float32 or None
+        Each point's brightness from its colour, 0 (black) to 1 (white): the mean of its red,
+        green and blue, where the file has them; the trace detector reads dark lines in it.
     vegetation : (N,) bool or None
         The points the input file classifies as vegetation (LAS classes 3 to 5): clutter on a
         rock face, not rock (:func:`~geostructure.rockmass.face.face_parts`); None when it classifies none so.
@@ -82,6 +85,7 @@ class Cloud:
     las_grid: tuple | None = None
     left_out: dict | None = None
     vegetation: np.ndarray | None = None
+    grey: np.ndarray | None = None
 
     def __post_init__(self):
         self.local = as_points(self.local, "local")
@@ -94,6 +98,12 @@ class Cloud:
             if self.vegetation.shape != (len(self.local),):
                 raise ParameterError(
                     f"vegetation must have one flag per point: {len(self.vegetation)} for {len(self.local)} points."
+                )
+        if self.grey is not None:
+            self.grey = np.asarray(self.grey, dtype=np.float32)
+            if self.grey.shape != (len(self.local),):
+                raise ParameterError(
+                    f"grey must have one value per point: {len(self.grey)} for {len(self.local)} points."
                 )
         if self.normals is not None:
             self.normals = as_points(self.normals, "normals")
@@ -114,6 +124,7 @@ class Cloud:
         las_grid=None,
         left_out=None,
         vegetation=None,
+        grey=None,
     ) -> "Cloud":
         """Build a cloud from absolute coordinates, centring them on the bounding-box centre."""
         points = as_points(points)
@@ -132,6 +143,7 @@ class Cloud:
             las_grid=las_grid,
             left_out=left_out,
             vegetation=vegetation,
+            grey=grey,
         )
 
     @property
@@ -146,6 +158,7 @@ class Cloud:
         """The cloud restricted to ``mask`` (boolean or index array)."""
         normals = None if self.normals is None else self.normals[mask]
         vegetation = None if self.vegetation is None else self.vegetation[mask]
+        grey = None if self.grey is None else self.grey[mask]
         return Cloud(
             self.local[mask],
             self.offset,
@@ -156,6 +169,7 @@ class Cloud:
             self.las_grid,
             self.left_out,
             vegetation,
+            grey,
         )
 
     @property

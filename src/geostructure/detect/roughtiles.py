@@ -195,7 +195,7 @@ def rough_facets_in_tiles(points: np.ndarray, spacing: float, edge: float, tile_
     does tile by tile. The medians are read to within a bin (see the module)."""
     points = np.asarray(points, dtype=np.float64)
     lower = column_min(points)
-    envelope = envelope_normals(points)
+    envelope = envelope_normals(points, spacing)
     halo = int(np.ceil(HALO_SPACINGS * spacing / edge))
     key = cell_keys(points, edge, lower) - 1
     tile = key // tile_cells

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from geostructure.core.orientation import Frame, normal_from_orientation
 from geostructure.core.planes import Planes, reoriented
@@ -17,10 +18,13 @@ from geostructure.errors import InputError, ParameterError
 from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE, mapped_set_means, set_errors, validate
 from geostructure.evaluation.framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from geostructure.evaluation.groundtruth import Evaluation, evaluate
+from geostructure.evaluation.tracescore import TOLERANCE as TRACE_TOLERANCE
+from geostructure.evaluation.tracescore import null_segments, score_traces, set_trace_figures, trace_lines
 from geostructure.io.atomic import write_json, write_table_csv
-from geostructure.io.fieldmap import read_field_map
+from geostructure.io.crs import recorded_unit
+from geostructure.io.fieldmap import read_field_map, read_set_labels
 from geostructure.io.outdir import EVALUATION_FILES, VALIDATION_FILES, OutputSet, output_set
-from geostructure.io.results import read_planes
+from geostructure.io.results import read_planes, read_regions, read_traces
 from geostructure.io.truth import GroundTruth, read_truth
 from geostructure.io.writers import write_evaluation_files
 
@@ -107,7 +111,13 @@ def stage_evaluation(outputs: OutputSet, evaluation: Evaluation, extra: dict | N
 
 
 def add_validation(
-    outdir, fractures, *, set_means=None, max_distance: float = MAX_DISTANCE, max_angle: float = MAX_ANGLE
+    outdir,
+    fractures,
+    *,
+    set_means=None,
+    max_distance: float = MAX_DISTANCE,
+    max_angle: float = MAX_ANGLE,
+    fracture_sets=None,
 ) -> tuple[dict, dict[str, Path]]:
     """Score a measured folder against a field map (:mod:`.validation`'s rule) and add
     ``validation.csv`` (one row per mapped plane) and ``validation.json`` (the scores).
@@ -123,6 +133,14 @@ def add_validation(
         measured sets as the field map's own ``set`` column is.
     max_distance, max_angle : float
         The rule's centroid distance (the cloud's unit) and angle (degrees).
+    fracture_sets : str or Path, optional
+        Each mapped fracture's set, row for row (DICE's ``set_labels.csv``), where the field
+        map itself has no ``set`` column.
+
+    With the discs' radii in the map (DICE's ``Radius``) and traces in the folder, the traces
+    are scored too (:mod:`.tracescore`): fractures traced, trace precision, the null model's
+    figures beside them, per set the found and mapped chords, and the fractures found by a
+    plane or a trace.
 
     Returns
     -------
@@ -148,9 +166,11 @@ def add_validation(
         raise ParameterError(f"--max-distance must be a positive distance, not {max_distance}.")
     if not (np.isfinite(max_angle) and 0 < max_angle <= 90):
         raise ParameterError(f"--max-angle must be more than 0 and at most 90 degrees, not {max_angle}.")
-    inputs = [fractures] + ([set_means] if set_means is not None else [])
+    inputs = [fractures] + [p for p in (set_means, fracture_sets) if p is not None]
     with output_set(outdir, replace=False, rewrites=VALIDATION_FILES, inputs=inputs) as outputs:
         mapped = read_field_map(fractures)
+        if fracture_sets is not None:
+            mapped = mapped.with_sets(read_set_labels(fracture_sets, len(mapped)))
         published = read_field_map(set_means, located=False) if set_means is not None else None
         planes = read_planes(outputs.outdir)
         o = planes.orientation
@@ -175,6 +195,9 @@ def add_validation(
             "set_means_from": "published" if published is not None else "field map",
             "set_errors_deg": set_errors(means, measured_sets) if measured_sets is not None else None,
         }
+        traced = None
+        if mapped.radius is not None:
+            traced, summary["traces"] = _trace_scores(outputs, mapped, map_normals, found, means, measured_sets)
         rows = [
             {"row": i + 2, "x": c[0], "y": c[1], "z": c[2], "dip": d, "dip_direction": dd, "set": s,
              "matched": int(m), "plane": int(p), "distance": dist, "angle_deg": a}
@@ -182,7 +205,10 @@ def add_validation(
                 mapped.dip_direction.tolist(), mapped.sets, found.matched, found.plane, found.distance.tolist(),
                 found.angle.tolist()))
         ]  # fmt: skip
-        write_table_csv(rows, outputs.path("validation.csv"), columns=VALIDATION_COLUMNS)
+        for row, hit in zip(rows, traced if traced is not None else ()):
+            row["traced"] = int(hit)
+        columns = VALIDATION_COLUMNS + (("traced",) if traced is not None else ())
+        write_table_csv(rows, outputs.path("validation.csv"), columns=columns)
         write_json(summary, outputs.path("validation.json"))
         paths = {"validation_csv": outputs.final("validation.csv"), "validation_json": outputs.final("validation.json")}
     return summary, paths
@@ -190,6 +216,47 @@ def add_validation(
 
 #: ``validation.csv``'s columns: the mapped plane's row in its file, as given, and its match.
 VALIDATION_COLUMNS = ("row", "x", "y", "z", "dip", "dip_direction", "set", "matched", "plane", "distance", "angle_deg")
+
+
+def _trace_scores(outputs, mapped, map_normals, found, means, measured_sets) -> tuple[np.ndarray | None, dict]:
+    """The traces' part of ``validation.json`` (see :func:`add_validation`), and each mapped
+    fracture's traced flag (None without traces)."""
+    read = read_traces(outputs.outdir)
+    if read is None:
+        return None, {"found": 0, "note": "no traces in this folder: measure it with --sets"}
+    lines, trace_sets = read
+    points, _, _ = read_regions(outputs.outdir)
+    origin = points.mean(axis=0)  # scored about the cloud's middle: UTM's digits would eat the 5 cm
+    points = points - origin
+    tree = cKDTree(points)
+    centres = mapped.centres - origin
+    normals = mapped.normals if mapped.normals is not None else map_normals
+    metres = recorded_unit(outputs.record)["metres"]
+    tolerance = TRACE_TOLERANCE / metres
+    disc_lines = trace_lines(points, tree, centres, normals)
+    local = [line - origin for line in lines]
+    score = score_traces(local, centres, normals, mapped.radius, disc_lines, tolerance=tolerance)
+    chords = np.array([np.linalg.norm(line[-1] - line[0]) for line in lines])
+    null = score_traces(null_segments(points, tree, chords), centres, normals, mapped.radius, disc_lines,
+                        tolerance=tolerance)  # fmt: skip
+    either = found.matched | score.traced
+    record = {
+        "found": len(lines),
+        "traced": score.n_traced,
+        "trace_precision": score.precision,
+        "null_traced": null.n_traced,
+        "null_precision": null.precision,
+        "found_by_plane_or_trace": int(either.sum()),
+        "mapped_chord_median_m": float(np.median(2 * mapped.radius) * metres),
+        "found_chord_median_m": float(np.median(chords) * metres) if len(chords) else float("nan"),
+        "rule": f"60% of 11 samples within {TRACE_TOLERANCE:g} m of the disc's plane and its radius + "
+        f"{TRACE_TOLERANCE:g} m of its centre, the chord within 15 degrees of its trace line",
+    }
+    if measured_sets is not None and means:
+        figures = set_trace_figures(trace_sets, chords * metres, measured_sets, means, np.asarray(mapped.sets),
+                                    2 * mapped.radius * metres)  # fmt: skip
+        record["sets"] = figures
+    return score.traced, record
 
 
 def _measured_set_normals(folder: Path) -> np.ndarray | None:

@@ -190,6 +190,14 @@ def _table_cell(value):
     return format_number(value)
 
 
+def write_table(rows, path, columns=None) -> Path:
+    """A table as CSV: rows (:func:`write_table_csv`) or columns (a dict of name -> array,
+    :func:`write_columns_csv`, in the order of ``columns``)."""
+    if isinstance(rows, dict):
+        return write_columns_csv({name: rows[name] for name in (columns or rows)}, path)
+    return write_table_csv(rows, path, columns=columns)
+
+
 def write_table_csv(rows: list[dict], path, columns=None) -> Path:
     """A list of same-keyed dicts as CSV, atomically; the header is ``columns`` or the first
     row's keys, so a table with no rows still has its header when ``columns`` is given.

@@ -32,6 +32,9 @@ NAMES = {
     "dip_direction": ("dip_direction", "dipdirection", "dipdir", "dip_dir", "dip direction"),
     "set": ("set", "joint_set", "family"),
 }
+#: Optional numeric columns: a disc's radius (its trace's half chord) and unit normal, as DICE
+#: writes them (the normal in the cloud's own axes, so no north is read into it).
+OPTIONAL = {"radius": ("radius",), "nx": ("nx",), "ny": ("ny",), "nz": ("nz",)}
 #: The most rows read: a field map is hand-made (hundreds to thousands of planes); a larger
 #: file is not one, and scoring it would take minutes.
 MAX_ROWS = 200_000
@@ -46,9 +49,17 @@ class FieldMap:
     dip: np.ndarray
     dip_direction: np.ndarray
     sets: list[str]
+    radius: np.ndarray | None = None
+    normals: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.dip)
+
+    def with_sets(self, labels: list[str]) -> FieldMap:
+        """The same map with each plane's set from ``labels`` (one per plane, in order)."""
+        from dataclasses import replace
+
+        return replace(self, sets=list(labels))
 
 
 def read_field_map(path, *, located: bool = True) -> FieldMap:
@@ -123,4 +134,65 @@ def read_field_map(path, *, located: bool = True) -> FieldMap:
         )
     s = column.get("set")
     labels = [(row[s].strip() if s is not None and s < len(row) else "") for row in rows[1:]]
-    return FieldMap(numbers[:, :3], numbers[:, 3], numbers[:, 4] % 360.0, labels)
+    extra = _optional_columns(path, header, rows)
+    radius = extra.get("radius")
+    if radius is not None and not (np.isfinite(radius).all() and (radius > 0).all()):
+        r = int(np.flatnonzero(~(np.isfinite(radius) & (radius > 0)))[0])
+        raise InputError(f"{path}: row {r + 2}'s radius is no length (a positive number is needed).")
+    normals = None
+    if all(axis in extra for axis in ("nx", "ny", "nz")):
+        normals = np.column_stack([extra["nx"], extra["ny"], extra["nz"]])
+        size = np.linalg.norm(normals, axis=1)
+        if not (np.isfinite(size).all() and (np.abs(size - 1.0) < 0.01).all()):
+            r = int(np.flatnonzero(~(np.isfinite(size) & (np.abs(size - 1.0) < 0.01)))[0])
+            raise InputError(f"{path}: row {r + 2}'s Nx, Ny, Nz is not a unit normal.")
+    return FieldMap(numbers[:, :3], numbers[:, 3], numbers[:, 4] % 360.0, labels, radius, normals)
+
+
+def _optional_columns(path, header: list[str], rows: list) -> dict[str, np.ndarray]:
+    """The :data:`OPTIONAL` columns the header has, as numbers (a bad cell refused)."""
+    out = {}
+    for field, names in OPTIONAL.items():
+        found = [i for i, name in enumerate(header) if name in names]
+        if not found:
+            continue
+        values = np.empty(len(rows) - 1)
+        for r, row in enumerate(rows[1:]):
+            cell = row[found[0]].strip() if found[0] < len(row) else ""
+            try:
+                values[r] = float(cell)
+            except ValueError:
+                raise InputError(f"{path}: row {r + 2} has no number for {field} ({cell!r}).") from None
+        out[field] = values
+    return out
+
+
+def read_set_labels(path, n: int) -> list[str]:
+    """Each mapped plane's set from a separate file, row for row (its ``set`` column, as
+    DICE's ``set_labels.csv`` gives it; blank for none); ``n`` rows are needed.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "sets.csv")
+    >>> _ = open(path, "w").write("Dip,DipDirection,Set\\n70,260,1\\n80,7,\\n")
+    >>> read_set_labels(path, 2)
+    ['1', '']
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file of set labels.")
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            rows = [row for row in read_rows(fh) if any(cell.strip() for cell in row)]
+    except (UnicodeDecodeError, ValueError):
+        raise InputError(f"{path}: not a table of set labels (not a UTF-8 text table).") from None
+    header = [cell.strip().lower() for cell in rows[0]] if rows else []
+    found = [i for i, name in enumerate(header) if name in NAMES["set"]]
+    if not found:
+        raise InputError(f"{path}: has no set column.")
+    if len(rows) - 1 != n:
+        raise InputError(f"{path}: {len(rows) - 1} rows of set labels for a field map of {n}.")
+    labels = [row[found[0]].strip() if found[0] < len(row) else "" for row in rows[1:]]
+    # DICE writes 1.0 for set 1: one label, not two
+    return [label[:-2] if label.endswith(".0") and label[:-2].isdigit() else label for label in labels]

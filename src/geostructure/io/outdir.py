@@ -56,6 +56,8 @@ SETS_FILES = (
     "sets.csv",
     "spacing.csv",
     "joints.csv",
+    "traces.csv",
+    "trace_vertices.csv",
     "planes.csv",
     "planes_dips.csv",
     "planes.geojson",

@@ -19,7 +19,7 @@ from geostructure.errors import GeoStructureNote, InputError, ParameterError
 from geostructure.io.checks import check_coordinate_step, check_points, las_step, ply_step
 from geostructure.io.crs import check_cloud_crs
 from geostructure.io.failures import check_laz_chunks, laz_readers, translated_read_errors
-from geostructure.io.text import read_text
+from geostructure.io.text import grey_of, read_text
 
 TEXT_SUFFIXES = (".xyz", ".txt", ".csv", ".pts", ".asc")
 SUFFIXES = (".ply", ".las", ".laz", ".e57") + TEXT_SUFFIXES
@@ -81,7 +81,8 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
 
 
 def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: int = 0) -> Cloud:
-    """PLY, ASCII or binary, float or double; extra vertex properties are ignored."""
+    """PLY, ASCII or binary, float or double; red, green and blue give each point's ``grey``;
+    other vertex properties are ignored."""
     if mesh_samples is not None and not 0 <= mesh_samples <= MAX_MESH_SAMPLES:
         raise ParameterError(f"mesh samples must lie between 0 and {MAX_MESH_SAMPLES:,}, not {mesh_samples}.")
     data, vertex = ply_vertices(path)
@@ -91,15 +92,21 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     normals = None
     if all(n in names for n in ("nx", "ny", "nz")):
         normals = np.array(vertex_columns(vertex, ("nx", "ny", "nz")))
+    grey = None
+    colour = next((c for c in (("red", "green", "blue"), ("diffuse_red", "diffuse_green", "diffuse_blue"))
+                   if all(n in names for n in c)), None)  # fmt: skip
+    if colour is not None:
+        grey = grey_of(vertex_columns(vertex, colour))
     faces = _ply_faces(data, len(points), path)
     if mesh_samples and faces is not None and len(faces):
+        grey = None  # samples on the faces carry no colour
         check_points(points, path)
         with np.errstate(all="ignore"):  # coordinates near float64's limit overflow: said below
             try:
                 points, normals = sample_mesh(points, faces, mesh_samples, seed=seed)
             except OverflowError:
                 raise InputError(f"{path}: the mesh's coordinates are too large to sample its faces.") from None
-    return Cloud.from_points(points, source=str(path), normals=normals)
+    return Cloud.from_points(points, source=str(path), normals=normals, grey=grey)
 
 
 def vertex_columns(vertex: np.ndarray, names) -> np.ndarray:
@@ -265,6 +272,19 @@ def las_chunk_vegetation(chunk) -> np.ndarray:
     return np.isin(classes[kept], VEGETATION_CLASSES)
 
 
+def las_chunk_grey(chunk) -> np.ndarray | None:
+    """The brightness (:func:`~.io.text.grey_of`) of each point :func:`las_chunk_points`
+    keeps of a laspy chunk, from its red, green and blue; None for a point format without them."""
+    names = set(chunk.point_format.dimension_names)
+    if not {"red", "green", "blue"} <= names:
+        return None
+    classes = np.asarray(chunk.classification)
+    kept = ~(np.asarray(chunk.withheld, dtype=bool) | np.isin(classes, NOISE_CLASSES))
+    rgb = np.column_stack([np.asarray(chunk.red), np.asarray(chunk.green), np.asarray(chunk.blue)])[kept]
+    # LAS holds 16-bit colour; many writers put 8-bit values in it: scale by what the file holds
+    return (rgb.mean(axis=1) / (65535.0 if rgb.size and rgb.max() > 255 else 255.0)).astype(np.float32)
+
+
 def left_out_record(left_out) -> dict | None:
     """``run.json``'s record of the points left out (:func:`las_chunk_points`'s counts), or None."""
     record = {why: int(n) for why, n in zip(("withheld", "noise"), left_out) if n}
@@ -347,17 +367,21 @@ def read_las(path: Path) -> Cloud:
         expected = header.point_count
         # Chunks: memory follows the points actually in the file, not what a header claims.
         tally = LasTally()
-        parts, vegetation = [], []
+        parts, vegetation, grey = [], [], []
         for chunk in reader.chunk_iterator(LAS_CHUNK):
             parts.append(tally.add(*las_chunk_points(chunk)))
             vegetation.append(las_chunk_vegetation(chunk))
+            grey.append(las_chunk_grey(chunk))
     points = np.vstack(parts) if parts else np.empty((0, 3))
     vegetation = np.concatenate(vegetation) if vegetation else np.zeros(0, dtype=bool)
+    grey = np.concatenate(grey) if grey and all(g is not None for g in grey) else None
+    if grey is not None and not np.any(grey):  # a format with colour, none recorded
+        grey = None
     left_out = tally.finish(path, expected)
     grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
     check_coordinate_step(points, las_step(grid[0]), path)
     return Cloud.from_points(points, source=str(path), crs=crs, las_grid=grid, left_out=left_out,
-                             vegetation=vegetation if vegetation.any() else None)  # fmt: skip
+                             vegetation=vegetation if vegetation.any() else None, grey=grey)  # fmt: skip
 
 
 def check_las_header(path: Path) -> None:

@@ -101,6 +101,16 @@ def open_regions(folder):
     return vertex
 
 
+def read_grey(folder) -> np.ndarray | None:
+    """Each point's brightness in a measured folder's ``regions.ply`` (its ``grey`` property,
+    :func:`~.writers.write_regions_ply`), in the file's order; None when it has none."""
+    vertex = open_regions(folder)
+    try:
+        return np.asarray(ply_field(vertex, "grey"), dtype=np.float32)
+    except (KeyError, ValueError):
+        return None
+
+
 def read_regions(folder, offset=None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """The labelled points of ``regions.ply`` in a measured folder: (N, 3) float64 positions
     relative to ``offset``, each point's ``region_id`` (-1 for none), and which points the
@@ -151,3 +161,34 @@ def read_sets(folder) -> list[dict]:
             ]
         except (ValueError, TypeError):
             raise OutputError(f"{path}: not a GeoStructure sets table (a cell is not a number).") from None
+
+
+def read_traces(folder) -> tuple[list[np.ndarray], np.ndarray] | None:
+    """A measured folder's traces (``traces.csv`` and ``trace_vertices.csv``): each trace's
+    polyline in the cloud's coordinates, in order, and its set (-1 for none); None when the
+    folder has none (measured without ``--sets``, or before traces)."""
+    folder = Path(folder)
+    table, vertices = folder / "traces.csv", folder / "trace_vertices.csv"
+    if not (table.is_file() and vertices.is_file()):
+        return None
+    try:
+        with open(table, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+        sets = np.array([int(r["set"]) if r["set"].strip() else -1 for r in rows], dtype=np.int64)
+        ids = [int(r["trace_id"]) for r in rows]
+        with open(vertices, newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            at = [(int(r["trace_id"]), float(r["x"]), float(r["y"]), float(r["z"])) for r in reader]
+    except (KeyError, ValueError, TypeError) as exc:
+        raise OutputError(f"{folder}: traces.csv or trace_vertices.csv is not GeoStructure's ({exc}).") from None
+    if ids != list(range(len(ids))):
+        raise OutputError(f"{table}: its trace_id column is not 0, 1, 2, ... in order.")
+    xyz = np.array([v[1:] for v in at], dtype=np.float64).reshape(-1, 3)
+    owner = np.array([v[0] for v in at], dtype=np.int64)
+    if len(owner) and (np.any(np.diff(owner) < 0) or owner.max() >= len(ids) or owner.min() < 0):
+        raise OutputError(f"{vertices}: its vertices are not grouped by trace, in the order of traces.csv.")
+    cuts = np.searchsorted(owner, np.arange(len(ids) + 1))
+    lines = [xyz[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
+    if any(len(line) < 2 for line in lines) or not np.isfinite(xyz).all():
+        raise OutputError(f"{vertices}: a trace has fewer than two vertices, or a vertex is not a finite point.")
+    return lines, sets

@@ -20,11 +20,12 @@ from geostructure.errors import GeoStructureError, InputError
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.I)
 
 
-def read_text(path: Path) -> Cloud:
+def read_text(path: Path, colour: bool = True) -> Cloud:
     """XYZ/TXT/CSV/PTS: space, comma, semicolon or tab separated; x y z first, or where a
     header names them (:func:`_coordinate_columns`); a PTS file's lines of a block's point
     count skipped. Decimal commas (``1,5;2,25;3,0``, as a spreadsheet in much of Europe saves its CSV) are
-    read where the separator is a semicolon, a tab or spaces."""
+    read where the separator is a semicolon, a tab or spaces. Red, green and blue columns
+    (:func:`_colour_columns`) give each point's ``grey``, unless ``colour`` is off."""
     first_lines = _first_data_lines(path, 2)
     if not first_lines:
         raise InputError(f"{path}: holds no points.")
@@ -41,7 +42,10 @@ def read_text(path: Path) -> Cloud:
     first = _decimal_points(first_lines[0][1]) if decimal_comma else first_lines[0][1]
     header = not all(_NUMBER.match(f) for f in _split(first, delimiter)[:3])
     skip = (first_lines[0][0] if header else first_lines[0][0] - 1) - counted  # the count line is not read
-    columns = _coordinate_columns(_split(first, delimiter), path) if header else (0, 1, 2)
+    fields = _split(first, delimiter)
+    columns = _coordinate_columns(fields, path) if header else (0, 1, 2)
+    colour = _colour_columns(fields, columns, header) if colour else ()
+    columns = columns + colour
     try:  # numpy's C parser: fast; on failure, scan the lines to name the bad one
         with warnings.catch_warnings(), open(path, encoding="utf-8-sig") as fh:
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data": said below in our words
@@ -59,9 +63,55 @@ def read_text(path: Path) -> Cloud:
     except UnicodeDecodeError:
         raise InputError(f"{path}: is not a text file (not UTF-8).") from None
     except (ValueError, IndexError):
+        if colour:  # a later line without colour: the coordinates alone, as before
+            return read_text(path, colour=False)
         _raise_bad_line(path, delimiter, skip + counted, columns, decimal_comma, counted, quoted)
         raise
-    return Cloud.from_points(points, source=str(path))
+    grey = grey_of(points[:, 3:6]) if colour else None
+    return Cloud.from_points(points[:, :3], source=str(path), grey=grey)
+
+
+#: Header names of colour columns (lower case, as :data:`AXIS_NAMES`).
+COLOUR_NAMES = (("r", "red"), ("g", "green"), ("b", "blue"))
+
+
+def _colour_columns(fields: list[str], columns: tuple, header: bool) -> tuple:
+    """The red, green and blue columns: those a header names (:data:`COLOUR_NAMES`), or,
+    without a header, the three after x, y and z where the first line holds whole numbers
+    from 0 to 255 there (DICE's and CloudCompare's ``x y z r g b``); () for none.
+
+    Examples
+    --------
+    >>> _colour_columns(["1.5", "2", "3", "92", "96", "98"], (0, 1, 2), False)
+    (3, 4, 5)
+    >>> _colour_columns(["1.5", "2", "3", "0.1", "0.2", "0.97"], (0, 1, 2), False)  # normals, not colour
+    ()
+    >>> _colour_columns(["x", "y", "z", "Red", "Green", "Blue"], (0, 1, 2), True)
+    (3, 4, 5)
+    """
+    if header:
+        keys = [re.sub(r"[\"'\s]", "", name).lower() for name in fields]
+        found = tuple(next((i for i, key in enumerate(keys) if key in names), None) for names in COLOUR_NAMES)
+        return found if None not in found and not set(found) & set(columns) else ()
+    if columns != (0, 1, 2) or len(fields) < 6:
+        return ()
+    values = fields[3:6]
+    whole = all(re.fullmatch(r"\d{1,3}", v) and int(v) <= 255 for v in values)
+    return (3, 4, 5) if whole else ()
+
+
+def grey_of(rgb: np.ndarray) -> np.ndarray:
+    """Brightness from 0 to 1: the mean of red, green and blue, scaled by the largest a file of
+    that depth holds (255 for 8 bits, 65535 for LAS's 16).
+
+    Examples
+    --------
+    >>> [round(float(v), 3) for v in grey_of(np.array([[255, 255, 255], [0, 0, 30]]))]
+    [1.0, 0.039]
+    """
+    rgb = np.asarray(rgb, dtype=np.float64)
+    top = 65535.0 if rgb.size and np.nanmax(rgb) > 255 else 255.0
+    return (np.clip(rgb.mean(axis=1), 0, top) / top).astype(np.float32)
 
 
 def holds_rows_of_numbers(path: Path) -> bool:

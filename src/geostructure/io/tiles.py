@@ -154,6 +154,7 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
         if any(c.vegetation is not None for c in clouds)
         else None
     )
+    grey = np.concatenate([c.grey for c in clouds]) if all(c.grey is not None for c in clouds) else None
     grids = [c.las_grid for c in clouds]
     same_grid = all(g is not None for g in grids) and all(
         np.array_equal(g[0], grids[0][0]) and np.array_equal(g[1], grids[0][1]) for g in grids
@@ -166,6 +167,7 @@ def read_tiles(paths, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, progre
         las_grid=grids[0] if same_grid else None,
         left_out=merged_left_out(c.left_out for c in clouds),
         vegetation=vegetation,
+        grey=grey,
     )
     return without_copies(merged)  # overlapping tiles: the copies of one tile's points in another
 

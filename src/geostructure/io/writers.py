@@ -15,7 +15,7 @@ import numpy as np
 
 from geostructure import __version__
 from geostructure.core.threads import preload
-from geostructure.io.atomic import atomic_path, write_json, write_table_csv
+from geostructure.io.atomic import atomic_path, write_json, write_table, write_table_csv
 from geostructure.io.crs import recorded_unit
 from geostructure.io.exports import write_dips_csv
 from geostructure.io.gis import write_geojson, write_gpkg
@@ -44,14 +44,16 @@ def ply_comment(text: str) -> str:
 #: no LAS (Debian's 2.11).
 POINT_SET_FIELDS = tuple((SCALAR + name, np.dtype(kind).str) for name, kind in POINT_SET_DIMENSIONS)
 #: PLY's names of the numpy types the point files hold.
-PLY_TYPES = {"f8": "double", "i4": "int", "i2": "short", "u1": "uchar"}
+PLY_TYPES = {"f8": "double", "f4": "float", "i4": "int", "i2": "short", "u1": "uchar"}
 
 
-def regions_dtype(vegetation: bool, point_sets: bool) -> np.dtype:
+def regions_dtype(vegetation: bool, point_sets: bool, grey: bool = False) -> np.dtype:
     """The vertex record of ``regions.ply``: x, y, z (double), ``scalar_region_id``, then a
-    ``scalar_vegetation`` flag and the :data:`POINT_SET_FIELDS` when asked."""
+    ``scalar_vegetation`` flag, a ``scalar_grey`` brightness and the :data:`POINT_SET_FIELDS`
+    when asked."""
     fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), (SCALAR + "region_id", "<i4")]
     fields += [(SCALAR + "vegetation", "u1")] if vegetation else []
+    fields += [(SCALAR + "grey", "<f4")] if grey else []
     return np.dtype(fields + (list(POINT_SET_FIELDS) if point_sets else []))
 
 
@@ -71,7 +73,8 @@ def regions_comments(source: str) -> list[str]:
 def write_regions_ply(result, path, point_sets: dict | None = None) -> Path:
     """``regions.ply``: the filtered points (double) with an int ``scalar_region_id`` (-1 for
     none), a ``scalar_vegetation`` flag (1 for a point the input classifies as vegetation)
-    when the input classifies any so, for ``geostructure sets`` to read back, and with
+    when the input classifies any so and a ``scalar_grey`` (0 to 1) when it has colour, for
+    ``geostructure sets`` to read back, and with
     ``point_sets`` (``set``, ``face_part``, ``joint`` per point, as :func:`~.laz.write_regions_laz`
     takes them) the :data:`POINT_SET_FIELDS`.
 
@@ -79,12 +82,15 @@ def write_regions_ply(result, path, point_sets: dict | None = None) -> Path:
     (no dialog), to load a property as a scalar field (named ``region_id`` there).
     """
     filtered = result.filtered
-    vertex = np.empty(len(filtered), dtype=regions_dtype(filtered.vegetation is not None, point_sets is not None))
+    dtype = regions_dtype(filtered.vegetation is not None, point_sets is not None, filtered.grey is not None)
+    vertex = np.empty(len(filtered), dtype=dtype)
     for axis, name in enumerate("xyz"):  # Cloud.points column by column, into the record itself
         np.add(filtered.local[:, axis], filtered.offset[axis], out=vertex[name])
     vertex[SCALAR + "region_id"] = result.labels
     if filtered.vegetation is not None:
         vertex[SCALAR + "vegetation"] = filtered.vegetation
+    if filtered.grey is not None:  # for the traces' dark lines when ``sets`` reads the folder again
+        vertex[SCALAR + "grey"] = filtered.grey
     for name, value in (point_sets or {}).items():
         vertex[SCALAR + name] = value
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
@@ -267,7 +273,7 @@ def write_result(
     for write in point_writes:
         write.result()
     for kind, name, rows, columns in tables:
-        write_table_csv(rows, outputs.path(name), columns=columns)
+        write_table(rows, outputs.path(name), columns=columns)
         files[kind] = name
         if kind == "sets" and sets_record is not None:  # run.json's order: right after the sets
             outputs.record["sets"] = sets_record

@@ -17,7 +17,7 @@ from geostructure.core.orientation import Frame
 from geostructure.core.planes import Planes
 from geostructure.errors import OutputError
 from geostructure.io.crs import metres_per_unit, unit_symbol
-from geostructure.io.results import ply_field, read_planes, read_run, read_sets, read_spacings
+from geostructure.io.results import ply_field, read_planes, read_run, read_sets, read_spacings, read_traces
 
 #: Points drawn in 3D at most: enough to read the outcrop's shape, few enough for WebGL
 #: to turn it fluently and for the file to stay small whatever the input's size.
@@ -52,6 +52,7 @@ class ReportScene:
     georeference: dict | None = None  # how a reconstruction was tied to the world
     north: dict | None = None  # run.json's north: the grid convergence the azimuths were turned by
     length_unit: dict | None = None  # run.json's unit ({"symbol", "metres"}), when it gives one
+    traces: list = field(default_factory=list)  # traces.csv's polylines, local, when the sets were found
 
     @property
     def unit(self) -> str:
@@ -134,6 +135,7 @@ def load_scene(
         plane_kinematics=plane_failures(outdir / "kinematics.csv"),
         georeference=run.get("reconstruction", {}).get("georef"),
         north=run.get("north"),
+        traces=[line - offset for line in (read_traces(outdir) or ([], None))[0]],
     )
 
 

@@ -109,10 +109,14 @@ def figure_3d(scene: ReportScene) -> dict:
     triad, (box_lo, box_hi) = _axes(scene)
     for trace in triad:  # 6.. scale bar (east), north and up
         fig.add_trace(trace)
+    if scene.traces:  # last: the fracture traces, drawn over the cloud
+        fig.add_trace(_trace_lines(scene.traces))
     pad = 0.02 * float(np.max(box_hi - box_lo) or 1.0)
     ranges = {f"{a}axis": dict(range=[box_lo[i] - pad, box_hi[i] + pad], title=f"{a} ({scene.unit})")
               for i, a in enumerate("xyz")}  # fmt: skip
     key = f"grey bar: {triad[0].name} (east) · red: north · blue: up · axes relative to the header's offset"
+    if scene.traces:
+        key += f" · dark red lines: {len(scene.traces)} fracture traces"
     fig.update_layout(
         margin=dict(l=0, r=0, t=0, b=0),
         showlegend=False,
@@ -143,6 +147,15 @@ def figure_3d(scene: ReportScene) -> dict:
 #: above the horizon, north up the screen as on a map: plotly's default eye, from the
 #: north-east corner, cut a 1.2 km survey's near corner off in a 1400 x 900 window.
 TERRAIN_VIEW_ELEVATION = 55.0
+
+
+def _trace_lines(traces: list):
+    """The fracture traces (``traces.csv``) as one line layer, polylines apart by gaps."""
+    import plotly.graph_objects as go
+
+    xyz = np.vstack([np.vstack([line, np.full((1, 3), np.nan)]) for line in traces]).astype(np.float32)
+    return go.Scatter3d(x=xyz[:, 0], y=xyz[:, 1], z=xyz[:, 2], mode="lines", name="fracture traces",
+                        line=dict(color="#d7191c", width=4), hoverinfo="skip", connectgaps=False)  # fmt: skip
 
 
 def face_camera(points: np.ndarray, up: np.ndarray, north=None) -> dict:

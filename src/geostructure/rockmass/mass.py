@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from geostructure.detect.traces import Traces
 from geostructure.detect.uncertainty import correlated_tilt
 from geostructure.rockmass.exposure import Persistence, exposure
 from geostructure.rockmass.face import face_parts
@@ -43,6 +44,7 @@ from geostructure.rockmass.spacing import (
     spacing_class,
     spacing_statistics,
 )
+from geostructure.rockmass.tracemaps import TRACE_SET_COLUMNS, trace_set_rows
 from geostructure.rockmass.traces import TraceLengths, joint_traces, persistence_class, trace_lengths
 
 #: Palmstrom (2005)'s block shape factor for Vb = beta Jv^-3 (equidimensional blocks).
@@ -159,6 +161,7 @@ ROCK_SET_COLUMNS = (
     "persistence",
     "spacing_class",
     "n_joints",
+    *TRACE_SET_COLUMNS,
     "flags",
 )
 
@@ -225,6 +228,7 @@ class RockMass:
     face_bend: float = 0.0  # degrees the face turns along its strike (exposure.face_bend)
     face_sections: int = 1  # the sections it was measured in (sections.section_exposures)
     sections: FaceSections | None = None  # those sections, which a fitted slope takes too
+    traces: Traces | None = None  # the face's fracture traces (tracemaps.face_traces), in the cloud's unit
     plane_errors: dict = field(default_factory=dict)  # per plane, with the tilt (runs.plane_rock_mass)
     metres_per_unit: float = 1.0  # of the cloud's coordinates: every length here is in metres
     ground: np.ndarray | None = None  # per plane; None: no ground was told from the face
@@ -318,6 +322,7 @@ class RockMass:
         p = self.persistence
         only = self.traces_only
         n_joints = self.joints.counts(len(self.lines)) if self.joints is not None else np.zeros(len(self.lines), int)
+        trace_rows = trace_set_rows(self.traces, len(self.lines), self.exposure_area, self.metres_per_unit)
         for s, line in enumerate(self.lines):
             members = np.flatnonzero(self.set_labels == s)
             gap = spacing_statistics(line.gaps)
@@ -373,6 +378,7 @@ class RockMass:
             row["flags"] = ";".join(set_flags(row))
             row["spacing_class"] = spacing_class(line.spacing)
             row["n_joints"] = int(n_joints[s])
+            row.update(trace_rows[s])
             rows.append(row)
         return rows
 

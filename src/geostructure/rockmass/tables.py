@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from geostructure.rockmass.jointtable import JOINT_COLUMNS, joint_rows
 from geostructure.rockmass.mass import ROCK_SET_COLUMNS
+from geostructure.rockmass.tracemaps import TRACE_COLUMNS, VERTEX_COLUMNS, trace_rows, vertex_columns
 
 #: The columns of ``sets.csv``.
 SET_COLUMNS = (
@@ -59,10 +60,17 @@ def sets_record(sets, rock=None) -> dict:
 def rock_mass_tables(planes, sets, rock, frame, metres_per_unit: float = 1.0) -> list[tuple]:
     """(kind, file name, rows, columns) of each table a run with sets writes: ``sets.csv``
     and, with the rock mass, ``spacing.csv`` and ``joints.csv`` (every discontinuity once,
-    a row per joint of the sets' facets, from the plane table ``planes`` in the cloud's unit)."""
+    a row per joint of the sets' facets, from the plane table ``planes`` in the cloud's unit),
+    ``traces.csv`` and ``trace_vertices.csv`` (the face's fracture traces, :mod:`.tracemaps`)."""
     tables = [("sets", "sets.csv", *sets_table(sets, rock))]
     if rock is not None:
         tables.append(("spacing", "spacing.csv", *spacing_table(rock)))
         rows = joint_rows(planes, rock.joints, frame, metres_per_unit)
         tables.append(("joints", "joints.csv", rows, JOINT_COLUMNS))
+        if rock.traces is not None:
+            traces = rock.traces
+            tables.append(("traces", "traces.csv", trace_rows(traces, frame, planes.offset, metres_per_unit),
+                           TRACE_COLUMNS))  # fmt: skip
+            tables.append(("trace_vertices", "trace_vertices.csv", vertex_columns(traces, planes.offset),
+                           VERTEX_COLUMNS))  # fmt: skip
     return tables

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geostructure.core.cloud import Cloud
+from geostructure.core.density import point_spacing
 from geostructure.detect.facets import FacetDetection, voxel_majority
 from geostructure.detect.roughfacets import RoughFacets, envelope_normals
 from geostructure.errors import GeoStructureNote
@@ -113,7 +114,8 @@ class ThinnedSurvey:
         labels = np.where(labels >= 0, np.searchsorted(present, labels), -1)
         rough = None
         if found.rough is not None:
-            rough = RoughFacets(labels, np.zeros(len(labels), dtype=bool), envelope_normals(filtered.local),
+            rough = RoughFacets(labels, np.zeros(len(labels), dtype=bool),
+                                envelope_normals(filtered.local, point_spacing(filtered.local)),
                                 found.rough["rough_join_angle_deg"])  # fmt: skip
         record = found.record()
         extra = {"full_resolution": {"survey_points": spill.n_points, "planar_facets": record["planar_facets"],

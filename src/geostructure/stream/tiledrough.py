@@ -36,10 +36,10 @@ class RoughContext:
     join_angle: float = 0.0
 
 
-def envelope_of_chunks(chunks, executor, offset, keep, lower, upper) -> EnvelopeTable:
+def envelope_of_chunks(chunks, executor, offset, keep, lower, upper, spacing: float) -> EnvelopeTable:
     """The face's envelope (:func:`~geostructure.detect.roughfacets.envelope_table`) of the
     kept points, its grid's moments summed chunk by chunk."""
-    edge = envelope_edge(float((upper - lower).max()))
+    edge = envelope_edge(spacing, float((upper - lower).max()))
     dims = np.floor((upper - lower) / edge).astype(np.int64) + 3  # as CellGrid.of numbers them
     centre = (lower + upper) / 2.0
     codes, moments = [], []
@@ -105,7 +105,7 @@ def rough_facets_of_tiles(tiles, chunks, executor, offset, keep, lower, upper, c
     tile), the facets' planes from all their points, and what ``run.json`` says of them: the join angle, the points on the face, and
     how many points had a neighbour past their tile's halo (their planes may differ from
     the whole cloud's)."""
-    envelope = envelope_of_chunks(chunks, executor, offset, keep, lower, upper)
+    envelope = envelope_of_chunks(chunks, executor, offset, keep, lower, upper, context["spacing"])
     rough = RoughContext(envelope=envelope, **context)
     reading = None
     for part in executor.map(read_rough_task, tiles, rough):

@@ -259,7 +259,8 @@ def measure_outcrop(
                                                 errors=result.planes.standard_errors(),  # as measured: no tilt yet
                                                 spacing=detected_spacing(result.detection),
                                                 metres_per_unit=cloud_unit(crs, unit)["metres"],
-                                                vegetation=result.filtered.vegetation)  # fmt: skip
+                                                vegetation=result.filtered.vegetation,
+                                                grey=result.filtered.grey)  # fmt: skip
         rock = run.rock
         note_vegetation(result.filtered.vegetation, rock, cloud.source)
         note_voxel_planes(params.detector, cloud.source)

@@ -17,11 +17,11 @@ from geostructure.core.orientation import Frame
 from geostructure.core.planes import plane_rows
 from geostructure.errors import GeoStructureWarning
 from geostructure.evaluation.scoring import Evaluation, stage_evaluation
-from geostructure.io.atomic import write_table_csv
+from geostructure.io.atomic import write_table
 from geostructure.io.crs import note_unstated_unit, recorded_unit
 from geostructure.io.laz import add_point_sets
 from geostructure.io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
-from geostructure.io.results import read_planes, read_sets
+from geostructure.io.results import read_grey, read_planes, read_sets
 from geostructure.io.writers import rewrite_regions_ply, write_plane_tables, write_result
 from geostructure.reconstruct.georef import unscaled
 from geostructure.rockmass.mass import RockMass, with_rock_mass
@@ -170,7 +170,8 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
             note_unstated_unit(spacing, outdir)
         sets, rock = sets_and_rock_mass(points, labels, planes, frame, n_sets, lambda name: report(name, 0, None),
                                         spacing=spacing, metres_per_unit=recorded_unit(outputs.record)["metres"],
-                                        vegetation=vegetation)  # fmt: skip
+                                        vegetation=vegetation,
+                                        grey=read_grey(outputs.outdir) if cells is None else None)  # fmt: skip
         note_vegetation(vegetation, rock, outdir)
         note_voxel_planes((outputs.record.get("params") or {}).get("detector"), outdir)
         note_bent_face(rock.face_bend, outdir, rock.face_sections)
@@ -179,11 +180,15 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         planes = with_rock_mass(planes, sets, rock)
         staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
         metres = recorded_unit(outputs.record)["metres"]
-        for _, name, rows, columns in rock_mass_tables(planes, sets, rock, frame, metres):
-            write_table_csv(rows, outputs.path(name), columns=columns)
+        paths_of_traces = {}
+        for kind, name, rows, columns in rock_mass_tables(planes, sets, rock, frame, metres):
+            write_table(rows, outputs.path(name), columns=columns)
+            if kind.startswith("trace"):
+                paths_of_traces[kind] = outputs.final(name)
         outputs.record["sets"] = sets_record(sets, rock)
         paths = {"sets": outputs.final("sets.csv"), "spacing": outputs.final("spacing.csv")}
         paths["joints"] = outputs.final("joints.csv")
+        paths.update(paths_of_traces)
         paths["planes"] = outputs.final("planes.csv")
         paths["dips"] = outputs.final("planes_dips.csv")
         if "planes.gpkg" in staged:

@@ -21,6 +21,7 @@ from geostructure.rockmass.exposure import exposure
 from geostructure.rockmass.face import face_parts
 from geostructure.rockmass.mass import RockMass, rock_mass
 from geostructure.rockmass.sets import JointSets, find_sets
+from geostructure.rockmass.tracemaps import face_traces
 
 
 def plane_sets(
@@ -69,6 +70,7 @@ def plane_rock_mass(
     errors=None,
     metres_per_unit: float = 1.0,
     metric=None,
+    grey=None,
 ) -> RockMass:
     """Spacing, persistence and intensity of the sets of a plane table (:func:`~geostructure.rockmass.mass.rock_mass`).
 
@@ -97,6 +99,10 @@ def plane_rock_mass(
         lengths, areas and intensities are in metres, whatever the cloud's unit.
     metric : (N, 3) array, optional
         ``points`` in metres, when scaled already (the exposure's caller scales them once).
+    grey : (N,) array, optional
+        The points' brightness (:attr:`~geostructure.core.cloud.Cloud.grey`): the dark lines
+        among the traces (:func:`~geostructure.rockmass.tracemaps.face_traces`); the planes'
+        traces alone without it.
     """
     up = frame.matrix[2]
     if errors is None:
@@ -106,7 +112,19 @@ def plane_rock_mass(
                      parts=parts)  # fmt: skip
     rock.plane_errors = with_correlated_tilt(errors, rock.correlated_tilt, planes.normal, up)
     rock.metres_per_unit = float(metres_per_unit)
+    tested = ~(sets_left_out(planes, rock))
+    rock.traces = face_traces(points, labels, planes, sets, rock.point_part, grey, tested)
     return rock
+
+
+def sets_left_out(planes: Planes, rock: RockMass) -> np.ndarray:
+    """The planes that are no discontinuity: the ground, the clutter, the face's own surface."""
+    n = len(planes)
+    out = np.asarray(planes.extra.get("face_surface", np.zeros(n))) > 0
+    for flags in (rock.ground, rock.clutter):
+        if flags is not None:
+            out = out | np.asarray(flags, dtype=bool)
+    return out
 
 
 def sets_and_rock_mass(
@@ -121,6 +139,7 @@ def sets_and_rock_mass(
     spacing: float | None = None,
     metres_per_unit: float = 1.0,
     vegetation=None,
+    grey=None,
 ) -> tuple[JointSets, RockMass]:
     """:func:`plane_sets`, then :func:`plane_rock_mass` (``errors`` as it takes them); the
     exposure's grid, which needs the points alone, is made in a thread meanwhile (its
@@ -129,7 +148,8 @@ def sets_and_rock_mass(
     ``spacing``, the points' spacing as the facet detector read it (:func:`detected_spacing`),
     spares the exposure reading it again. ``metres_per_unit``: as :func:`plane_rock_mass`
     takes it. ``vegetation``: the points the input classifies so, clutter
-    (:func:`~geostructure.rockmass.face.face_parts`).
+    (:func:`~geostructure.rockmass.face.face_parts`). ``grey``: the points' brightness, for
+    the traces' dark lines.
 
     Examples
     --------
@@ -153,7 +173,7 @@ def sets_and_rock_mass(
         sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=leave_out)
         report("spacing and persistence")
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), parts=parts, errors=errors,
-                               metres_per_unit=f, metric=metric)  # fmt: skip
+                               metres_per_unit=f, metric=metric, grey=grey)  # fmt: skip
     return sets, rock
 
 

@@ -1,0 +1,104 @@
+"""Look at the traces on the real outcrop: the mapped traces beside the ones the default
+draws, each found trace coloured by whether it traces a mapped fracture, and the null
+model's segments scored the same way. Draws docs/figures/real_rock_traces.png and prints
+the figures of docs/rockmass.md ("Traces").
+
+    .venv/bin/python scripts/real_rock_traces.py [WORKDIR]
+
+Needs ``../shared/data/dice_lastoni_sw``. Runs ``geostructure measure CLOUD -o DIR --sets``
+(the default) and ``geostructure evaluate DIR --fractures ... --fracture-sets ...``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from geostructure.evaluation.tracescore import score_traces, trace_lines
+from geostructure.io.fieldmap import read_field_map, read_set_labels
+from geostructure.io.results import read_traces
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data" / "dice_lastoni_sw"
+CLOUD = DATA / "Lastoni_SW_3cm.txt"
+FIGURE = ROOT / "docs" / "figures" / "real_rock_traces.png"
+COMMAND = [sys.executable, "-m", "geostructure"]
+SET_COLOURS = {"1": "#1b9e77", "2": "#d95f02", "": "#7570b3"}
+
+
+def main() -> None:
+    work = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(tempfile.mkdtemp())
+    out = work / "default"
+    subprocess.run([*COMMAND, "measure", str(CLOUD), "-o", str(out), "--sets", "-q"], check=True)
+    subprocess.run([*COMMAND, "evaluate", str(out), "--fractures", str(DATA / "fit_planes.csv"), "--set-means",
+                    str(DATA / "set_means.csv"), "--fracture-sets", str(DATA / "set_labels.csv")], check=True)  # fmt: skip
+    scores = json.loads((out / "validation.json").read_text())["traces"]
+    points = np.loadtxt(CLOUD)
+    xyz, rgb = points[:, :3], points[:, 3:6] / 255.0
+    origin = xyz.mean(axis=0)
+    xyz = xyz - origin
+    tree = cKDTree(xyz)
+    mapped = read_field_map(DATA / "fit_planes.csv")
+    labels = read_set_labels(DATA / "set_labels.csv", len(mapped))
+    centres = mapped.centres - origin
+    lines = trace_lines(xyz, tree, centres, mapped.normals)
+    found, _ = read_traces(out)
+    found = [line - origin for line in found]
+    score = score_traces(found, centres, mapped.normals, mapped.radius, lines)
+    with open(out / "traces.csv", newline="") as fh:
+        source = [row["source"] for row in csv.DictReader(fh)]
+    draw(xyz, rgb, centres, mapped.radius, lines, labels, found, score, source, scores)
+    print(json.dumps(scores, indent=1))
+
+
+def draw(xyz, rgb, centres, radius, lines, labels, found, score, source, scores) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    # square-on: the face's own plane (its two largest axes)
+    axes = np.linalg.eigh(np.cov(xyz.T))[1]
+    u, v = axes[:, 2], axes[:, 1] if axes[2, 1] >= 0 else -axes[:, 1]
+    flat = lambda p: np.column_stack([p @ u, p @ v])  # noqa: E731
+    face = flat(xyz)
+    fig, panels = plt.subplots(1, 2, figsize=(18, 8.2), constrained_layout=True)
+    for ax in panels:
+        ax.scatter(face[:, 0], face[:, 1], c=rgb, s=1.2, lw=0)
+        ax.set_aspect("equal")
+        ax.set_xlabel("along the face (m)")
+        ax.set_ylabel("up the face (m)")
+    for c, r, t, label in zip(centres, radius, lines, labels):
+        ends = flat(np.stack([c - r * t, c + r * t]))
+        panels[0].plot(ends[:, 0], ends[:, 1], color=SET_COLOURS.get(label, SET_COLOURS[""]), lw=1.4)
+    panels[0].set_title(f"The map: {len(centres)} traces drawn by hand (DICE)")
+    panels[0].legend(handles=[Line2D([], [], color=SET_COLOURS[k], lw=2, label=f"set {k}" if k else "no set")
+                              for k in ("1", "2", "")], loc="lower right")  # fmt: skip
+    for line, useful, kind in zip(found, score.useful, source):
+        xy = flat(line)
+        panels[1].plot(xy[:, 0], xy[:, 1], color="#1f78b4" if useful else "#e31a1c", lw=1.6,
+                       ls="-" if kind == "dark line" else "--")  # fmt: skip
+    panels[1].set_title(
+        f"The default: {scores['found']} traces, {scores['traced']} mapped fractures traced, precision "
+        f"{scores['trace_precision']:.2f} (null model: {scores['null_traced']} at {scores['null_precision']:.2f})"
+    )
+    panels[1].legend(handles=[Line2D([], [], color="#1f78b4", lw=2, label="traces a mapped fracture"),
+                              Line2D([], [], color="#e31a1c", lw=2, label="traces none"),
+                              Line2D([], [], color="k", lw=2, label="dark line"),
+                              Line2D([], [], color="k", lw=2, ls="--", label="a plane's trace")],
+                     loc="lower right")  # fmt: skip
+    FIGURE.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(FIGURE, dpi=80)
+    print(f"wrote {FIGURE}")
+
+
+if __name__ == "__main__":
+    main()

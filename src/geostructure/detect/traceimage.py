@@ -1,0 +1,415 @@
+"""Dark lines on a patch of surface, as a geologist sees fracture traces on a photograph of it.
+
+A patch of the cloud is laid flat on its own mean plane and sampled as an image half a point
+spacing per pixel (:func:`patch_image`): each pixel the points' values around it, weighted by a
+Gaussian one spacing wide (normalised convolution, so that holes stay holes). A trace is a
+line darker than the rock either side of it: where the image's Hessian, at a scale of one
+spacing, has a large positive eigenvalue (the value curves up across the line), thinned to
+the pixels that are the strongest across it (non-maximum suppression, as Canny and Steger
+thin edges and lines), kept where a chain of them reaches a strong pixel (hysteresis). Each
+chain is followed along its longest path (:func:`pixel_chains`), and cut where it turns
+(:func:`straight_pieces`): a fracture's trace is straight over the lengths the rule scores.
+A piece is kept when it stands out of the patch's noise more than the lines drawn on the
+same patch with its values shuffled among its points do (:func:`noise_contrast`).
+
+Every length is in point spacings; the thresholds are robust z-scores of the patch's own
+ridge strengths. Nothing reads the patch's extent or where it lies.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components, dijkstra
+from scipy.spatial import cKDTree
+
+#: Pixels per point spacing: two, so that a line one spacing wide spans a pixel or two.
+PIXELS_PER_SPACING = 2.0
+#: The Hessian's scale (spacings): a trace on a 3 cm cloud is one or two points wide.
+RIDGE_SCALE = 1.0
+#: Robust z-scores of the ridge strength: a chain is kept where it reaches HIGH, followed
+#: while above LOW (hysteresis). On the Lastoni SW half LOW 0.5 joined more of each trace
+#: (69 mapped fractures traced, against 61 at 1.0) at the same precision (0.24, 0.26).
+HIGH_Z, LOW_Z = 2.0, 0.5
+#: Chains that turn by more than this (degrees) between straight pieces are cut there.
+BEND_DEG = 25.0
+#: A straight piece deviates from its chord by at most this many spacings.
+STRAIGHT_TOLERANCE = 1.5
+
+
+@dataclass(frozen=True)
+class PatchImage:
+    """A patch of surface as an image: ``value`` (H, W) with NaN where no point lies,
+    ``inside`` where the image is trusted (a scale's width away from its edges and holes), and
+    the plane it lies on (``origin``, in-plane axes ``u`` and ``v``, ``pixel`` size)."""
+
+    value: np.ndarray
+    inside: np.ndarray
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    lower: np.ndarray
+    pixel: float
+
+    def to_plane(self, pixels: np.ndarray) -> np.ndarray:
+        """Pixel coordinates (n, 2) to coordinates along ``u`` and ``v``."""
+        return pixels * self.pixel + self.lower
+
+
+def patch_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A patch's mean plane: its centroid and the principal axes (largest, second, normal)."""
+    centre = points.mean(axis=0)
+    centred = points - centre
+    _, vectors = np.linalg.eigh(np.cov(centred.T))
+    u, normal = vectors[:, 2], vectors[:, 0]
+    # Signs the patch itself fixes, not the axes it lies along (a turned or moved cloud gives
+    # the same image): each axis toward its projections' longer tail (third moment); then
+    # v completes a right-handed frame.
+    u = u if np.mean((centred @ u) ** 3) >= 0 else -u
+    normal = normal if np.mean((centred @ normal) ** 3) >= 0 else -normal
+    v = np.cross(normal, u)
+    return centre, u, v, normal
+
+
+def patch_image(points: np.ndarray, values: np.ndarray, spacing: float) -> PatchImage:
+    """The patch's values as an image on its mean plane (see the module)."""
+    centre, u, v, _ = patch_frame(points)
+    pixel = spacing / PIXELS_PER_SPACING
+    flat = np.column_stack([(points - centre) @ u, (points - centre) @ v])
+    lower = flat.min(axis=0)
+    ij = np.floor((flat - lower) / pixel).astype(np.int64)
+    shape = tuple(ij.max(axis=0) + 1)
+    total, count = np.zeros(shape), np.zeros(shape)
+    np.add.at(total, (ij[:, 0], ij[:, 1]), values)
+    np.add.at(count, (ij[:, 0], ij[:, 1]), 1.0)
+    sigma = PIXELS_PER_SPACING  # one spacing
+    total, count = ndimage.gaussian_filter(total, sigma), ndimage.gaussian_filter(count, sigma)
+    covered = count > 0.05 * np.median(count[count > 1e-6])
+    value = np.where(covered, total / np.maximum(count, 1e-12), np.nan)
+    margin = int(np.ceil(2 * RIDGE_SCALE * PIXELS_PER_SPACING))
+    inside = ndimage.binary_erosion(covered, iterations=margin) if margin else covered
+    return PatchImage(value, inside, centre, u, v, lower, pixel)
+
+
+def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray]:
+    """The dark-line strength of each pixel (the Hessian's larger eigenvalue, scale-normalised;
+    0 outside) and the angle across the line (radians, in pixel axes)."""
+    sigma = RIDGE_SCALE * PIXELS_PER_SPACING
+    filled = np.where(np.isfinite(image.value), image.value, np.nanmedian(image.value))
+    hxx = ndimage.gaussian_filter(filled, sigma, order=(2, 0))
+    hyy = ndimage.gaussian_filter(filled, sigma, order=(0, 2))
+    hxy = ndimage.gaussian_filter(filled, sigma, order=(1, 1))
+    half_gap = np.sqrt(((hxx - hyy) / 2) ** 2 + hxy**2)
+    strength = (hxx + hyy) / 2 + half_gap
+    across = 0.5 * np.arctan2(2 * hxy, hxx - hyy)
+    return np.where(image.inside, strength * sigma**2, 0.0), across
+
+
+def line_pixels(strength: np.ndarray, across: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """The thinned, hysteresis-kept pixels of the lines (see the module)."""
+    if np.count_nonzero(inside) < 16:
+        return np.zeros_like(inside)
+    z = robust_z(strength, inside)
+    rows, cols = np.meshgrid(np.arange(strength.shape[0]), np.arange(strength.shape[1]), indexing="ij")
+    dr, dc = np.cos(across), np.sin(across)
+    ahead = ndimage.map_coordinates(strength, [rows + dr, cols + dc], order=1, mode="nearest")
+    behind = ndimage.map_coordinates(strength, [rows - dr, cols - dc], order=1, mode="nearest")
+    thin = (strength >= ahead) & (strength >= behind) & inside & (z > LOW_Z)
+    labels, n = ndimage.label(thin, structure=np.ones((3, 3)))
+    strong = np.zeros(n + 1, dtype=bool)
+    strong[np.unique(labels[thin & (z > HIGH_Z)])] = True
+    strong[0] = False
+    return strong[labels]
+
+
+def pixel_chains(mask: np.ndarray, min_pixels: float) -> list[np.ndarray]:
+    """Paths through the 8-connected pixels of ``mask``: in each group, its longest path
+    (between the two pixels farthest apart along the group), then the longest of what is
+    left once that path and the pixels touching it are taken, while it spans ``min_pixels``.
+    Every group at once: one shortest-path pass from a pixel of each group, one from the
+    farthest pixel each reached (groups share no edge, so each pixel's nearest source is its
+    own group's)."""
+    where = np.argwhere(mask)
+    n = len(where)
+    if n < 2:
+        return []
+    lookup = -np.ones(mask.shape, dtype=np.int64)
+    lookup[where[:, 0], where[:, 1]] = np.arange(n)
+    rows, cols, weights = [], [], []
+    for dr, dc in ((1, 0), (0, 1), (1, 1), (1, -1)):
+        step = where + (dr, dc)
+        ok = (step[:, 0] < mask.shape[0]) & (step[:, 1] >= 0) & (step[:, 1] < mask.shape[1])
+        other = np.full(n, -1)
+        other[ok] = lookup[step[ok, 0], step[ok, 1]]
+        linked = other >= 0
+        rows.append(np.flatnonzero(linked))
+        cols.append(other[linked])
+        weights.append(np.full(int(linked.sum()), np.hypot(dr, dc)))
+    rows, cols, weights = np.concatenate(rows), np.concatenate(cols), np.concatenate(weights)
+    alive = np.ones(n, dtype=bool)
+    chains = []
+    while True:
+        keep = alive[rows] & alive[cols]
+        graph = coo_matrix((weights[keep], (rows[keep], cols[keep])), shape=(n, n)).tocsr()
+        graph = graph + graph.T
+        found = _longest_path_per_group(graph, alive, min_pixels)
+        if not found:
+            return chains
+        for path in found:
+            chains.append(where[path])
+            taken = np.zeros(n, dtype=bool)
+            taken[path] = True
+            # the path and the pixels touching it
+            touching = np.concatenate([cols[np.isin(rows, path)], rows[np.isin(cols, path)]])
+            alive[path] = False
+            alive[touching] = False
+
+
+def _longest_path_per_group(graph, alive: np.ndarray, min_pixels: float) -> list[np.ndarray]:
+    """Each group's longest path of the ``alive`` pixels (indices), where it spans ``min_pixels``."""
+    _, group = connected_components(graph, directed=False)
+    nodes = np.flatnonzero(alive)
+    if not len(nodes):
+        return []
+    size = np.bincount(group[nodes], minlength=group.max() + 1)
+    big = size * np.sqrt(2.0) >= min_pixels
+    nodes = nodes[big[group[nodes]]]
+    if not len(nodes):
+        return []
+    order = nodes[np.argsort(group[nodes], kind="stable")]
+    first = order[np.r_[True, group[order][1:] != group[order][:-1]]]
+    reach = dijkstra(graph, indices=first, directed=False, min_only=True)
+    start = _farthest(reach, group, order)
+    reach, before, _ = dijkstra(graph, indices=start, directed=False, min_only=True, return_predecessors=True)
+    end = _farthest(reach, group, order)
+    paths = []
+    for a, z in zip(start, end):
+        if reach[z] < min_pixels:
+            continue
+        path = [int(z)]
+        while path[-1] != a:
+            path.append(int(before[path[-1]]))
+        paths.append(np.asarray(path, dtype=np.int64))
+    return paths
+
+
+def _farthest(reach: np.ndarray, group: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """Per group (``order``: its alive pixels, grouped), the pixel farthest along ``reach``."""
+    value = np.where(np.isfinite(reach[order]), reach[order], -1.0)
+    cuts = np.flatnonzero(np.r_[True, group[order][1:] != group[order][:-1]])
+    best = []
+    for a, b in zip(cuts, np.r_[cuts[1:], len(order)]):
+        best.append(order[a + int(np.argmax(value[a:b]))])
+    return np.asarray(best, dtype=np.int64)
+
+
+def straight_pieces(chain: np.ndarray, tolerance: float, bend_deg: float = BEND_DEG) -> list[np.ndarray]:
+    """A chain of pixels (n, 2) cut into straight pieces: its Douglas-Peucker vertices at
+    ``tolerance`` pixels, cut where it turns by more than ``bend_deg``.
+
+    Examples
+    --------
+    >>> chain = np.array([[i, 0] for i in range(10)] + [[9, j] for j in range(1, 10)], dtype=float)
+    >>> [len(p) for p in straight_pieces(chain, 1.0)]
+    [10, 10]
+    """
+    chain = np.asarray(chain, dtype=np.float64)
+    keep = _simplified(chain, tolerance)
+    cuts = [0]
+    for i in range(1, len(keep) - 1):
+        a, b = chain[keep[i]] - chain[keep[i - 1]], chain[keep[i + 1]] - chain[keep[i]]
+        cosine = a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-12)
+        if np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))) > bend_deg:
+            cuts.append(i)
+    cuts.append(len(keep) - 1)
+    return [chain[keep[a] : keep[b] + 1] for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _simplified(points: np.ndarray, tolerance: float) -> list[int]:
+    """Douglas-Peucker: the indices of the vertices that keep the chain within ``tolerance``."""
+    keep, stack = {0, len(points) - 1}, [(0, len(points) - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        chord = points[b] - points[a]
+        length = np.linalg.norm(chord)
+        offsets = points[a + 1 : b] - points[a]
+        if length > 0:
+            distance = np.abs(chord[0] * offsets[:, 1] - chord[1] * offsets[:, 0]) / length
+        else:
+            distance = np.linalg.norm(offsets, axis=1)
+        k = int(np.argmax(distance))
+        if distance[k] > tolerance:
+            keep.add(a + 1 + k)
+            stack += [(a, a + 1 + k), (a + 1 + k, b)]
+    return sorted(keep)
+
+
+def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord: float) -> tuple:
+    """The dark lines of one patch as straight pieces, each an (n, 2) array of coordinates
+    along the patch's axes (:class:`PatchImage`), their contrasts (:func:`line_contrast`) and
+    the image they were found on: those that stand out more than the patch's shuffled grey
+    lets a line (:func:`noise_contrast`).
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        The patch's points.
+    values : (N,) array
+        What is dark along a trace (the points' grey).
+    spacing : float
+        The points' spacing.
+    min_chord : float
+        The shortest piece kept (spacings).
+    """
+    image = patch_image(points, values, spacing)
+    pieces, contrast = _lines(image, min_chord)
+    bar = noise_contrast(points, values, spacing, min_chord)
+    kept = [k for k, c in enumerate(contrast) if c > bar]
+    return [pieces[k] for k in kept], [contrast[k] for k in kept], image
+
+
+def _lines(image: PatchImage, min_chord: float) -> tuple[list, list]:
+    """Every line piece of an image, with its contrast (the module's steps)."""
+    strength, across = ridge_strength(image)
+    mask = line_pixels(strength, across, image.inside)
+    z = robust_z(strength, image.inside)
+    pieces, mean_z = [], []
+    for chain in pixel_chains(mask, JOIN_GAP * PIXELS_PER_SPACING):
+        for piece in straight_pieces(chain, STRAIGHT_TOLERANCE * PIXELS_PER_SPACING):
+            pieces.append(piece.astype(np.float64))
+            mean_z.append(float(z[piece[:, 0].astype(np.int64), piece[:, 1].astype(np.int64)].mean()))
+    lines, contrast = [], []
+    for line, line_z in zip(*joined_collinear(pieces, mean_z, JOIN_GAP * PIXELS_PER_SPACING)):
+        length = np.linalg.norm(line[-1] - line[0])
+        if length >= min_chord * PIXELS_PER_SPACING:
+            lines.append(image.to_plane(line))
+            contrast.append(float(line_z * np.sqrt(length / (2.0 * RIDGE_SCALE * PIXELS_PER_SPACING))))
+    return lines, contrast
+
+
+#: Straight pieces whose near ends lie this many spacings apart or less, running on one line
+#: (within :data:`JOIN_ANGLE_DEG` and :data:`STRAIGHT_TOLERANCE` of it), are one trace broken
+#: by noise, a crossing or a blurred stretch: a geologist draws it through.
+JOIN_GAP = 4.0
+JOIN_ANGLE_DEG = 10.0
+
+
+def joined_collinear(pieces: list, mean_z: list, gap: float) -> tuple[list, list]:
+    """Pieces (each (n, 2), pixels) joined end to end where they run on one line (see
+    :data:`JOIN_GAP`): each end joins the nearest end of another piece within ``gap`` whose
+    piece runs within :data:`JOIN_ANGLE_DEG` and :data:`STRAIGHT_TOLERANCE` of its own line,
+    when each is the other's nearest; each joined line with its pieces' length-weighted mean
+    z-score.
+
+    Examples
+    --------
+    >>> a = np.array([[0.0, 0], [10, 0]]); b = np.array([[13.0, 0.5], [30, 0.5]]); c = np.array([[0.0, 5], [0, 20]])
+    >>> lines, z = joined_collinear([a, b, c], [1.0, 3.0, 2.0], 4.0)
+    >>> [len(line) for line in lines], [round(v, 2) for v in z]
+    ([4, 2], [2.26, 2.0])
+    """
+    n = len(pieces)
+    if n < 2:
+        return [np.asarray(p, dtype=np.float64) for p in pieces], list(mean_z)
+    pieces = [np.asarray(p, dtype=np.float64) for p in pieces]
+    ends = np.array([p[k] for p in pieces for k in (0, -1)])  # end 2i: piece i's start, 2i + 1: its end
+    direction = np.array([p[-1] - p[0] for p in pieces])
+    length = np.linalg.norm(direction, axis=1)
+    unit = direction / np.maximum(length, 1e-12)[:, None]
+    tolerance = STRAIGHT_TOLERANCE * PIXELS_PER_SPACING
+    pairs = cKDTree(ends).query_pairs(gap, output_type="ndarray")
+    pairs = pairs[pairs[:, 0] // 2 != pairs[:, 1] // 2]
+    i, j = pairs[:, 0] // 2, pairs[:, 1] // 2
+    parallel = np.abs(np.einsum("ij,ij->i", unit[i], unit[j])) >= np.cos(np.radians(JOIN_ANGLE_DEG))
+    # each end within the tolerance of the other piece's line
+    cross = lambda d, e: np.abs(d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0])  # noqa: E731
+    aligned = (cross(unit[i], ends[pairs[:, 1]] - pieces_start(pieces, i)) <= tolerance) & (
+        cross(unit[j], ends[pairs[:, 0]] - pieces_start(pieces, j)) <= tolerance
+    )
+    pairs = pairs[parallel & aligned]
+    distance = np.linalg.norm(ends[pairs[:, 0]] - ends[pairs[:, 1]], axis=1)
+    partner = np.full(len(ends), -1)
+    for k in np.argsort(distance, kind="stable"):  # nearest first, each end once
+        e, f = pairs[k]
+        if partner[e] < 0 and partner[f] < 0:
+            partner[e], partner[f] = f, e
+    lines, z = [], []
+    used = np.zeros(n, dtype=bool)
+    for start in range(n):
+        if used[start] or (partner[2 * start] >= 0 and partner[2 * start + 1] >= 0):
+            continue  # a piece inside a run is reached from the run's first piece
+        lines_z = _follow(start, partner, pieces, mean_z, length, used)
+        lines.append(lines_z[0])
+        z.append(lines_z[1])
+    for start in np.flatnonzero(~used):  # closed loops of pieces: none on a line, but kept whole
+        lines_z = _follow(int(start), partner, pieces, mean_z, length, used)
+        lines.append(lines_z[0])
+        z.append(lines_z[1])
+    return lines, z
+
+
+def pieces_start(pieces: list, index: np.ndarray) -> np.ndarray:
+    return np.array([pieces[k][0] for k in index]).reshape(-1, 2)
+
+
+def _follow(start: int, partner: np.ndarray, pieces: list, mean_z: list, length: np.ndarray, used: np.ndarray):
+    """The run of joined pieces from ``start`` (an end of a run, or any piece of a loop)."""
+    # leave by the end that has a partner (or the end, for a piece alone)
+    forward = partner[2 * start + 1] >= 0 or partner[2 * start] < 0
+    parts, weights, zs = [], [], []
+    piece, out_end = start, (2 * start + 1 if forward else 2 * start)
+    while True:
+        used[piece] = True
+        line = pieces[piece] if out_end == 2 * piece + 1 else pieces[piece][::-1]
+        parts.append(line)
+        weights.append(length[piece])
+        zs.append(mean_z[piece] * length[piece])
+        nxt = partner[out_end]
+        if nxt < 0 or used[nxt // 2]:
+            break
+        piece = nxt // 2
+        out_end = 2 * piece + 1 if nxt == 2 * piece else 2 * piece
+    return np.vstack(parts), float(sum(zs) / max(sum(weights), 1e-12))
+
+
+#: The null that sets how much contrast a line needs: the patch's grey shuffled among its
+#: points (four seeded permutations: one alone moved its bar by 10%), its lines found the same way; a line is kept when it
+#: stands out more than this share of the null's lines (a contrario, as LSD keeps a segment
+#: that noise would give less than once). The cloud's own noise sets the bar, no constant:
+#: on the Lastoni SW half it came to a contrast of about 5.4.
+NULL_PERMUTATIONS = 4
+NULL_QUANTILE = 0.99
+
+
+def noise_contrast(points: np.ndarray, values: np.ndarray, spacing: float, min_chord: float) -> float:
+    """The contrast a line must pass on this patch: :data:`NULL_QUANTILE` of the contrasts of
+    the lines found on the patch's values shuffled among its points (:data:`NULL_PERMUTATIONS`
+    seeded permutations); 0 where the shuffles draw no line."""
+    rng = np.random.default_rng(0)
+    contrasts = []
+    for _ in range(NULL_PERMUTATIONS):
+        shuffled = values[rng.permutation(len(values))]
+        contrasts += _lines(patch_image(points, shuffled, spacing), min_chord)[1]
+    return float(np.quantile(contrasts, NULL_QUANTILE)) if contrasts else 0.0
+
+
+def robust_z(strength: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """The ridge strength as robust z-scores of the patch's own (median, 1.4826 MAD)."""
+    values = strength[inside]
+    median = np.median(values) if values.size else 0.0
+    spread = 1.4826 * np.median(np.abs(values - median)) if values.size else 0.0
+    return (strength - median) / spread if spread > 0 else np.zeros_like(strength)
+
+
+def line_contrast(z: np.ndarray, piece: np.ndarray, length: float) -> float:
+    """How far a line stands out of the patch's noise: its pixels' mean z-score times the
+    root of the independent samples along it (one per two ridge scales), as a line's mean
+    of that many noisy samples would. On the Lastoni SW half the dark lines of 6 or more
+    traced mapped fractures at a precision of 0.40, all of them at 0.24."""
+    along = z[piece[:, 0].astype(np.int64), piece[:, 1].astype(np.int64)]
+    return float(along.mean() * np.sqrt(length / (2.0 * RIDGE_SCALE * PIXELS_PER_SPACING)))

@@ -1,0 +1,138 @@
+"""The face's fracture traces (:mod:`geostructure.detect.traces`) as a rock mass reads them:
+found on the face's points, each in its set, and per set their count, total length, median
+chord and areal intensity P21 (trace length per exposed area, ISRM 1978; Dershowitz & Herda
+1992), beside the planes' own.
+
+The traces carry the fractures that show no face of their own, which the planes miss: on the
+DICE Lastoni SW half most mapped fractures are such (docs/rockmass.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from geostructure.core.orientation import orientation_from_normals
+from geostructure.detect.traces import DARK_LINE, Traces, find_traces
+from geostructure.rockmass.face import FACE
+
+#: The columns ``sets.csv`` adds per set from the traces.
+TRACE_SET_COLUMNS = ("traces", "trace_length_sum_m", "trace_chord_median_m", "trace_p21_per_m")
+#: The columns of ``traces.csv`` (one row a trace) and ``trace_vertices.csv`` (one row a vertex).
+TRACE_COLUMNS = ("trace_id", "set", "source", "region_id", "length_m", "chord_m", "n_vertices", "n_points",
+                 "contrast", "dip", "dip_direction", "strike", "centre_x", "centre_y", "centre_z")  # fmt: skip
+VERTEX_COLUMNS = ("trace_id", "vertex", "x", "y", "z")
+#: A dark line over the ground or the clutter for more than this share of its length is theirs,
+#: not the rock's.
+OFF_FACE_SHARE = 0.5
+
+
+def face_traces(points, labels, planes, sets, point_part=None, grey=None, tested=None) -> Traces:
+    """The traces of a measured face (:func:`~geostructure.detect.traces.find_traces`):
+    the planes' traces of the discontinuities (``tested``: not ground, clutter or the face's
+    own surface), the dark lines where the points have a ``grey``, each in a set of
+    ``sets`` (:class:`~geostructure.rockmass.sets.JointSets`). ``point_part`` (the face's
+    parts, :func:`~geostructure.rockmass.face.face_parts`) drops the dark lines drawn on the
+    ground and the clutter.
+
+    Examples
+    --------
+    >>> from geostructure import measure
+    >>> from geostructure.workflows.sets import plane_sets
+    >>> from geostructure.synthetic import outcrop_scene
+    >>> result = measure(outcrop_scene(width=6.0, height=4.0, seed=1).cloud)
+    >>> traces = face_traces(result.filtered.local, result.labels, result.planes, plane_sets(result.planes))
+    >>> len(traces) > 10, set(traces.source) == {"plane"}
+    (True, True)
+    """
+    traces = find_traces(points, None, grey=grey, labels=labels, plane_normals=planes.normal, tested=tested,
+                         plane_sets=sets.labels, set_normals=sets.mean_normal)  # fmt: skip
+    if point_part is None or not len(traces):
+        return traces
+    tree = cKDTree(points)
+    keep = np.ones(len(traces), dtype=bool)
+    for k, line in enumerate(traces.polylines()):
+        if traces.source[k] == DARK_LINE:
+            _, nearest = tree.query(line)
+            keep[k] = np.mean(point_part[nearest] != FACE) <= OFF_FACE_SHARE
+    return traces if keep.all() else traces.subset(keep)
+
+
+def trace_set_rows(traces: Traces | None, n_sets: int, exposure_area_m2: float, metres: float = 1.0) -> list[dict]:
+    """Per set, the traces' columns of ``sets.csv`` (:data:`TRACE_SET_COLUMNS`), in metres.
+
+    Examples
+    --------
+    >>> t = Traces.from_polylines([np.array([[0.0, 0, 0], [1.0, 0, 0]]), np.array([[0.0, 1, 0], [3.0, 1, 0]])],
+    ...                           ["plane", "dark line"], [0, -1])
+    >>> t.set = np.array([0, 0])
+    >>> trace_set_rows(t, 1, 4.0)
+    [{'traces': 2, 'trace_length_sum_m': 4.0, 'trace_chord_median_m': 2.0, 'trace_p21_per_m': 1.0}]
+    """
+    rows = []
+    for s in range(n_sets):
+        mine = np.zeros(0, dtype=bool) if traces is None else traces.set == s
+        length = traces.length[mine] * metres if traces is not None else np.zeros(0)
+        chord = traces.chord[mine] * metres if traces is not None else np.zeros(0)
+        rows.append({
+            "traces": int(mine.sum()),
+            "trace_length_sum_m": float(length.sum()),
+            "trace_chord_median_m": float(np.median(chord)) if len(chord) else float("nan"),
+            "trace_p21_per_m": float(length.sum() / exposure_area_m2) if exposure_area_m2 > 0 else float("nan"),
+        })  # fmt: skip
+    return rows
+
+
+def trace_rows(traces: Traces, frame, offset, metres: float = 1.0) -> list[dict]:
+    """``traces.csv``'s rows: per trace its set (blank: none), where it comes from, its plane's
+    ``region_id`` (blank for a dark line), length and chord in metres, its vertices and the
+    points along it, a dark line's contrast (:func:`~geostructure.detect.traceimage.line_contrast`),
+    the plane fitted to it (dip, dip direction and strike; blank where it
+    defines none) and its middle vertex in the cloud's coordinates.
+
+    Examples
+    --------
+    >>> from geostructure.core.orientation import Frame
+    >>> t = Traces.from_polylines([np.array([[0.0, 0, 0], [0.5, 0, 0], [1.0, 0, 0.0]])], ["dark line"], [-1])
+    >>> row = trace_rows(t, Frame(), np.array([100.0, 0, 0]))[0]
+    >>> row["set"], row["length_m"], row["dip"], row["centre_x"]
+    ('', 1.0, '', 100.5)
+    """
+    fitted = np.isfinite(traces.normal[:, 0]) if len(traces) else np.zeros(0, dtype=bool)
+    orientation = orientation_from_normals(np.where(fitted[:, None], traces.normal, [0.0, 0.0, 1.0]), frame)
+    middle = traces.vertices[(traces.start[:-1] + traces.start[1:] - 1) // 2] + np.asarray(offset)
+    length, chord = traces.length * metres, traces.chord * metres
+    rows = []
+    for k in range(len(traces)):
+        rows.append({
+            "trace_id": k,
+            "set": int(traces.set[k]) if traces.set[k] >= 0 else "",
+            "source": str(traces.source[k]),
+            "region_id": int(traces.region_id[k]) if traces.region_id[k] >= 0 else "",
+            "length_m": float(length[k]),
+            "chord_m": float(chord[k]),
+            "n_vertices": int(traces.start[k + 1] - traces.start[k]),
+            "n_points": int(traces.n_points[k]),
+            "contrast": float(traces.contrast[k]) if np.isfinite(traces.contrast[k]) else "",
+            **({"dip": float(orientation.dip[k]), "dip_direction": float(orientation.dip_direction[k]),
+                "strike": float(orientation.strike[k])} if fitted[k] else {"dip": "", "dip_direction": "",
+                                                                            "strike": ""}),
+            "centre_x": float(middle[k, 0]),
+            "centre_y": float(middle[k, 1]),
+            "centre_z": float(middle[k, 2]),
+        })  # fmt: skip
+    return rows
+
+
+def vertex_columns(traces: Traces, offset) -> dict:
+    """``trace_vertices.csv`` as columns: each trace's vertices in order along it, in the
+    cloud's coordinates."""
+    counts = np.diff(traces.start)
+    xyz = traces.vertices + np.asarray(offset)
+    return {
+        "trace_id": np.repeat(np.arange(len(traces)), counts),
+        "vertex": np.concatenate([np.arange(c) for c in counts]) if len(counts) else np.zeros(0, dtype=np.int64),
+        "x": xyz[:, 0],
+        "y": xyz[:, 1],
+        "z": xyz[:, 2],
+    }

@@ -1,0 +1,142 @@
+"""Fracture traces (detect/traces, detect/traceimage): dark lines of known place and direction
+drawn on a rough face, found again; the same traces when the face is moved, turned about the
+vertical or measured among copies of itself; a plane's trace along the line it cuts."""
+
+import numpy as np
+import pytest
+
+from geostructure.detect.traceimage import straight_pieces
+from geostructure.detect.traces import DARK_LINE, PLANE, Traces, find_traces, trace_planes, trace_sets
+
+SPACING = 0.02
+
+
+def face_with_lines(seed=0, size=(4.0, 2.6)):
+    """A rough, gently folded face of points about 1 cm apart (4 by 2.6 m: its own axes are
+    well defined), with three dark lines 2.4 cm wide, two of them crossing: their ends
+    (x, y), the points and their grey."""
+    rng = np.random.default_rng(seed)
+    n = int(size[0] * size[1] / SPACING**2)
+    xy = rng.uniform(0.0, 1.0, (n, 2)) * size
+    z = 0.003 * rng.standard_normal(n) + 0.05 * np.sin(xy[:, 0] * 2.0)
+    lines = [((0.3, 0.5), (3.2, 1.1)), ((0.5, 2.3), (3.4, 1.8)), ((1.5, 0.3), (1.7, 1.5))]
+    grey = 0.6 + 0.05 * rng.standard_normal(n)
+    for a, b in lines:
+        a, b = np.asarray(a), np.asarray(b)
+        d = (b - a) / np.linalg.norm(b - a)
+        t = (xy - a) @ d
+        off = np.abs((xy - a) @ np.array([-d[1], d[0]]))
+        grey[(off < 0.012) & (t > 0) & (t < np.linalg.norm(b - a))] -= 0.25
+    return np.column_stack([xy, z]), grey, lines
+
+
+def recovered(traces: Traces, lines, offset=np.zeros(3)):
+    """Per drawn line, the found dark traces along it (within 3 cm and 5 degrees): their
+    summed chord over the line's length."""
+    shares = []
+    for a, b in lines:
+        a, b = np.asarray(a), np.asarray(b)
+        d = (b - a) / np.linalg.norm(b - a)
+        total = 0.0
+        for k, line in enumerate(traces.polylines()):
+            xy = (line - offset)[:, :2]
+            off = np.abs((xy - a) @ np.array([-d[1], d[0]]))
+            direction = traces.direction[k][:2] / np.linalg.norm(traces.direction[k][:2])
+            if off.max() < 0.03 and abs(direction @ d) > np.cos(np.radians(5.0)):
+                total += traces.chord[k]
+        shares.append(total / np.linalg.norm(b - a))
+    return np.array(shares)
+
+
+def test_dark_lines_drawn_on_a_rough_face_are_found_end_to_end():
+    points, grey, lines = face_with_lines()
+    traces = find_traces(points, grey=grey)
+    assert set(traces.source) == {DARK_LINE}
+    found = recovered(traces, lines)
+    # each line found along most of its length (the one crossed by another loses the crossing)
+    assert (found > 0.75).all() and (found < 1.05).all(), found
+    # nothing else of note: the rock's own noise gives no line as long as a drawn one
+    longest_stray = max(
+        (traces.chord[k] for k in range(len(traces)) if not _on_a_line(traces.polylines()[k], lines)), default=0.0
+    )
+    assert longest_stray < 0.3, longest_stray
+
+
+def _on_a_line(line, lines):
+    for a, b in lines:
+        a, b = np.asarray(a), np.asarray(b)
+        d = (b - a) / np.linalg.norm(b - a)
+        if np.abs((line[:, :2] - a) @ np.array([-d[1], d[0]])).max() < 0.05:
+            return True
+    return False
+
+
+def test_no_colour_no_dark_lines_and_uniform_grey_draws_nothing():
+    points, grey, _ = face_with_lines()
+    assert len(find_traces(points)) == 0
+    flat = 0.6 + 0.05 * np.random.default_rng(3).standard_normal(len(points))
+    assert find_traces(points, grey=flat).chord.max(initial=0.0) < 0.3
+
+
+@pytest.mark.parametrize("turn", [37.0])
+def test_the_same_traces_when_the_face_is_moved_and_turned_about_the_vertical(turn):
+    points, grey, lines = face_with_lines(seed=1)
+    base = find_traces(points, grey=grey)
+    t = np.radians(turn)
+    rotation = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1.0]])
+    shift = np.array([312.5, -48.25, 1200.0])
+    moved = find_traces(points @ rotation.T + shift, grey=grey)
+    assert abs(len(moved) - len(base)) <= max(1, len(base) // 20)
+    assert moved.length.sum() == pytest.approx(base.length.sum(), rel=0.03)
+    back = Traces.from_polylines([(line - shift) @ rotation for line in moved.polylines()], list(moved.source),
+                                 list(moved.region_id))  # fmt: skip
+    assert np.allclose(recovered(back, lines), recovered(base, lines), atol=0.05)
+
+
+def test_the_same_traces_inside_a_survey_of_copies():
+    points, grey, lines = face_with_lines(seed=2)
+    alone = find_traces(points, grey=grey)
+    copies = [points + [dx, dy, 0.0] for dx, dy in ((0.0, 0.0), (5.0, 0.0), (0.0, 3.6))]  # 1 m apart
+    survey = find_traces(np.vstack(copies), grey=np.tile(grey, len(copies)))
+    mine = [k for k, line in enumerate(survey.polylines()) if (line[:, 0] < 4.5).all() and (line[:, 1] < 3.1).all()]
+    assert len(mine) == len(alone)
+    assert survey.length[mine].sum() == pytest.approx(alone.length.sum(), rel=1e-6)
+
+
+def test_a_planes_trace_runs_where_its_plane_cuts_the_surface():
+    # A level rough face and one facet cut into it: a plane dipping 60 degrees toward the
+    # east, its points along a strip. Its trace runs north-south (its strike), across the strip.
+    rng = np.random.default_rng(4)
+    xy = rng.uniform(0, 3, (22000, 2))
+    points = np.column_stack([xy, 0.002 * rng.standard_normal(len(xy))])
+    labels = np.full(len(points), -1)
+    facet = (np.abs(xy[:, 0] - 1.5) < 0.1) & (np.abs(xy[:, 1] - 1.5) < 0.6)
+    labels[facet] = 0
+    normal = np.array([np.sin(np.radians(60)), 0.0, np.cos(np.radians(60))])
+    traces = find_traces(points, labels=labels, plane_normals=normal[None], plane_sets=np.array([3]))
+    assert len(traces) == 1 and traces.source[0] == PLANE and traces.set[0] == 3
+    assert abs(traces.direction[0] @ [0.0, 1.0, 0.0]) > np.cos(np.radians(2.0))
+    assert traces.chord[0] == pytest.approx(1.2, abs=0.08)
+    assert np.allclose(traces.normal[0], normal)
+    # a plane lying along the surface is the surface itself: no trace
+    assert len(find_traces(points, labels=labels, plane_normals=np.array([[0.0, 0.05, 1.0]]))) == 0
+
+
+def test_trace_sets_and_planes():
+    # a trace along x lies in a vertical set striking x (normal y) and in no set of normal x
+    assert trace_sets(np.array([[1.0, 0, 0]]), np.array([[1.0, 0, 0], [0, 1.0, 0]])).tolist() == [1]
+    assert trace_sets(np.array([[1.0, 0, 0]]), np.array([[1.0, 0, 0]])).tolist() == [-1]
+    # a trace that bends over a ridge defines its plane; a straight one does not
+    t = np.linspace(-1, 1, 21)
+    bent = np.column_stack([t, np.zeros_like(t), 0.3 * (1 - t**2)])
+    straight = np.column_stack([t, np.zeros_like(t), np.zeros_like(t)])
+    traces = Traces.from_polylines([bent, straight], [DARK_LINE] * 2, [-1, -1])
+    normals = trace_planes(traces, np.array([[0, 0, 1.0], [0, 0, 1.0]]), 0.02)
+    assert abs(normals[0] @ [0, 1.0, 0]) == pytest.approx(1.0, abs=1e-6)
+    assert np.isnan(normals[1]).all()
+
+
+def test_a_chain_is_cut_where_it_turns():
+    chain = np.array([[i, 0] for i in range(20)] + [[19 + i, i] for i in range(1, 20)], dtype=float)
+    pieces = straight_pieces(chain, 1.0)
+    assert [len(p) for p in pieces] == [20, 20]
