@@ -415,6 +415,10 @@ def test_the_outputs_of_measure_sets_and_of_the_sets_command(tmp_path, capsys):
     assert np.array_equal(joint, [joint_of.get(r, -1) for r in region.tolist()]) and (joint >= 0).mean() > 0.5
     dips = read("planes_dips.csv")  # Dips' extra column: blank for a plane in no joint
     assert [d["Joint"] for d in dips] == ["" if int(p["joint"]) < 0 else p["joint"] for p in planes]
+    # no joint reads as one in no set: each plane says what it is (issue 52)
+    flags = [(int(p["ground"]), int(p["clutter"]), int(p.get("face_surface") or 0)) for p in planes]
+    expected = ["ground" if g else "clutter" if c else "face surface" if f else "discontinuity" for g, c, f in flags]
+    assert [d["Kind"] for d in dips] == expected
     assert [sum(int(j["set"]) == int(r["set"]) for j in joints) for r in sets] == [int(r["n_joints"]) for r in sets]
     for j in joints[:5]:
         members = [p for p in in_sets if p["joint"] == j["joint"]]

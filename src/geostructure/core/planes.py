@@ -282,7 +282,9 @@ class Planes:
             rect_height=stacked("height"),
             fit_residual=stacked("residual"),
             n_voxels=n_voxels,
-            normal_scatter_deg=scatter,
+            # the voxels' normals' spread: a facet grown on points has none to read (blank,
+            # not 0: 0 would say "perfectly smooth")
+            normal_scatter_deg=np.where(np.asarray(n_voxels) > 0, np.asarray(scatter, dtype=np.float64), np.nan),
             normal_uncertainty_deg=uncertainty["normal"],
             dip_uncertainty_deg=uncertainty["dip"],
             dip_direction_uncertainty_deg=uncertainty["dip_direction"],

@@ -13,12 +13,38 @@ from geostructure.io.atomic import write_table_csv
 DIPS_COLUMNS = ("Dip Direction", "Dip", "X (East)", "Y (North)", "Z (Elev.)", "Region", "Points")
 
 
+#: What a plane is when it is no discontinuity, by the plane table's flag column, in the
+#: order a plane is named by (a plane flagged twice takes the first).
+KINDS = {"ground": "ground", "clutter": "clutter", "face_surface": "face surface"}
+
+
+def plane_kinds(planes) -> list[str]:
+    """Each plane's ``Kind`` in ``planes_dips.csv``: ``ground``, ``clutter`` (vegetation,
+    debris) or ``face surface`` (the face's own surface on rough rock), else ``discontinuity``.
+
+    Examples
+    --------
+    >>> from geostructure.core.planes import Planes
+    >>> planes = Planes(normal=[[0, 0, 1.0]] * 3).with_columns(clutter=[0, 1, 0], face_surface=[0, 0, 1])
+    >>> plane_kinds(planes)
+    ['discontinuity', 'clutter', 'face surface']
+    """
+    kinds = ["discontinuity"] * len(planes)
+    for flag, word in reversed(list(KINDS.items())):
+        marked = np.asarray(planes.extra.get(flag, np.zeros(len(planes))), dtype=np.float64) > 0
+        for i in np.flatnonzero(marked):
+            kinds[i] = word
+    return kinds
+
+
 def write_dips_csv(planes, path, rotation=None) -> Path:
     """``planes_dips.csv``, for Rocscience Dips and Allmendinger's Stereonet.
 
     Dip Direction and Dip first (the orientation pair, as field notebooks write it), then
     ``Set`` when the planes have sets, then Dips' location columns and, as extra columns, the region id, its point count and, with
-    the rock mass, its joint (``joints.csv``'s number, blank for a plane in no set). Dips
+    the rock mass, its joint (``joints.csv``'s number, blank for a plane in no set) and its
+    ``Kind`` (:func:`plane_kinds`: a Dips filter keeps the discontinuities, where the ground,
+    the clutter and the face's own surface would read as poles in no set). Dips
     numbers its sets from 1 and leaves a pole in no set blank: ``Set`` is the run's set
     number plus one (set 0 of ``sets.csv`` is Set 1 here), empty for a plane in no set.
 
@@ -53,5 +79,7 @@ def write_dips_csv(planes, path, rotation=None) -> Path:
     values["Points"] = planes.n_points.tolist()
     if "joint" in planes.extra:  # the discontinuity it is a facet of (joints.csv), blank for none
         values["Joint"] = ["" if j < 0 else str(j) for j in planes.extra["joint"].astype(int).tolist()]
+    if any(k in planes.extra for k in KINDS):  # a column Dips filters on: no joint looks like one in no set
+        values["Kind"] = plane_kinds(planes)
     rows = [dict(zip(values, row)) for row in zip(*values.values())]
     return write_table_csv(rows, path, columns=list(values))
