@@ -90,13 +90,7 @@ def read_field_map(path, *, located: bool = True) -> FieldMap:
     ([70.0, 80.0], ['A', ''])
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such field map file.")
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = [row for row in read_rows(fh) if any(cell.strip() for cell in row)]
-    except (UnicodeDecodeError, ValueError):
-        raise InputError(f"{path}: not a field map (not a UTF-8 text table).") from None
+    rows = _table(path, "field map")
     if len(rows) < 2:
         raise InputError(f"{path}: the field map has no rows under its header.")
     if len(rows) - 1 > MAX_ROWS:
@@ -149,6 +143,17 @@ def read_field_map(path, *, located: bool = True) -> FieldMap:
     return FieldMap(numbers[:, :3], numbers[:, 3], numbers[:, 4] % 360.0, labels, radius, normals)
 
 
+def _table(path: Path, what: str) -> list[list[str]]:
+    """A user's CSV's non-empty rows, or one sentence naming the file and ``what`` it should be."""
+    if not path.is_file():
+        raise InputError(f"{path}: no such {what} file.")
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            return [row for row in read_rows(fh) if any(cell.strip() for cell in row)]
+    except (UnicodeDecodeError, ValueError):
+        raise InputError(f"{path}: not a {what} (not a UTF-8 text table).") from None
+
+
 def _optional_columns(path, header: list[str], rows: list) -> dict[str, np.ndarray]:
     """The :data:`OPTIONAL` columns the header has, as numbers (a bad cell refused)."""
     out = {}
@@ -180,13 +185,7 @@ def read_set_labels(path, n: int) -> list[str]:
     ['1', '']
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such file of set labels.")
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = [row for row in read_rows(fh) if any(cell.strip() for cell in row)]
-    except (UnicodeDecodeError, ValueError):
-        raise InputError(f"{path}: not a table of set labels (not a UTF-8 text table).") from None
+    rows = _table(path, "table of set labels")
     header = [cell.strip().lower() for cell in rows[0]] if rows else []
     found = [i for i, name in enumerate(header) if name in NAMES["set"]]
     if not found:
