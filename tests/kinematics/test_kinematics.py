@@ -348,6 +348,13 @@ def test_the_kinematics_command(outcrop_folder, capsys):
     assert "Kinematics: slope 65/180 (given), friction 35°" in modes and modes.count("<tr>") == 4
     per_set = html.split('<table id="kinematic-sets">')[1].split("</table>")[0]
     assert per_set.count("<tr>") == 1 + len(summary["sets"]) and "critical" in per_set
+    # the terminal's verdicts, word for word, under the report's tables (issue 52)
+    from html import escape
+
+    from geostructure.report.words import kinematic_verdicts, set_mean_wedge_lines
+
+    for line in kinematic_verdicts(summary) + set_mean_wedge_lines(summary):
+        assert f'<p class="verdict">{escape(line)}</p>' in html, line
     assert main(["kinematics", str(out), "--friction", "40", "--slope", "65/180", "-q"]) == 0
     assert "friction 40" in (out / "report.html").read_text()  # a report there is drawn again
     # A slope fitted no steeper than the friction angle (a terrain's, a floor's) says that

@@ -15,11 +15,14 @@ from geostructure.report.words import (
     azimuth,
     counted,
     failure_mode_cells,
+    kinematic_verdicts,
+    left_out_phrase,
     section_cells,
     set_kinematic_cells,
-    set_mean_wedge_line,
+    set_mean_wedge_lines,
     shown,
     slope_text,
+    traces_per_set,
 )
 from geostructure.rockmass.notes import block_phrase, jv_phrase, off_face_scope, rqd_phrase, set_notes, trace_cell
 from geostructure.rockmass.rqd import block_size_class, rqd_from_jv, rqd_range
@@ -172,11 +175,7 @@ def traces_line(traces, rows: list[dict]) -> str:
     dark = int(np.sum(traces.source == "dark line"))
     planes = len(traces) - dark
     kinds = f"{counted(dark, 'dark line')}, {planes:,} " + ("plane's trace" if planes == 1 else "planes' traces")
-    per_set = "; ".join(
-        f"set {s}: {row['traces']:,}, P21 {row['trace_p21_per_m']:.2f} /m, median chord {row['trace_chord_median_m']:.2f} m"
-        for s, row in enumerate(rows)
-        if row.get("traces")
-    )
+    per_set = traces_per_set(rows)
     return f"Traces: {len(traces):,} drawn ({kinds})" + (f"; {per_set}." if per_set else ".")
 
 
@@ -196,36 +195,8 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
     for key, name in FAILURE_MODES:
         table.add_row(name, *failure_mode_cells(summary, key))
     console.print(table)
-    planar, strength = summary["planar_sliding"], summary.get("strength", {})
-    if planar["planes"]:
-        basis = (
-            f"cohesion {strength['cohesion_kpa']:g} kPa, unit weight {strength['unit_weight_kn_m3']:g} kN/m³, "
-            f"height {strength['height_m']:.1f} m ({strength['height_source']})"
-            if strength.get("cohesion_kpa")
-            else "dry, frictional"
-        )
-        console.print(planar_fs_line(planar, basis))
-    wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
-    of_joints = (
-        f"; of the joints' planes, {wedge['critical_joint_pairs']:,} of {wedge['joint_pairs_tested']:,}"
-        if wedge.get("joint_pairs_tested")  # none without joints: nothing to say of them
-        else ""
-    )
-    console.print(
-        f"Wedges: {counted(wedge['critical_pairs'], 'critical pair')} of {wedge['pairs_tested']:,} tested{of_joints}."
-    )
-    console.print(
-        f"Direct toppling: {counted(direct['intersections_in_zone'], 'intersection')} in the zone, "
-        f"{counted(direct['base_planes'], 'base plane')} ({direct['sliding_base_planes']:,} steeper than friction): "
-        + ("critical." if direct["critical"] else "not critical.")
-    )
-    oblique = direct.get("oblique")
-    if oblique and oblique["intersections_in_zone"]:
-        console.print(
-            f"Oblique toppling (Dips' secondary zone): {counted(oblique['intersections_in_zone'], 'intersection')}, "
-            f"{counted(oblique['base_planes'], 'oblique base plane')}: "
-            + ("critical." if oblique["critical"] else "not critical.")
-        )
+    for line in kinematic_verdicts(summary):
+        console.print(line)
     if summary.get("sections"):
         table = Table(title="Sections, from left to right as one faces the rock: each plane against its own")
         for column in SECTION_COLUMNS:
@@ -235,45 +206,8 @@ def print_kinematics(summary: dict, console: Console | None = None) -> None:
         console.print(table)
     if summary.get("sets"):
         print_set_kinematics(summary["sets"], console, sectioned=bool(summary.get("sections")))
-    for wedge in summary.get("set_mean_wedges", []):
-        console.print(set_mean_wedge_line(wedge))
-
-
-#: What each left-out reason of the kinematic tests reads as.
-LEFT_OUT_WORDS = {"ground": "on the ground", "clutter": "in clutter (vegetation, debris)",
-                  "face_surface": "of the face's own surface"}  # fmt: skip
-
-
-def left_out_phrase(left_out: dict) -> str:
-    """The planes the kinematic tests left out, in words.
-
-    Examples
-    --------
-    >>> print(left_out_phrase({"clutter": 52, "face_surface": 33}))
-    left out: 52 in clutter (vegetation, debris), 33 of the face's own surface
-    """
-    return "left out: " + ", ".join(f"{count:,} {LEFT_OUT_WORDS.get(why, why)}" for why, count in left_out.items())
-
-
-def planar_fs_line(planar: dict, basis: str) -> str:
-    """The planar factors of safety's sentence: from planes large enough to carry it.
-
-    Examples
-    --------
-    >>> print(planar_fs_line({"min_fs": 0.8, "median_fs": 0.9, "headline_min_points": 100, "headline_planes": 3,
-    ...                       "planes": 5, "min_fs_any_size": 0.2}, "dry, frictional"))
-    Planar FS (dry, frictional): 0.80 at least, 0.90 median, on the 3 critical planes of 100 points or more (2 smaller, down to 0.20).
-    """
-    fewest, large = planar.get("headline_min_points", 0), planar.get("headline_planes", planar["planes"])
-    if not fewest:
-        return f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median."
-    smaller = planar["planes"] - large
-    rest = f" ({smaller:,} smaller, down to {planar['min_fs_any_size']:.2f})" if smaller else ""
-    if not large:
-        return (f"Planar FS ({basis}): no critical plane holds {fewest} points or more; "
-                f"{smaller:,} smaller, down to {planar['min_fs_any_size']:.2f}.")  # fmt: skip
-    return (f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median, on the "
-            f"{counted(large, 'critical plane')} of {fewest} points or more{rest}.")  # fmt: skip
+    for line in set_mean_wedge_lines(summary):
+        console.print(line)
 
 
 #: The failure modes of a kinematics summary (``kinematics.json``), in table order.

@@ -34,6 +34,7 @@ from geostructure.report.scene import MAX_DISPLAY_POINTS, ReportScene, load_scen
 from geostructure.report.spacing_plot import figure_spacing
 from geostructure.report.stereonet import MIN_CONTOUR_POLES
 from geostructure.report.view3d import figure_3d, figure_json, hover_text, panel_title, plane_colors, set_color
+from geostructure.report.words import traces_per_set
 from geostructure.rockmass.notes import (
     bent_face,
     block_phrase,
@@ -420,6 +421,9 @@ def set_table(scene: ReportScene) -> str:
                 bound=block is None or not np.isfinite(block),
             )
     notes = [note for row in scene.sets for note in set_notes(int(row["set"]), row)] if measured else []
+    per_set = traces_per_set(scene.sets) if scene.traces else ""
+    if scene.traces:  # the fracture traces (traces.csv), as the terminal gives them
+        notes.append(f"Traces: {len(scene.traces):,} drawn (traces.csv)" + (f"; {per_set}." if per_set else "."))
     notes = "".join(
         f'<p class="note">{_escape(n)}</p>'
         for n in notes + [bent_face((rock or {}).get("face_bend_deg", 0), (rock or {}).get("face_sections", 1))]

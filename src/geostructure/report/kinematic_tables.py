@@ -12,8 +12,11 @@ from geostructure.report.words import (
     SET_KINEMATIC_COLUMNS,
     SET_KINEMATIC_TITLES,
     failure_mode_cells,
+    kinematic_verdicts,
+    left_out_phrase,
     section_cells,
     set_kinematic_cells,
+    set_mean_wedge_lines,
     slope_text,
 )
 from geostructure.rockmass.notes import bent_slope, sectioned_slope
@@ -41,6 +44,11 @@ def kinematic_table(scene) -> str:
         f'<table id="kinematics"><caption>{caption}</caption><thead><tr><th>Failure mode</th><th>Planes critical</th>'
         f"<th>% by count</th><th>% by area</th><th>Joints critical</th></tr></thead><tbody>{rows}</tbody></table>"
     ) + "".join(f'<p class="note">{escape(n)}</p>' for n in [bent_slope(slope), sectioned_slope(kinematics)] if n)
+    # the terminal's verdicts, word for word: one summary, printed and drawn
+    left_out = {why: count for why, count in kinematics.get("left_out", {}).items() if count}
+    verdicts = ([f"{kinematics['planes_tested']:,} planes tested, " + left_out_phrase(left_out) + "."]
+                if left_out else []) + kinematic_verdicts(kinematics)  # fmt: skip
+    html += "".join(f'<p class="verdict">{escape(line)}</p>' for line in verdicts)
     html += section_table(kinematics.get("sections") or [])
     # kinematics.json of an older run lacks the set means' orientation: no per-set table then
     sets = [row for row in kinematics.get("sets") or [] if "mean_dip" in row]
@@ -59,7 +67,7 @@ def kinematic_table(scene) -> str:
     return (
         f'{html}<table id="kinematic-sets"><caption>{escape(SET_KINEMATIC_TITLES[bool(kinematics.get("sections"))])}'
         f"</caption><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
-    )
+    ) + "".join(f'<p class="verdict">{escape(line)}</p>' for line in set_mean_wedge_lines(kinematics))
 
 
 def section_table(sections: list[dict]) -> str:

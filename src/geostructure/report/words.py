@@ -191,3 +191,110 @@ SET_KINEMATIC_TITLES = (
     "Sets against the sections' slopes: a mean is critical where it is in any section (kinematics.json has each), "
     "and the set's planes critical in their own section",
 )
+
+
+#: What each left-out reason of the kinematic tests reads as.
+LEFT_OUT_WORDS = {"ground": "on the ground", "clutter": "in clutter (vegetation, debris)",
+                  "face_surface": "of the face's own surface"}  # fmt: skip
+
+
+def left_out_phrase(left_out: dict) -> str:
+    """The planes the kinematic tests left out, in words.
+
+    Examples
+    --------
+    >>> print(left_out_phrase({"clutter": 52, "face_surface": 33}))
+    left out: 52 in clutter (vegetation, debris), 33 of the face's own surface
+    """
+    return "left out: " + ", ".join(f"{count:,} {LEFT_OUT_WORDS.get(why, why)}" for why, count in left_out.items())
+
+
+def planar_fs_line(planar: dict, basis: str) -> str:
+    """The planar factors of safety's sentence: from planes large enough to carry it.
+
+    Examples
+    --------
+    >>> print(planar_fs_line({"min_fs": 0.8, "median_fs": 0.9, "headline_min_points": 100, "headline_planes": 3,
+    ...                       "planes": 5, "min_fs_any_size": 0.2}, "dry, frictional"))
+    Planar FS (dry, frictional): 0.80 at least, 0.90 median, on the 3 critical planes of 100 points or more (2 smaller, down to 0.20).
+    """
+    fewest, large = planar.get("headline_min_points", 0), planar.get("headline_planes", planar["planes"])
+    if not fewest:
+        return f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median."
+    smaller = planar["planes"] - large
+    rest = f" ({smaller:,} smaller, down to {planar['min_fs_any_size']:.2f})" if smaller else ""
+    if not large:
+        return (f"Planar FS ({basis}): no critical plane holds {fewest} points or more; "
+                f"{smaller:,} smaller, down to {planar['min_fs_any_size']:.2f}.")  # fmt: skip
+    return (f"Planar FS ({basis}): {planar['min_fs']:.2f} at least, {planar['median_fs']:.2f} median, on the "
+            f"{counted(large, 'critical plane')} of {fewest} points or more{rest}.")  # fmt: skip
+
+
+def kinematic_verdicts(summary: dict) -> list[str]:
+    """The kinematic tests' verdicts in sentences (``kinematics.json``'s summary), as the
+    terminal prints them under its table and the report under its own: the planar factors
+    of safety, the wedges, direct and oblique toppling.
+
+    Examples
+    --------
+    >>> summary = {"planar_sliding": {"planes": 0}, "wedge_sliding": {"critical_pairs": 2, "pairs_tested": 10},
+    ...            "direct_toppling": {"intersections_in_zone": 0, "base_planes": 1, "sliding_base_planes": 0,
+    ...                                "critical": False}}
+    >>> for line in kinematic_verdicts(summary): print(line)
+    Wedges: 2 critical pairs of 10 tested.
+    Direct toppling: 0 intersections in the zone, 1 base plane (0 steeper than friction): not critical.
+    """
+    lines = []
+    planar, strength = summary["planar_sliding"], summary.get("strength", {})
+    if planar["planes"]:
+        basis = (
+            f"cohesion {strength['cohesion_kpa']:g} kPa, unit weight {strength['unit_weight_kn_m3']:g} kN/m³, "
+            f"height {strength['height_m']:.1f} m ({strength['height_source']})"
+            if strength.get("cohesion_kpa")
+            else "dry, frictional"
+        )
+        lines.append(planar_fs_line(planar, basis))
+    wedge, direct = summary["wedge_sliding"], summary["direct_toppling"]
+    of_joints = (
+        f"; of the joints' planes, {wedge['critical_joint_pairs']:,} of {wedge['joint_pairs_tested']:,}"
+        if wedge.get("joint_pairs_tested")  # none without joints: nothing to say of them
+        else ""
+    )
+    lines.append(
+        f"Wedges: {counted(wedge['critical_pairs'], 'critical pair')} of {wedge['pairs_tested']:,} tested{of_joints}."
+    )
+    lines.append(
+        f"Direct toppling: {counted(direct['intersections_in_zone'], 'intersection')} in the zone, "
+        f"{counted(direct['base_planes'], 'base plane')} ({direct['sliding_base_planes']:,} steeper than friction): "
+        + ("critical." if direct["critical"] else "not critical.")
+    )
+    oblique = direct.get("oblique")
+    if oblique and oblique["intersections_in_zone"]:
+        lines.append(
+            f"Oblique toppling (Dips' secondary zone): {counted(oblique['intersections_in_zone'], 'intersection')}, "
+            f"{counted(oblique['base_planes'], 'oblique base plane')}: "
+            + ("critical." if oblique["critical"] else "not critical.")
+        )
+    return lines
+
+
+def set_mean_wedge_lines(summary: dict) -> list[str]:
+    """A sentence per critical wedge the sets' means form (:func:`set_mean_wedge_line`)."""
+    return [set_mean_wedge_line(wedge) for wedge in summary.get("set_mean_wedges", [])]
+
+
+def traces_per_set(rows: list[dict]) -> str:
+    """The traces' figures per set (``sets.csv``'s trace columns), for the terminal and the
+    report: how many, their areal intensity and median chord; "" without traces.
+
+    Examples
+    --------
+    >>> traces_per_set([{"set": 0, "traces": 2, "trace_p21_per_m": 1.234, "trace_chord_median_m": 0.5}, {"traces": 0}])
+    'set 0: 2, P21 1.23 /m, median chord 0.50 m'
+    """
+    return "; ".join(
+        f"set {int(row.get('set', s))}: {int(row['traces']):,}, P21 {float(row['trace_p21_per_m']):.2f} /m, "
+        f"median chord {float(row['trace_chord_median_m']):.2f} m"
+        for s, row in enumerate(rows)
+        if row.get("traces") and float(row["traces"]) > 0
+    )
