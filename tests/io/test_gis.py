@@ -121,9 +121,16 @@ def test_a_las_crs_is_kept_and_the_planes_land_in_oregon(tmp_path, capsys):
         centres[:, 2], native[:, 2] * 0.3048, rtol=1e-9
     )  # international feet (the CRS) to metres
     assert feet["crs"]
+    # Issue 52: its sizes were Oregon feet beside metres; its all-empty columns read as text
+    csv_rows = list(__import__("csv").DictReader(open(out / "planes.csv")))
+    for p, row in zip(properties, csv_rows):
+        assert "rect_width" not in p and p["rect_width_m"] == pytest.approx(float(row["rect_width"]) * 0.3048)
+        assert p["fit_residual_m"] == pytest.approx(float(row["fit_residual"]) * 0.3048)
+    assert not any("facing" in p for p in properties) or any(p.get("facing") is not None for p in properties)
     if shutil.which("ogrinfo"):
         text = subprocess.run(["ogrinfo", "-so", "-al", str(out / "planes.geojson")], capture_output=True, text=True)
         assert "centroid_lon: Real" in text.stdout and "centroid_x" not in text.stdout
+        assert "rect_width_m: Real" in text.stdout and "facing: String" not in text.stdout
 
 
 def _orientations(out):

@@ -9,7 +9,9 @@ one, no file claims a place it does not know (:data:`NO_CRS_NOTE`).
   member (GDAL, so QGIS, ignores one). The corners are transformed with pyproj from the
   cloud's CRS; heights are the cloud's own, in metres (its vertical datum is not changed).
   Its properties are the plane table's columns, the centroid as ``centroid_lon``,
-  ``centroid_lat`` and ``centroid_height_m`` (no number in the cloud's CRS).
+  ``centroid_lat`` and ``centroid_height_m`` and the sizes in metres (no number in the
+  cloud's CRS or unit); ``normal_x/y/z`` are in the cloud's own axes (a projected CRS's
+  grid), ``dip_direction`` from true north where the run read it so.
 - ``planes.gpkg``: QGIS's own format, in the cloud's native CRS (no loss from a transform),
   with two layers: ``planes``, the region rectangles as 3-D polygons carrying every column
   of the plane table (sets, traces, kinematics when present), and ``centroids``, points
@@ -60,16 +62,36 @@ def _properties(planes, drop=GEOMETRY_COLUMNS) -> list[dict]:
     return [{k: v for k, v in row.items() if k not in drop} for row in planes.rows()]
 
 
+#: Plane-table sizes in the cloud's unit: ``planes.geojson`` gives them in metres, named so.
+CLOUD_SIZE_COLUMNS = ("rect_width", "rect_height", "fit_residual")
+
+
 def _wgs84_properties(planes, crs, enu_origin) -> list[dict]:
     """The plane table's columns for ``planes.geojson``: positions as WGS84 longitude and
     latitude and height in metres (``centroid_lon``, ``centroid_lat``, ``centroid_height_m``)
-    in place of the cloud's coordinates."""
+    in place of the cloud's coordinates, its sizes in metres (``rect_width_m``,
+    ``rect_height_m``, ``fit_residual_m``; a survey in feet gave them in feet beside metres),
+    and no column that is empty for every plane (GDAL types such a column as text)."""
     rows = _properties(planes, GEOMETRY_COLUMNS + CLOUD_POSITION_COLUMNS)
     if not rows:
         return rows
     centres = _lon_lat(planes.centroid, crs, enu_origin)
+    metres = 1.0 if enu_origin is not None else metres_per_unit(crs)
     named = ("centroid_lon", "centroid_lat", "centroid_height_m")
-    return [{**dict(zip(named, centre)), **row} for centre, row in zip(centres.tolist(), rows)]
+    out = []
+    for centre, row in zip(centres.tolist(), rows):
+        row = {**dict(zip(named, centre)), **row}
+        for name in CLOUD_SIZE_COLUMNS:
+            if name in row:
+                value = row.pop(name)
+                row[f"{name}_m"] = None if value is None else float(value) * metres
+        out.append(row)
+    empty = [name for name in out[0] if all(_blank(row.get(name)) for row in out)]
+    return [{k: v for k, v in row.items() if k not in empty} for row in out]
+
+
+def _blank(value) -> bool:
+    return value is None or value == "" or (isinstance(value, float) and not np.isfinite(value))
 
 
 def geojson(planes, crs: str | None = None, enu_origin=None) -> dict:
