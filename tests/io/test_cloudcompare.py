@@ -1,6 +1,7 @@
 """CloudCompare's command line (Debian's cloudcompare under xvfb-run) loads regions.ply with
 region_id as a scalar field and the coordinates within 1 mm (issue "Outputs")."""
 
+import re
 import shutil
 import subprocess
 
@@ -75,3 +76,19 @@ def test_cloudcompare_colours_the_points_by_set_joint_and_face_part(tmp_path, ca
         np.testing.assert_array_equal(table[:, column].astype(int), vertex["scalar_" + name])
     sets = table[:, header.index("set")]
     assert len(np.unique(sets[sets >= 0])) >= 3  # the outcrop's three joint sets, on its points
+
+
+def test_cloudcompare_reads_the_traces_dxf_at_utm_coordinates(tmp_path):
+    """Issue 55: the traces as 3D polylines a CloudCompare (or DICE) user opens."""
+    from geostructure.io.exports import write_traces_dxf
+
+    lines = [np.array([[276774.0, 5151643.0, 2388.0], [276774.5, 5151643.2, 2387.9], [276775.0, 5151643.5, 2387.7]]),
+             np.array([[276770.0, 5151640.0, 2390.0], [276770.2, 5151641.0, 2390.5]])]  # fmt: skip
+    dxf = write_traces_dxf(lines, [0, -1], tmp_path / "traces.dxf")
+    command = [XVFB, "-a", CLOUDCOMPARE, "-SILENT", "-AUTO_SAVE", "OFF", "-O", "-GLOBAL_SHIFT", "AUTO", str(dxf)]
+    command += ["-C_EXPORT_FMT", "ASC", "-SAVE_CLOUDS"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    log = done.stdout + done.stderr
+    assert "File 'traces.dxf' loaded successfully" in log, log[-2000:]
+    found = re.findall(r"Found one cloud with (\d+) points", log)
+    assert sorted(int(n) for n in found) == [2, 3], log[-2000:]  # one polyline each, every vertex

@@ -1,4 +1,4 @@
-"""Exports for other tools: the Dips/Stereonet CSV (the GIS files: :mod:`.gis`)."""
+"""Exports for other tools: the Dips/Stereonet CSV and the traces' DXF (the GIS files: :mod:`.gis`)."""
 
 from __future__ import annotations
 
@@ -83,3 +83,33 @@ def write_dips_csv(planes, path, rotation=None) -> Path:
         values["Kind"] = plane_kinds(planes)
     rows = [dict(zip(values, row)) for row in zip(*values.values())]
     return write_table_csv(rows, path, columns=list(values))
+
+
+def write_traces_dxf(polylines, sets, path) -> Path:
+    """``traces.dxf``: each fracture trace a 3D polyline (DXF R2010, ezdxf) in the cloud's
+    own coordinates, on a layer per set (``set_0``, ``set_1``, ..., ``no_set``), as DICE,
+    CloudCompare and CAD programs read them.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, ezdxf
+    >>> path = write_traces_dxf([np.array([[276774.0, 5151643.0, 2388.0], [276774.5, 5151643.2, 2387.9]])], [1],
+    ...                         pathlib.Path(tempfile.mkdtemp()) / "traces.dxf")
+    >>> line = next(iter(ezdxf.readfile(path).modelspace()))
+    >>> line.dxftype(), line.dxf.layer, [round(v, 1) for v in list(line.points())[1]]
+    ('POLYLINE', 'set_1', [276774.5, 5151643.2, 2387.9])
+    """
+    import ezdxf  # lazy: read only when traces are written
+
+    from geostructure.io.atomic import atomic_path
+
+    document = ezdxf.new("R2010")
+    for s in sorted({int(v) for v in sets}):
+        document.layers.add(f"set_{s}" if s >= 0 else "no_set")
+    space = document.modelspace()
+    for line, s in zip(polylines, sets):
+        space.add_polyline3d([tuple(map(float, p)) for p in line],
+                             dxfattribs={"layer": f"set_{int(s)}" if s >= 0 else "no_set"})  # fmt: skip
+    with atomic_path(path) as tmp:
+        document.saveas(tmp)
+    return Path(path)

@@ -58,6 +58,7 @@ SETS_FILES = (
     "joints.csv",
     "traces.csv",
     "trace_vertices.csv",
+    "traces.dxf",
     "planes.csv",
     "planes_dips.csv",
     "planes.geojson",

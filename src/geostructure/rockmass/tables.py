@@ -61,7 +61,9 @@ def rock_mass_tables(planes, sets, rock, frame, metres_per_unit: float = 1.0) ->
     """(kind, file name, rows, columns) of each table a run with sets writes: ``sets.csv``
     and, with the rock mass, ``spacing.csv`` and ``joints.csv`` (every discontinuity once,
     a row per joint of the sets' facets, from the plane table ``planes`` in the cloud's unit),
-    ``traces.csv`` and ``trace_vertices.csv`` (the face's fracture traces, :mod:`.tracemaps`)."""
+    ``traces.csv`` and ``trace_vertices.csv`` (the face's fracture traces, :mod:`.tracemaps`)
+    and ``traces.dxf`` (their polylines and sets, which :func:`~geostructure.io.atomic.write_table`
+    draws)."""
     tables = [("sets", "sets.csv", *sets_table(sets, rock))]
     if rock is not None:
         tables.append(("spacing", "spacing.csv", *spacing_table(rock)))
@@ -73,4 +75,6 @@ def rock_mass_tables(planes, sets, rock, frame, metres_per_unit: float = 1.0) ->
                            TRACE_COLUMNS))  # fmt: skip
             tables.append(("trace_vertices", "trace_vertices.csv", vertex_columns(traces, planes.offset),
                            VERTEX_COLUMNS))  # fmt: skip
+            lines = [line + planes.offset for line in traces.polylines()]
+            tables.append(("traces_dxf", "traces.dxf", (lines, traces.set.tolist()), None))
     return tables
