@@ -194,3 +194,29 @@ def test_a_crs_given_over_the_files_own_is_warned_of(tmp_path, capsys, engine):
     )
     assert code == 0 and "declares WGS 84 / UTM zone 33N, but --crs gives NAD83 / Oregon GIC Lambert (ft)" in err, err
     assert json.loads((tmp_path / "other" / "run.json").read_text())["unit"]["symbol"] == "ft"
+
+
+@pytest.mark.real_data
+def test_the_geopackage_holds_the_traces_as_lines_in_the_crs(tmp_path, capsys):
+    """Issue 55: the traces as lines in the GeoPackage, in the cloud's CRS, as GDAL reads them."""
+    out = tmp_path / "lastoni"
+    cloud = shared_file("dice_lastoni_sw/Lastoni_SW_3cm.txt")
+    code, _, _ = run_cli(capsys, "measure", cloud, "-o", out, "--sets", "--crs", "EPSG:32633", "-q")
+    assert code == 0
+    import pyogrio
+
+    layers = [name for name, _ in pyogrio.list_layers(out / "planes.gpkg")]
+    assert layers == ["planes", "centroids", "traces"]
+    info = read_info(out / "planes.gpkg", layer="traces")
+    with open(out / "traces.csv", newline="") as fh:
+        rows = list(__import__("csv").DictReader(fh))
+    assert info["features"] == len(rows) > 0 and info["geometry_type"] == "LineString Z"
+    assert "32633" in info["crs"]
+    _, _, geometry, fields = read_layer(out / "planes.gpkg", layer="traces")
+    lengths = fields[list(info["fields"]).index("length")]
+    assert lengths == pytest.approx([float(r["length_m"]) for r in rows])  # metres: the cloud's unit here
+    first = shapely.from_wkb(geometry[0])
+    assert 276_000 < first.coords[0][0] < 278_000 and first.has_z  # in UTM, not moved
+    if shutil.which("ogrinfo"):
+        text = subprocess.run(["ogrinfo", "-so", str(out / "planes.gpkg"), "traces"], capture_output=True, text=True)
+        assert "3D Line String" in text.stdout and f"Feature Count: {len(rows)}" in text.stdout

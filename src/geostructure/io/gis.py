@@ -123,9 +123,12 @@ def write_geojson(planes, path, crs: str | None = None, enu_origin=None) -> Path
     return Path(path)
 
 
-def write_gpkg(planes, path, crs: str | None = None, enu_origin=None) -> Path:
-    """``planes.gpkg``: layers ``planes`` (rectangles) and ``centroids`` (points), in the
-    cloud's CRS (WGS84 for a frame about a GPS origin)."""
+def write_gpkg(planes, path, crs: str | None = None, enu_origin=None, traces=None) -> Path:
+    """``planes.gpkg``: layers ``planes`` (rectangles) and ``centroids`` (points), and with
+    ``traces`` (:class:`~geostructure.detect.traces.Traces`, in the planes' local
+    coordinates) a layer ``traces`` of 3-D lines (``trace_id``, ``set``, ``source``,
+    ``length``, ``chord`` in the cloud's unit), in the cloud's CRS (WGS84 for a frame about a
+    GPS origin)."""
     import shapely
     from pyogrio.raw import write as write_layer
 
@@ -147,4 +150,14 @@ def write_gpkg(planes, path, crs: str | None = None, enu_origin=None) -> Path:
         tmp.unlink()  # a new GeoPackage, not one appended to
         for layer, geometry, kind in (("planes", polygons, "Polygon Z"), ("centroids", points, "Point Z")):
             write_layer(tmp, geometry, fields, names, layer=layer, driver="GPKG", geometry_type=kind, crs=wkt)
+        if traces is not None and len(traces):
+            lines = [line + planes.offset for line in traces.polylines()]
+            if enu_origin is not None:
+                lines = [_lon_lat(line, enu_origin=enu_origin) for line in lines]
+            geometry = shapely.to_wkb(np.array([shapely.LineString(line) for line in lines]), output_dimension=3)
+            columns = {"trace_id": np.arange(len(traces)), "set": traces.set.astype(np.int64),
+                       "source": np.asarray(traces.source, dtype=str), "length": traces.length,
+                       "chord": traces.chord}  # fmt: skip
+            write_layer(tmp, geometry, list(columns.values()), list(columns), layer="traces", driver="GPKG",
+                        geometry_type="LineString Z", crs=wkt)  # fmt: skip
     return Path(path)

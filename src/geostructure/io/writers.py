@@ -189,9 +189,11 @@ def run_record(result, extra: dict | None = None) -> dict:
     return record
 
 
-def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) -> list[str]:
+def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None, traces=None) -> list[str]:
     """Stage ``planes.csv`` and ``planes_dips.csv`` of a plane table and, for a cloud with a
-    coordinate system, ``planes.geojson`` and ``planes.gpkg``; returns the names staged.
+    coordinate system, ``planes.geojson`` and ``planes.gpkg`` (with the fracture ``traces``,
+    :class:`~geostructure.detect.traces.Traces` in the planes' local coordinates, as its
+    ``traces`` layer of lines); returns the names staged.
     Their ``area_m2`` is square metres, from the cloud's unit the set's record names
     (:func:`~.crs.recorded_unit`), and the record says so (:data:`~.results.PLANE_AREA`)."""
     planes = in_square_metres(planes, recorded_unit(outputs.record)["metres"])
@@ -204,7 +206,7 @@ def write_plane_tables(planes, outputs: OutputSet, crs=None, enu_origin=None) ->
     names = ["planes.csv", "planes_dips.csv"]
     if crs or enu_origin is not None:
         write_geojson(planes, outputs.path("planes.geojson"), crs=crs, enu_origin=enu_origin)
-        write_gpkg(planes, outputs.path("planes.gpkg"), crs=crs, enu_origin=enu_origin)
+        write_gpkg(planes, outputs.path("planes.gpkg"), crs=crs, enu_origin=enu_origin, traces=traces)
         names += ["planes.geojson", "planes.gpkg"]
     return names
 
@@ -266,7 +268,8 @@ def write_result(
                 pool.submit(written, write_regions_laz, "regions_laz", labelled, part, joint),
             ]
         crs, enu_origin = result.cloud.crs, result.cloud.enu_origin
-        if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin):
+        traces = None if rock is None else rock.traces
+        if "planes.gpkg" in write_plane_tables(planes, outputs, crs=crs, enu_origin=enu_origin, traces=traces):
             files.update(geojson="planes.geojson", gpkg="planes.gpkg")
         write_voxel_planes_ply(result, outputs.path(files["voxels"]))
         write_voxel_planes_laz(result, outputs.path(files["voxels_laz"]))

@@ -178,7 +178,8 @@ def add_sets(outdir, *, n_sets: int | None = None, progress=None) -> tuple[Joint
         note_tilt_unread(rock.tilt_facets_short, outdir, rock.tilt_facets_along)
         report("write", 0, None)
         planes = with_rock_mass(planes, sets, rock)
-        staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"))
+        staged = write_plane_tables(planes, outputs, outputs.record.get("crs"), outputs.record.get("enu_origin"),
+                                    traces=rock.traces)  # fmt: skip
         metres = recorded_unit(outputs.record)["metres"]
         paths_of_traces = {}
         for kind, name, rows, columns in rock_mass_tables(planes, sets, rock, frame, metres):
