@@ -202,3 +202,21 @@ def test_one_outcrop_one_answer_turned_or_inside_a_survey(lastoni, tmp_path):
         assert abs(other["matched"] - alone["matched"]) <= 0.08 * alone["matched"], (other["matched"], alone)
         assert abs(other["traces"]["traced"] - alone["traces"]["traced"]) <= 0.3 * alone["traces"]["traced"]
         assert max(other["set_errors_deg"].values()) <= 12.0, other["set_errors_deg"]
+
+
+def test_a_maps_normals_are_read_in_the_clouds_axes_whatever_the_north(lastoni, tmp_path):
+    """Issue 52: with --crs the run reads azimuths from true north (2.1 degrees from this UTM
+    grid's), while DICE's DipDirection is the grid's; the map's own normals (Nx, Ny, Nz) are
+    compared with the planes' in the cloud's axes, so the scores are the run's, not north's."""
+    from geostructure.cli import main
+
+    _, alone = lastoni
+    out = tmp_path / "crs"
+    cloud = shared_file(f"{SW}/Lastoni_SW_3cm.txt")
+    assert main(["measure", str(cloud), "-o", str(out), "--sets", "--crs", "EPSG:32633", "-q"]) == 0
+    assert json.loads((out / "run.json").read_text())["north"]  # turned to true north
+    fractures, labels = shared_file(f"{SW}/fit_planes.csv"), shared_file(f"{SW}/set_labels.csv")
+    assert main(["evaluate", str(out), "--fractures", str(fractures), "--fracture-sets", str(labels), "-q"]) == 0
+    scores = json.loads((out / "validation.json").read_text())
+    assert scores["matched"] == alone["matched"] and scores["precision"] == alone["precision"]
+    assert scores["traces"]["traced"] == alone["traces"]["traced"]

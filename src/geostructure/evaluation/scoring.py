@@ -173,9 +173,15 @@ def add_validation(
             mapped = mapped.with_sets(read_set_labels(fracture_sets, len(mapped)))
         published = read_field_map(set_means, located=False) if set_means is not None else None
         planes = read_planes(outputs.outdir)
-        o = planes.orientation
-        normals = normal_from_orientation(o.dip_direction, o.dip)
-        map_normals = normal_from_orientation(mapped.dip_direction, mapped.dip)
+        if mapped.normals is not None:
+            # A map that gives its normals (DICE's Nx, Ny, Nz) is compared in the cloud's own
+            # axes, where the planes' normals are: no north, true or grid, comes between them
+            normals = planes.normal / np.linalg.norm(planes.normal, axis=1, keepdims=True)
+            map_normals = mapped.normals
+        else:  # dip and dip direction against each other, both read from the same north
+            o = planes.orientation
+            normals = normal_from_orientation(o.dip_direction, o.dip)
+            map_normals = normal_from_orientation(mapped.dip_direction, mapped.dip)
         found = validate(planes.centroid, normals, mapped.centres, map_normals,
                          max_distance=max_distance, max_angle=max_angle)  # fmt: skip
         measured_sets = _measured_set_normals(outputs.outdir)
@@ -230,7 +236,7 @@ def _trace_scores(outputs, mapped, map_normals, found, means, measured_sets) -> 
     points = points - origin
     tree = cKDTree(points)
     centres = mapped.centres - origin
-    normals = mapped.normals if mapped.normals is not None else map_normals
+    normals = map_normals
     metres = recorded_unit(outputs.record)["metres"]
     tolerance = TRACE_TOLERANCE / metres
     disc_lines = trace_lines(points, tree, centres, normals)

@@ -9,7 +9,10 @@ or the columns of a disc fitted to a mapped trace (as DICE and qFacets write the
     Dip, DipDirection, Xcenter, Ycenter, Zcenter[, Radius, Nx, Ny, Nz, ...]
 
 Locations are in the cloud's own coordinates (the same CRS); dip and dip direction in
-degrees from true north, as a compass reads them. A ``set`` column (any label; blank for
+degrees from the north the run read its azimuths from (true north with a CRS, unless
+``--grid-north``), as a compass reads them. Where the map gives each plane's unit normal
+(DICE's ``Nx, Ny, Nz``, in the cloud's own axes) the planes are compared by it, in those
+axes, and no north comes between them. A ``set`` column (any label; blank for
 none) gives each plane's mapped set. Comma or semicolon separated, as :mod:`.usercsv` reads.
 """
 
