@@ -414,7 +414,9 @@ def note_tilt_unread(facets: int, source, along: int = 0) -> None:
     joints of three or more, of sets across the face) are fewer than
     :data:`~geostructure.detect.uncertainty.MIN_TILT_FACETS`; ``along``, those of sets along the face, which
     are not read for it. Nothing when both are 0 (it was read, or there was nothing)."""
-    own = "each plane's uncertainty is its own fit's alone, a lower bound where the cloud's errors are correlated (SfM)."
+    own = (
+        "each plane's uncertainty is its own fit's alone, a lower bound where the cloud's errors are correlated (SfM)."
+    )
     if not facets and along:
         message = (f"{source}: the tilt that correlated errors give every plane was not read: the only joints of three "
                    f"or more facets ({along} facets) lie in sets along the face, which follow the face's shape, not "
