@@ -220,3 +220,15 @@ def test_a_maps_normals_are_read_in_the_clouds_axes_whatever_the_north(lastoni, 
     scores = json.loads((out / "validation.json").read_text())
     assert scores["matched"] == alone["matched"] and scores["precision"] == alone["precision"]
     assert scores["traces"]["traced"] == alone["traces"]["traced"]
+
+
+def test_the_stream_draws_the_same_traces(lastoni, tmp_path):
+    """Issue 55: the traces streamed as in memory (the spill carries each point's grey)."""
+    from geostructure.cli import main
+
+    memory, _ = lastoni
+    out = tmp_path / "stream"
+    cloud = shared_file(f"{SW}/Lastoni_SW_3cm.txt")
+    assert main(["measure", str(cloud), "-o", str(out), "--sets", "--engine", "stream", "-q"]) == 0
+    assert (out / "traces.csv").read_bytes() == (memory / "traces.csv").read_bytes()
+    assert (out / "trace_vertices.csv").read_bytes() == (memory / "trace_vertices.csv").read_bytes()

@@ -26,6 +26,7 @@ from geostructure.io.failures import translated_read_errors
 from geostructure.io.readers import (
     DEFAULT_MESH_SAMPLES,
     LasTally,
+    las_chunk_grey,
     las_chunk_points,
     las_chunk_vegetation,
     las_crs,
@@ -34,6 +35,7 @@ from geostructure.io.readers import (
     ply_vertices,
     read_cloud,
 )
+from geostructure.io.text import grey_of
 from geostructure.io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
@@ -80,6 +82,7 @@ class Spill:
     has_normals: bool = False
     left_out: dict | None = None
     has_vegetation: bool = False  # some point is classified as vegetation (LAS classes 3 to 5)
+    has_grey: bool = False  # every point has a colour (its brightness in grey.f4)
 
     @property
     def points_path(self) -> str:
@@ -93,6 +96,11 @@ class Spill:
     def vegetation_path(self) -> str | None:
         """One byte a point, 1 where its file classifies it as vegetation; None if none is."""
         return str(self.folder / "vegetation.u1") if self.has_vegetation else None
+
+    @property
+    def grey_path(self) -> str | None:
+        """One float32 a point, its brightness (0 to 1); None unless every file has colour."""
+        return str(self.folder / "grey.f4") if self.has_grey else None
 
     @property
     def offset(self) -> np.ndarray:
@@ -120,7 +128,7 @@ class Spill:
     def close(self) -> None:
         import shutil
 
-        for name in ("points.f8", "normals.f8", "vegetation.u1", "labels.i4", "keep.u1", "facets.i4"):
+        for name in ("points.f8", "normals.f8", "vegetation.u1", "grey.f4", "labels.i4", "keep.u1", "facets.i4"):
             (self.folder / name).unlink(missing_ok=True)
         shutil.rmtree(self.folder / "tiles", ignore_errors=True)  # the facet tiles' files
         try:
@@ -172,12 +180,14 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
             open(spill.folder / "points.f8", "wb") as out,
             open(spill.folder / "normals.f8", "wb") as out_n,
             open(spill.folder / "vegetation.u1", "wb") as out_v,
+            open(spill.folder / "grey.f4", "wb") as out_g,
         ):
-            all_normals = True
+            all_normals = all_grey = True
             for i, path in enumerate(paths):
                 start = spill.n_points
-                for points, normals, vegetation, meta in _read_errors_told(path, _file_chunks(path, rows, mesh_samples,
-                                                                                              steps_checked)):  # fmt: skip
+                for points, normals, vegetation, grey, meta in _read_errors_told(
+                    path, _file_chunks(path, rows, mesh_samples, steps_checked)
+                ):
                     check_coordinates(points, path, spill.n_points - start)
                     points.astype("<f8", copy=False).tofile(out)
                     if vegetation is not None and vegetation.any() and not spill.has_vegetation:
@@ -189,6 +199,9 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                     all_normals = all_normals and normals is not None
                     if all_normals:
                         normals.astype("<f8", copy=False).tofile(out_n)
+                    all_grey = all_grey and grey is not None  # the traces' dark lines need every point's
+                    if all_grey:
+                        np.asarray(grey, dtype="<f4").tofile(out_g)
                     spill.n_points += len(points)
                     if len(points):
                         spill.lower = np.minimum(spill.lower, column_min(points))
@@ -208,6 +221,9 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
                 left_outs.append(meta["cloud"].left_out)
                 report("read", i + 1, len(paths))
         spill.has_normals = all_normals and spill.n_points > 0
+        spill.has_grey = all_grey and spill.n_points > 0
+        if not spill.has_grey:
+            os.unlink(spill.folder / "grey.f4")
         spill.left_out = merged_left_out(left_outs)
         spill.crs = first[0].crs if first else None
         same = all(g is not None for g in grids) and all(
@@ -244,8 +260,9 @@ def _read_errors_told(path: Path, chunks):
 
 
 def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
-    """(points, normals, vegetation, meta) chunks of one file (``vegetation``: a LAS/LAZ
-    file's vegetation classes, :func:`~.io.readers.las_chunk_vegetation`); ``meta`` carries
+    """(points, normals, vegetation, grey, meta) chunks of one file (``vegetation``: a LAS/LAZ
+    file's vegetation classes, :func:`~.io.readers.las_chunk_vegetation`; ``grey``: each
+    point's brightness where the file has colour, else None); ``meta`` carries
     a Cloud with its CRS and, for LAS/LAZ, the file's grid.
 
     A file whose coordinates are stored coarser than its points lie (32-bit floats far from
@@ -266,7 +283,8 @@ def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
         meta = {"cloud": cloud}
         for a in range(0, max(len(points), 1), rows):
             normals = None if cloud.normals is None else cloud.normals[a : a + rows]
-            yield points[a : a + rows], normals, None, meta
+            grey = None if cloud.grey is None else cloud.grey[a : a + rows]
+            yield points[a : a + rows], normals, None, grey, meta
 
 
 def _check_step(points: np.ndarray, step: tuple[float, str] | None, path: Path, steps_checked: set) -> None:
@@ -288,10 +306,10 @@ def _las_chunks(path: Path, rows: int, steps_checked: set):
             points = tally.add(*las_chunk_points(chunk))
             if first:
                 _check_step(points, las_step(header.scales), path, steps_checked)
-            yield points, None, las_chunk_vegetation(chunk), meta
+            yield points, None, las_chunk_vegetation(chunk), las_chunk_grey(chunk), meta
         meta["cloud"].left_out = tally.finish(path, header.point_count)
         if not tally.read:
-            yield np.zeros((0, 3)), None, None, meta
+            yield np.zeros((0, 3)), None, None, None, meta
 
 
 def _ply_has_faces(path: Path, mesh_samples) -> bool:
@@ -310,6 +328,8 @@ def _ply_chunks(path: Path, rows: int, steps_checked: set):
     _, vertex = ply_vertices(path)
     names = vertex.dtype.names
     has_normals = all(n in names for n in ("nx", "ny", "nz"))
+    colour = next((c for c in (("red", "green", "blue"), ("diffuse_red", "diffuse_green", "diffuse_blue"))
+                   if all(n in names for n in c)), None)  # fmt: skip
     meta = {"cloud": Cloud(np.zeros((0, 3)), source=str(path))}
     for a in range(0, max(len(vertex), 1), rows):
         part = vertex[a : a + rows]
@@ -321,7 +341,8 @@ def _ply_chunks(path: Path, rows: int, steps_checked: set):
             if has_normals
             else None
         )
-        yield points, normals, None, meta
+        grey = None if colour is None else grey_of(np.column_stack([np.asarray(part[c]) for c in colour]))
+        yield points, normals, None, grey, meta
 
 
 def estimate_points(paths, mesh_samples: int | None = DEFAULT_MESH_SAMPLES) -> int:

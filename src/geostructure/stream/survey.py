@@ -49,11 +49,13 @@ class ThinnedSurvey:
     def cloud(self) -> Cloud:
         """The thinned points on the survey's offset, with what its files declared."""
         spill, rows = self.spill, self.thinned.rows
-        normals = vegetation = None
+        normals = vegetation = grey = None
         if spill.has_normals:
             normals = np.memmap(spill.normals_path, dtype="<f8", mode="r", shape=(spill.n_points, 3))[rows]
         if spill.has_vegetation:
             vegetation = np.memmap(spill.vegetation_path, dtype=np.uint8, mode="r")[rows].astype(bool)
+        if spill.has_grey:  # the traces' dark lines, drawn on the thinned points
+            grey = np.asarray(np.memmap(spill.grey_path, dtype="<f4", mode="r")[rows])
         return Cloud(
             self.thinned.points - spill.offset,
             spill.offset,
@@ -63,6 +65,7 @@ class ThinnedSurvey:
             las_grid=spill.las_grid,
             left_out=spill.left_out,
             vegetation=vegetation,
+            grey=grey,
         )
 
     def record(self) -> dict:
