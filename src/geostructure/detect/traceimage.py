@@ -76,22 +76,50 @@ def patch_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
 
 def patch_image(points: np.ndarray, values: np.ndarray, spacing: float) -> PatchImage:
     """The patch's values as an image on its mean plane (see the module)."""
-    centre, u, v, _ = patch_frame(points)
-    pixel = spacing / PIXELS_PER_SPACING
-    flat = np.column_stack([(points - centre) @ u, (points - centre) @ v])
-    lower = flat.min(axis=0)
-    ij = np.floor((flat - lower) / pixel).astype(np.int64)
-    shape = tuple(ij.max(axis=0) + 1)
-    total, count = np.zeros(shape), np.zeros(shape)
-    np.add.at(total, (ij[:, 0], ij[:, 1]), values)
-    np.add.at(count, (ij[:, 0], ij[:, 1]), 1.0)
-    sigma = PIXELS_PER_SPACING  # one spacing
-    total, count = ndimage.gaussian_filter(total, sigma), ndimage.gaussian_filter(count, sigma)
-    covered = count > 0.05 * np.median(count[count > 1e-6])
-    value = np.where(covered, total / np.maximum(count, 1e-12), np.nan)
-    margin = int(np.ceil(2 * RIDGE_SCALE * PIXELS_PER_SPACING))
-    inside = ndimage.binary_erosion(covered, iterations=margin) if margin else covered
-    return PatchImage(value, inside, centre, u, v, lower, pixel)
+    return PatchGrid.of(points, spacing).image(values)
+
+
+@dataclass(frozen=True)
+class PatchGrid:
+    """Where a patch's points fall on its image (``cell``, each point's pixel, flat), the
+    points' weight per pixel blurred (``count``), what is trusted (``covered``, ``inside``)
+    and the plane: what every image of the patch's values shares (the shuffled nulls too)."""
+
+    cell: np.ndarray
+    shape: tuple
+    count: np.ndarray
+    covered: np.ndarray
+    inside: np.ndarray
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    lower: np.ndarray
+    pixel: float
+
+    @classmethod
+    def of(cls, points: np.ndarray, spacing: float) -> PatchGrid:
+        centre, u, v, _ = patch_frame(points)
+        pixel = spacing / PIXELS_PER_SPACING
+        flat = np.column_stack([(points - centre) @ u, (points - centre) @ v])
+        lower = flat.min(axis=0)
+        ij = np.floor((flat - lower) / pixel).astype(np.int64)
+        shape = tuple(int(n) for n in ij.max(axis=0) + 1)
+        cell = ij[:, 0] * shape[1] + ij[:, 1]
+        count = np.bincount(cell, minlength=shape[0] * shape[1]).reshape(shape).astype(np.float64)
+        count = ndimage.gaussian_filter(count, PIXELS_PER_SPACING)  # one spacing
+        covered = count > 0.05 * np.median(count[count > 1e-6])
+        margin = int(np.ceil(2 * RIDGE_SCALE * PIXELS_PER_SPACING))
+        inside = ndimage.binary_erosion(covered, iterations=margin) if margin else covered
+        return cls(cell, shape, count, covered, inside, centre, u, v, lower, pixel)
+
+    def image(self, values: np.ndarray) -> PatchImage:
+        """The points' ``values`` on the grid: each pixel their mean around it, weighted by a
+        Gaussian one spacing wide (normalised convolution: holes stay holes)."""
+        size = self.shape[0] * self.shape[1]
+        total = np.bincount(self.cell, weights=values, minlength=size).reshape(self.shape)
+        total = ndimage.gaussian_filter(total, PIXELS_PER_SPACING)
+        value = np.where(self.covered, total / np.maximum(self.count, 1e-12), np.nan)
+        return PatchImage(value, self.inside, self.origin, self.u, self.v, self.lower, self.pixel)
 
 
 def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray]:
@@ -160,12 +188,9 @@ def pixel_chains(mask: np.ndarray, min_pixels: float) -> list[np.ndarray]:
             return chains
         for path in found:
             chains.append(where[path])
-            taken = np.zeros(n, dtype=bool)
-            taken[path] = True
-            # the path and the pixels touching it
-            touching = np.concatenate([cols[np.isin(rows, path)], rows[np.isin(cols, path)]])
+            # the path and the pixels touching it (the graph is symmetric: a row is a pixel's neighbours)
             alive[path] = False
-            alive[touching] = False
+            alive[graph[path].indices] = False
 
 
 def _longest_path_per_group(graph, alive: np.ndarray, min_pixels: float) -> list[np.ndarray]:
@@ -266,9 +291,10 @@ def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord
     min_chord : float
         The shortest piece kept (spacings).
     """
-    image = patch_image(points, values, spacing)
+    grid = PatchGrid.of(points, spacing)
+    image = grid.image(values)
     pieces, contrast = _lines(image, min_chord)
-    bar = noise_contrast(points, values, spacing, min_chord)
+    bar = noise_contrast(grid, values, min_chord)
     kept = [k for k, c in enumerate(contrast) if c > bar]
     return [pieces[k] for k in kept], [contrast[k] for k in kept], image
 
@@ -386,15 +412,15 @@ NULL_PERMUTATIONS = 4
 NULL_QUANTILE = 0.99
 
 
-def noise_contrast(points: np.ndarray, values: np.ndarray, spacing: float, min_chord: float) -> float:
-    """The contrast a line must pass on this patch: :data:`NULL_QUANTILE` of the contrasts of
-    the lines found on the patch's values shuffled among its points (:data:`NULL_PERMUTATIONS`
-    seeded permutations); 0 where the shuffles draw no line."""
+def noise_contrast(grid: PatchGrid, values: np.ndarray, min_chord: float) -> float:
+    """The contrast a line must pass on this patch (its ``grid``): :data:`NULL_QUANTILE` of
+    the contrasts of the lines found on the patch's values shuffled among its points
+    (:data:`NULL_PERMUTATIONS` seeded permutations); 0 where the shuffles draw no line."""
     rng = np.random.default_rng(0)
     contrasts = []
     for _ in range(NULL_PERMUTATIONS):
         shuffled = values[rng.permutation(len(values))]
-        contrasts += _lines(patch_image(points, shuffled, spacing), min_chord)[1]
+        contrasts += _lines(grid.image(shuffled), min_chord)[1]
     return float(np.quantile(contrasts, NULL_QUANTILE)) if contrasts else 0.0
 
 
