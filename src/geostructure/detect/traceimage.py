@@ -42,17 +42,36 @@ STRAIGHT_TOLERANCE = 1.5
 
 @dataclass(frozen=True)
 class PatchImage:
-    """A patch of surface as an image: ``value`` (H, W) with NaN where no point lies,
-    ``inside`` where the image is trusted (a scale's width away from its edges and holes), and
-    the plane it lies on (``origin``, in-plane axes ``u`` and ``v``, ``pixel`` size)."""
+    """A patch of surface as an image: ``value`` (H, W) with NaN where no point lies, on its
+    ``grid`` (:class:`PatchGrid`: where it is trusted, the plane it lies on)."""
 
     value: np.ndarray
-    inside: np.ndarray
-    origin: np.ndarray
-    u: np.ndarray
-    v: np.ndarray
-    lower: np.ndarray
-    pixel: float
+    grid: PatchGrid
+
+    @property
+    def inside(self) -> np.ndarray:
+        """Where the image is trusted: a scale's width away from its edges and holes."""
+        return self.grid.inside
+
+    @property
+    def origin(self) -> np.ndarray:
+        return self.grid.origin
+
+    @property
+    def u(self) -> np.ndarray:
+        return self.grid.u
+
+    @property
+    def v(self) -> np.ndarray:
+        return self.grid.v
+
+    @property
+    def lower(self) -> np.ndarray:
+        return self.grid.lower
+
+    @property
+    def pixel(self) -> float:
+        return self.grid.pixel
 
     def to_plane(self, pixels: np.ndarray) -> np.ndarray:
         """Pixel coordinates (n, 2) to coordinates along ``u`` and ``v``."""
@@ -119,7 +138,7 @@ class PatchGrid:
         total = np.bincount(self.cell, weights=values, minlength=size).reshape(self.shape)
         total = ndimage.gaussian_filter(total, PIXELS_PER_SPACING)
         value = np.where(self.covered, total / np.maximum(self.count, 1e-12), np.nan)
-        return PatchImage(value, self.inside, self.origin, self.u, self.v, self.lower, self.pixel)
+        return PatchImage(value, self)
 
 
 def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray]:
