@@ -134,7 +134,7 @@ def kinematics_of(
             oblique_lines=(tests.direct.oblique_trend, tests.direct.oblique_plunge),
             set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
             set_wedges=[(*w["sets"], w["trend"], w["plunge"]) for w in parts[-1]["set_mean_wedges"]],
-            fig=fig, panel=(k, len(slopes)),
+            fig=fig, panel=(k, len(slopes)), pole_sets=part.extra.get("set"),
         )  # fmt: skip
     set_labels = planes.extra.get("set", np.full(n, -1))
     rows = _plane_rows(everything, kept, reason, np.asarray(sections[0]) if sections is not None else None,

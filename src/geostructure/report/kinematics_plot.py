@@ -44,8 +44,10 @@ def kinematics_figure(
     set_wedges=(),
     fig=None,
     panel=(0, 1),
+    pole_sets=None,
 ):
-    """Poles (critical for planar sliding red, for flexural toppling cyan), the slope's great
+    """Poles (critical for planar sliding red, for flexural toppling cyan, the others by their
+    set in ``pole_sets``, grey for none), the slope's great
     circle (the wedges' daylight envelope), the planar daylight envelope and lateral limits,
     the friction cones of poles and of lines, the toppling envelope, and the critical wedges'
     intersection lines (crosses), and the intersections in the direct toppling zones (inside the
@@ -100,7 +102,11 @@ def kinematics_figure(
         curve(np.full_like(ring, 90.0 - psi_f), ring, "-.", color="saddlebrown", linewidth=1.0,
               label="direct toppling circle")  # fmt: skip
     other = ~(np.asarray(planar, bool) | np.asarray(toppling, bool))
-    ax.pole(strike[other], dip[other], "o", color="0.55", markersize=4, label="poles")
+    labels = np.full(len(dip), -1) if pole_sets is None else np.asarray(pole_sets, dtype=np.int64)
+    for s in np.unique(labels[other]):  # the poles not critical, by set as on the report's stereonet
+        mine = other & (labels == s)
+        ax.pole(strike[mine], dip[mine], "o", color=set_color(int(s)) if s >= 0 else "0.55", markersize=4,
+                label=f"poles, set {s}" if s >= 0 else "poles" if pole_sets is None else "poles, no set")  # fmt: skip
     ax.pole(strike[toppling], dip[toppling], "o", color=TOPPLING_COLOR, markersize=5, label="flexural toppling")
     ax.pole(strike[planar], dip[planar], "o", color="red", markersize=5, label="planar sliding")
     for lines, name, style in (
