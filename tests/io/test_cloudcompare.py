@@ -89,6 +89,6 @@ def test_cloudcompare_reads_the_traces_dxf_at_utm_coordinates(tmp_path):
     command += ["-C_EXPORT_FMT", "ASC", "-SAVE_CLOUDS"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=tmp_path)
     log = done.stdout + done.stderr
-    assert "File 'traces.dxf' loaded successfully" in log, log[-2000:]
+    assert "traces.dxf' loaded successfully" in log, log[-2000:]
     found = re.findall(r"Found one cloud with (\d+) points", log)
     assert sorted(int(n) for n in found) == [2, 3], log[-2000:]  # one polyline each, every vertex

@@ -190,19 +190,6 @@ def _table_cell(value):
     return format_number(value)
 
 
-def write_table(rows, path, columns=None) -> Path:
-    """A table as CSV: rows (:func:`write_table_csv`) or columns (a dict of name -> array,
-    :func:`write_columns_csv`, in the order of ``columns``); for a ``.dxf`` path, polylines
-    and their sets (:func:`~.exports.write_traces_dxf`)."""
-    if Path(path).suffix == ".dxf":
-        from geostructure.io.exports import write_traces_dxf  # lazy: exports imports this module
-
-        return write_traces_dxf(*rows, path)
-    if isinstance(rows, dict):
-        return write_columns_csv({name: rows[name] for name in (columns or rows)}, path)
-    return write_table_csv(rows, path, columns=columns)
-
-
 def write_table_csv(rows: list[dict], path, columns=None) -> Path:
     """A list of same-keyed dicts as CSV, atomically; the header is ``columns`` or the first
     row's keys, so a table with no rows still has its header when ``columns`` is given.

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geostructure.io.atomic import write_table_csv
+from geostructure.io.atomic import atomic_path, write_columns_csv, write_table_csv
 
 #: The columns of ``planes_dips.csv`` always written; ``Set`` follows the orientation pair
 #: when the planes have sets.
@@ -101,8 +101,6 @@ def write_traces_dxf(polylines, sets, path) -> Path:
     """
     import ezdxf  # lazy: read only when traces are written
 
-    from geostructure.io.atomic import atomic_path
-
     document = ezdxf.new("R2010")
     for s in sorted({int(v) for v in sets}):
         document.layers.add(f"set_{s}" if s >= 0 else "no_set")
@@ -113,3 +111,14 @@ def write_traces_dxf(polylines, sets, path) -> Path:
     with atomic_path(path) as tmp:
         document.saveas(tmp)
     return Path(path)
+
+
+def write_table(rows, path, columns=None) -> Path:
+    """A table as CSV: rows (:func:`~.atomic.write_table_csv`) or columns (a dict of name -> array,
+    :func:`~.atomic.write_columns_csv`, in the order of ``columns``); for a ``.dxf`` path,
+    polylines and their sets (:func:`write_traces_dxf`)."""
+    if Path(path).suffix == ".dxf":
+        return write_traces_dxf(*rows, path)
+    if isinstance(rows, dict):
+        return write_columns_csv({name: rows[name] for name in (columns or rows)}, path)
+    return write_table_csv(rows, path, columns=columns)

@@ -15,9 +15,9 @@ import numpy as np
 
 from geostructure import __version__
 from geostructure.core.threads import preload
-from geostructure.io.atomic import atomic_path, write_json, write_table, write_table_csv
+from geostructure.io.atomic import atomic_path, write_json, write_table_csv
 from geostructure.io.crs import recorded_unit
-from geostructure.io.exports import write_dips_csv
+from geostructure.io.exports import write_dips_csv, write_table
 from geostructure.io.gis import write_geojson, write_gpkg
 from geostructure.io.laz import (
     POINT_SET_DIMENSIONS,

@@ -17,8 +17,8 @@ from geostructure.core.orientation import Frame
 from geostructure.core.planes import plane_rows
 from geostructure.errors import GeoStructureWarning
 from geostructure.evaluation.scoring import Evaluation, stage_evaluation
-from geostructure.io.atomic import write_table
 from geostructure.io.crs import note_unstated_unit, recorded_unit
+from geostructure.io.exports import write_table
 from geostructure.io.laz import add_point_sets
 from geostructure.io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
 from geostructure.io.results import read_grey, read_planes, read_sets
