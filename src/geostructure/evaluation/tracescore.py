@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from geostructure.detect.traces import surface_normals
+
 #: The rule's tolerances: 5 cm (in metres; scaled to the cloud's unit by the caller), 60% of
 #: 11 samples, 15 degrees, the surface from 30 points.
 TOLERANCE = 0.05
@@ -49,13 +51,9 @@ class TraceScore:
 
 
 def local_normals(points: np.ndarray, tree: cKDTree, at: np.ndarray, k: int = SURFACE_POINTS) -> np.ndarray:
-    """The surface's unit normal at each of ``at``: the least axis of its ``k`` nearest points."""
-    if not len(at):
-        return np.zeros((0, 3))
-    _, idx = tree.query(at, min(k, len(points)))
-    near = points[np.atleast_2d(idx)]
-    near = near - near.mean(axis=1, keepdims=True)
-    return np.linalg.eigh(np.einsum("nki,nkj->nij", near, near))[1][:, :, 0]
+    """The surface's unit normal at each of ``at``: the least axis of its ``k`` nearest points
+    (:func:`~geostructure.detect.traces.surface_normals` at the rule's 30)."""
+    return surface_normals(points, tree, at, k)
 
 
 def trace_lines(points: np.ndarray, tree: cKDTree, centres: np.ndarray, normals: np.ndarray) -> np.ndarray:
