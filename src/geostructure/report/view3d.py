@@ -31,6 +31,17 @@ def set_color(label: int) -> str:
     return NO_SET_COLOR if label < 0 else SET_COLORS[label % len(SET_COLORS)]
 
 
+def colour_key(scene: ReportScene) -> str:
+    """The 3D view's colour legend, one line above its key: each set's colour and grey for
+    planes in no set ("" for planes without sets, each a colour of its own)."""
+    if "set" not in scene.planes.extra:
+        return ""
+    sets = sorted({int(s) for s in scene.planes.extra["set"]} - {-1})
+    swatch = "<span style='color:{}'>&#9632;</span> {}"
+    parts = [swatch.format(set_color(s), f"set {s}") for s in sets] + [swatch.format(NO_SET_COLOR, "no set")]
+    return "planes by set: " + "  ".join(parts) + "<br>"
+
+
 def plane_colors(scene: ReportScene) -> list[str]:
     """Each plane's colour: its joint set's when the planes have sets, else one of a palette."""
     if "set" in scene.planes.extra:
@@ -117,6 +128,7 @@ def figure_3d(scene: ReportScene) -> dict:
     key = f"grey bar: {triad[0].name} (east) · red: north · blue: up · axes relative to the header's offset"
     if scene.traces:
         key += f" · dark red lines: {len(scene.traces)} fracture traces"
+    key = colour_key(scene) + key
     fig.update_layout(
         margin=dict(l=0, r=0, t=0, b=0),
         showlegend=False,
@@ -130,6 +142,7 @@ def figure_3d(scene: ReportScene) -> dict:
                 yref="paper",
                 xanchor="left",
                 yanchor="bottom",
+                align="left",
                 showarrow=False,
                 font=dict(size=11, color="#444"),
             )
