@@ -274,7 +274,7 @@ def trace_planes(traces: Traces, surface: np.ndarray, spacing: float) -> np.ndar
 
 def find_traces(
     points: np.ndarray, spacing: float | None = None, *, grey=None, labels=None, plane_normals=None, tested=None,
-    plane_sets=None, set_normals=None,
+    plane_sets=None, set_normals=None, tree: cKDTree | None = None,
 ) -> Traces:  # fmt: skip
     """Every trace of a face (see the module).
 
@@ -294,6 +294,8 @@ def find_traces(
         Each plane's set (-1: none): its trace's.
     set_normals : (S, 3) array, optional
         The sets' mean normals, for the dark lines' sets.
+    tree : cKDTree, optional
+        The points' tree, when the caller holds one.
 
     Returns
     -------
@@ -313,7 +315,7 @@ def find_traces(
     (True, 1.0)
     """
     points = np.asarray(points, dtype=np.float64)
-    tree = cKDTree(points)
+    tree = cKDTree(points) if tree is None else tree
     if spacing is None:
         spacing = nearest_spacing(points, tree)
     lines, source, region, contrast = [], [], [], []

@@ -45,11 +45,11 @@ def face_traces(points, labels, planes, sets, point_part=None, grey=None, tested
     >>> len(traces) > 10, set(traces.source) == {"plane"}
     (True, True)
     """
+    tree = cKDTree(np.asarray(points, dtype=np.float64))  # one tree for the traces and the filter below
     traces = find_traces(points, None, grey=grey, labels=labels, plane_normals=planes.normal, tested=tested,
-                         plane_sets=sets.labels, set_normals=sets.mean_normal)  # fmt: skip
+                         plane_sets=sets.labels, set_normals=sets.mean_normal, tree=tree)  # fmt: skip
     if point_part is None or not len(traces):
         return traces
-    tree = cKDTree(points)
     keep = np.ones(len(traces), dtype=bool)
     for k, line in enumerate(traces.polylines()):
         if traces.source[k] == DARK_LINE:
