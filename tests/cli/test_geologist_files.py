@@ -221,3 +221,21 @@ def test_the_report_shows_the_tables_spacing_and_a_scaled_3d_view(outcrop_sets, 
         for axis in "xyz":
             low, high = scene[f"{axis}axis"]["range"]
             assert all(low <= v <= high for v in trace[axis])
+
+
+def test_a_level_plane_has_no_dip_direction_in_the_files(tmp_path, capsys):
+    """The demo's ground printed a dip direction of 75.15 at a dip of 0.0007 degrees in
+    planes.csv: a number there is read as a direction. Now blank where the dip is under two
+    of its standard errors; Dips, which needs a number, gets 0 (its pole at the centre)."""
+    cloud = write_xyz(tmp_path / "scene.xyz", scene_points(20_000, seed=3))
+    assert run_cli(capsys, "measure", cloud, "-o", tmp_path / "out", "-q")[0] == 0
+    rows = list(csv.DictReader(open(tmp_path / "out" / "planes.csv")))
+    dip = np.array([float(r["dip"]) for r in rows])
+    se = np.array([float(r["dip_uncertainty_deg"]) for r in rows])
+    dd = np.array([float(r["dip_direction"]) for r in rows])
+    level = dip < 2 * se
+    assert level.any() and (dip[level] < 1.0).all()  # a small near-level patch
+    assert np.isnan(dd[level]).all() and np.isfinite(dd[~level]).all()
+    dips = list(csv.DictReader(open(tmp_path / "out" / "planes_dips.csv")))
+    assert [float(r["Dip Direction"]) for r, flat in zip(dips, level) if flat] == [0.0] * int(level.sum())
+    assert run_cli(capsys, "report", tmp_path / "out")[0] == 0

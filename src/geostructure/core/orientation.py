@@ -223,6 +223,43 @@ def orientation_from_normals(normals, frame: Frame = Frame(), outward=None) -> O
     return Orientation(strike=strike, dip=dip, dip_direction=dip_direction)
 
 
+def drawn_azimuth(angle) -> np.ndarray:
+    """A strike or dip direction a drawing or a vector can use: a level plane's blank (NaN,
+    :func:`level_blanked`) read as 0, the same plane at a dip of 0 whatever its azimuth.
+
+    Examples
+    --------
+    >>> drawn_azimuth([75.0, float("nan")]).tolist()
+    [75.0, 0.0]
+    """
+    return np.nan_to_num(np.asarray(angle, dtype=np.float64), nan=0.0)
+
+
+def level_blanked(orientation: Orientation, dip_uncertainty) -> Orientation:
+    """``orientation`` with no strike or dip direction where the plane is level within its
+    measurement: a dip under two of its standard errors (``dip_uncertainty``, degrees) has
+    no direction to give, and a number there (the demo's ground: 75 degrees at a dip of
+    0.0007) would be read as one. NaN standard errors leave a plane as it is.
+
+    Examples
+    --------
+    >>> o = level_blanked(Orientation(np.array([345.2, 0.0]), np.array([0.0007, 40.0]), np.array([75.2, 90.0])),
+    ...                   np.array([0.0005, 0.002]))
+    >>> o.dip_direction.tolist(), o.strike.tolist()
+    ([nan, 90.0], [nan, 0.0])
+    """
+    dip = np.asarray(orientation.dip, dtype=np.float64)
+    se = np.asarray(dip_uncertainty, dtype=np.float64)
+    level = np.isfinite(se) & (dip < 2.0 * se)
+    if not level.any():
+        return orientation
+    return Orientation(
+        strike=np.where(level, np.nan, orientation.strike),
+        dip=dip,
+        dip_direction=np.where(level, np.nan, orientation.dip_direction),
+    )
+
+
 def face_side(outward, frame: Frame = Frame()) -> tuple[np.ndarray, np.ndarray]:
     """Which way each exposed face looks: (``facing``, ``overhang``).
 

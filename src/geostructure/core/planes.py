@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from geostructure.core.orientation import Frame, Orientation, face_side, orientation_from_normals
+from geostructure.core.orientation import Frame, Orientation, face_side, level_blanked, orientation_from_normals
 from geostructure.errors import ParameterError
 
 #: Column name(s) of each field in ``planes.csv``, in the file's order. The first twelve
@@ -269,6 +269,7 @@ class Planes:
             values = np.array([getattr(r, attribute) for r in regions], dtype=np.float64)
             return values.reshape(-1, width) if width else values
 
+        orientation = level_blanked(orientation, uncertainty["dip"])
         return cls(
             normal=normals,
             local_centroid=stacked("centroid", 3),
@@ -308,7 +309,7 @@ def _whole_or_float(values: np.ndarray) -> np.ndarray:
 def reoriented(planes: Planes, frame: Frame, previous: Frame = Frame()) -> Planes:
     """The same planes with strike, dip, dip direction and facing read in another ``frame``
     (``previous``: the one they were read in)."""
-    o = orientation_from_normals(planes.normal, frame)
+    o = level_blanked(orientation_from_normals(planes.normal, frame), planes.dip_uncertainty_deg)
     # The outward normal is +-normal: the sign whose azimuth in `previous` is `facing`.
     enu = previous.to_enu(planes.normal)
     azimuth = np.radians(planes.facing + previous.declination)

@@ -14,6 +14,8 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from geostructure.core.orientation import drawn_azimuth
+
 
 @contextmanager
 def quiet_mplstereonet():
@@ -51,12 +53,12 @@ def equal_area_xy(vectors) -> tuple[np.ndarray, np.ndarray]:
 
 def pole_xy(dip_direction, dip):
     """Net position of the poles of planes (dip direction, dip in degrees)."""
-    return equal_area_xy(enu_vectors(np.asarray(dip_direction, float) + 180.0, 90.0 - np.asarray(dip, float)))
+    return equal_area_xy(enu_vectors(drawn_azimuth(dip_direction) + 180.0, 90.0 - np.asarray(dip, float)))
 
 
 def great_circle_xy(dip_direction, dip, segments: int = 61):
     """(segments,) x and y of the plane's great circle, from strike to strike via the dip line."""
-    dd, d = np.radians(dip_direction), np.radians(dip)
+    dd, d = np.radians(drawn_azimuth(dip_direction)), np.radians(dip)
     strike = np.array([np.sin(dd - np.pi / 2), np.cos(dd - np.pi / 2), 0.0])
     down_dip = np.array([np.sin(dd) * np.cos(d), np.cos(dd) * np.cos(d), -np.sin(d)])
     a = np.linspace(0, np.pi, segments)[:, None]
@@ -108,7 +110,7 @@ def pole_density(dip_direction, dip, gridsize: int = 81, sigma: float = 3.0, wei
     """
     from scipy.interpolate import griddata
 
-    dip_direction, dip = np.asarray(dip_direction, float), np.asarray(dip, float)
+    dip_direction, dip = drawn_azimuth(dip_direction), np.asarray(dip, float)
     x = y = np.linspace(-1, 1, gridsize)
     gx, gy = np.meshgrid(x, y)
     density = np.full(gx.shape, np.nan)

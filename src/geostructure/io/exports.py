@@ -66,8 +66,10 @@ def write_dips_csv(planes, path, rotation=None) -> Path:
     >>> [line.split(",")[:3] for line in path.read_text().splitlines()[1:]]
     [['0.0', '30.0', '1'], ['90.0', '89.43', '']]
     """
+    # A level plane has no dip direction (blank in planes.csv); Dips needs a number, and at
+    # a dip of 0 any direction puts its pole at the centre.
     values = {
-        "Dip Direction": [round(v, 2) for v in planes.dip_direction.tolist()],
+        "Dip Direction": [round(v, 2) if v == v else 0.0 for v in planes.dip_direction.tolist()],
         "Dip": [round(v, 2) for v in planes.dip.tolist()],
     }
     if "set" in planes.extra:

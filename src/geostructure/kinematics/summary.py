@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from geostructure.core.orientation import Frame, normal_from_orientation, orientation_from_normals
+from geostructure.core.orientation import Frame, drawn_azimuth, normal_from_orientation, orientation_from_normals
 from geostructure.kinematics.modes import (
     LATERAL_LIMIT,
     UNIT_WEIGHT,
@@ -219,7 +219,7 @@ def _plane_rows(planes, kept, reason, section, planar, toppling, fs, base, obliq
 
 
 def _tests(planes, sets, slope: Slope, friction, lateral_limit, strength) -> _Tests:
-    dip, dd = planes.dip, planes.dip_direction
+    dip, dd = planes.dip, drawn_azimuth(planes.dip_direction)  # a level plane's blank: 0
     fs = planar_factor_of_safety(dip, friction, cohesion=strength["cohesion_kpa"], height=strength.get("height_m"),
                                  slope_dip=slope.dip, unit_weight=strength["unit_weight_kn_m3"])  # fmt: skip
     tested = np.arange(min(len(planes), MAX_WEDGE_PLANES))  # the table is largest first
@@ -275,7 +275,7 @@ def joint_orientations(planes) -> tuple[np.ndarray, np.ndarray] | None:
     if not len(grouped):
         return np.zeros(0), np.zeros(0)
     ids, j = np.unique(np.asarray(joint)[grouped], return_inverse=True)
-    normal = normal_from_orientation(planes.dip_direction[grouped], planes.dip[grouped]).reshape(-1, 3)
+    normal = normal_from_orientation(drawn_azimuth(planes.dip_direction[grouped]), planes.dip[grouped]).reshape(-1, 3)
     area = np.nan_to_num(np.asarray(planes.area, dtype=np.float64)[grouped])
     largest = np.full(len(ids), -1)
     order = np.lexsort((-area, j))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from geostructure.core.orientation import whole_azimuth
+from geostructure.core.orientation import drawn_azimuth, whole_azimuth
 from geostructure.core.projection import quiet_mplstereonet
 from geostructure.report.view3d import TOPPLING_COLOR, set_color
 
@@ -68,7 +68,7 @@ def kinematics_figure(
         import mplstereonet
 
         ax = fig.add_subplot(1, n, k + 1, projection="stereonet")
-    dip, dip_direction = np.asarray(dip, float), np.asarray(dip_direction, float)
+    dip, dip_direction = np.asarray(dip, float), drawn_azimuth(dip_direction)
     strike = (dip_direction - 90.0) % 360.0
     alpha_f, psi_f = slope.dip_direction, slope.dip
 

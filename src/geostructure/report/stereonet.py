@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from geostructure.core.orientation import drawn_azimuth
 from geostructure.core.projection import quiet_mplstereonet, rose_counts, rose_title
 from geostructure.io.atomic import write_figure
 from geostructure.report.view3d import NO_SET_COLOR, set_color
@@ -28,7 +29,7 @@ def stereonet_figure(strike, dip, *, title: str = "", set_labels=None, sets=()):
     fig = Figure(figsize=(6, 6))
     with quiet_mplstereonet():  # importing it registers the 'stereonet' projection
         ax = fig.add_subplot(111, projection="stereonet")
-    strike, dip = np.asarray(strike, float), np.asarray(dip, float)
+    strike, dip = drawn_azimuth(strike), np.asarray(dip, float)
     if len(strike) >= MIN_CONTOUR_POLES:
         contours = ax.density_contourf(strike, dip, measurement="poles", cmap="Blues", alpha=0.6)
         fig.colorbar(contours, ax=ax, shrink=0.55, pad=0.08, label="pole density (Kamb, σ)")

@@ -334,8 +334,13 @@ def hover_text(row: dict, truth: dict | None, unit: str = "m", metres_per_unit: 
     """A plane's hover label: its area in square metres, as every table of the page gives
     it, and its roughness in the cloud's length ``unit`` (``metres_per_unit`` metres)."""
     text = (
-        f"<b>Plane {row['region_id']}</b><br>strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, "
-        f"dip direction {row['dip_direction']:.1f}° (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
+        f"<b>Plane {row['region_id']}</b><br>"
+        + (
+            f"strike {row['strike']:.1f}°, dip {row['dip']:.1f}°, dip direction {row['dip_direction']:.1f}°"
+            if row["dip_direction"] == row["dip_direction"]
+            else f"level (dip {row['dip']:.4f}°)"  # blank: level
+        )
+        + f" (± {row.get('normal_uncertainty_deg', float('nan')):.2f}°)"
         f"<br>area {row['area_m2'] * metres_per_unit**2:.2f} m², {row['n_points']:,} points, "
         f"roughness {row['fit_residual']:.4f} {escape(unit)}"
     )
