@@ -26,13 +26,18 @@ def stereonet_figure(strike, dip, *, title: str = "", set_labels=None, sets=()):
     # Lazy: matplotlib takes a second to import, and only figures need it.
     from matplotlib.figure import Figure  # a Figure of its own: the caller's pyplot backend is left alone
 
-    fig = Figure(figsize=(6, 6))
-    with quiet_mplstereonet():  # importing it registers the 'stereonet' projection
-        ax = fig.add_subplot(111, projection="stereonet")
     strike, dip = drawn_azimuth(strike), np.asarray(dip, float)
-    if len(strike) >= MIN_CONTOUR_POLES:
+    contoured = len(strike) >= MIN_CONTOUR_POLES
+    fig = Figure(figsize=(7.2, 6) if contoured else (6, 6))
+    with quiet_mplstereonet():  # importing it registers the 'stereonet' projection
+        # Axes at a fixed place: mplstereonet draws the azimuth labels on an overlay laid
+        # where the net first stood, so a colour bar that shrinks the net afterwards left
+        # "0" above the title and "90" beside the bar.
+        ax = fig.add_axes((0.06, 0.08, 0.7, 0.8) if contoured else (0.1, 0.08, 0.8, 0.8), projection="stereonet")
+    if contoured:
         contours = ax.density_contourf(strike, dip, measurement="poles", cmap="Blues", alpha=0.6)
-        fig.colorbar(contours, ax=ax, shrink=0.55, pad=0.08, label="pole density (Kamb, σ)")
+        bar = fig.add_axes((0.86, 0.25, 0.03, 0.46))
+        fig.colorbar(contours, cax=bar, label="pole density (Kamb, σ)")
     if sets and set_labels is not None:
         labels = np.asarray(set_labels)
         for row in sets:
