@@ -149,11 +149,18 @@ def figure_3d(scene: ReportScene) -> dict:
         ],  # fmt: skip
         scene=dict(
             aspectmode="data",
+            # the caption's band below the scene: the triad at the cloud's near corner was
+            # drawn over it (the demo's Up arrow)
+            domain=dict(x=[0.0, 1.0], y=[CAPTION_BAND, 1.0]),
             **ranges,
             **face_camera(p, up, north=scene.frame.matrix[1]),
         ),  # fmt: skip
     )
     return figure_json(fig)
+
+
+#: The share of the 3D view's height under the scene, where the caption is written.
+CAPTION_BAND = 0.07
 
 
 #: A terrain (an airborne survey, a quarry floor) is seen from the south, this many degrees
