@@ -119,3 +119,35 @@ def test_report_command_refuses_a_folder_without_a_run(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "planes.csv" in err or "run.json" in err
     assert "Traceback" not in err and not (tmp_path / "report.html").exists()
+
+
+def test_the_triad_stands_beside_the_cloud_as_the_camera_sees_it(measured):
+    """The north and Up arrows and the scale bar were drawn at the cloud's lowest corner in
+    the cloud's axes: cut by the view's edge from the south (the demo), over the rock on a
+    face. On the screen they must lie left of or below every point, and every axis must
+    get ticks in proportion to its length on the screen."""
+    from geostructure.report.view3d import screen_axes
+
+    scene = payload(build_report(measured, max_points=5_000).read_text())["scene"]
+    camera = scene["layout"]["scene"]["camera"]
+    eye = np.array([camera["eye"][a] for a in "xyz"])
+    axes = screen_axes(eye, np.array([camera["up"][a] for a in "xyz"]))
+    cloud = next(t for t in scene["data"] if t.get("mode") == "markers")
+    points = np.c_[[np.asarray(decoded(cloud[a]), dtype=float) for a in "xyz"]].T @ axes.T
+    triad = [t for t in scene["data"] if t.get("mode") == "lines+text"]
+    assert [t["text"][1] for t in triad][1:] == ["N", "Up"]
+    for line in triad:
+        ends = np.c_[[np.asarray(line[a], dtype=float) for a in "xyz"]].T @ axes.T
+        left, below = ends[:, 0].max() < points[:, 0].min(), ends[:, 1].max() < points[:, 1].min()
+        assert left or below, line["name"]
+    ticks = [scene["layout"]["scene"][f"{a}axis"]["nticks"] for a in "xyz"]
+    assert min(ticks) >= 2 and max(ticks) == 8
+
+
+def decoded(values):
+    """A plotly typed array (``{"dtype", "bdata"}``) or a list, as numbers."""
+    import base64
+
+    if isinstance(values, dict):
+        return np.frombuffer(base64.b64decode(values["bdata"]), dtype=values["dtype"])
+    return values

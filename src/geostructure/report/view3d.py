@@ -117,14 +117,17 @@ def figure_3d(scene: ReportScene) -> dict:
             line=dict(color="#111111", width=8),
         )
     )
-    triad, (box_lo, box_hi) = _axes(scene)
+    camera = face_camera(p, up, north=scene.frame.matrix[1])
+    eye = camera["camera"]["eye"] if camera else PLOTLY_DEFAULT_EYE
+    triad, (box_lo, box_hi) = _axes(scene, np.array([eye["x"], eye["y"], eye["z"]]))
     for trace in triad:  # 6.. scale bar (east), north and up
         fig.add_trace(trace)
     if scene.traces:  # last: the fracture traces, drawn over the cloud
         fig.add_trace(_trace_lines(scene.traces))
     pad = 0.02 * float(np.max(box_hi - box_lo) or 1.0)
-    ranges = {f"{a}axis": dict(range=[box_lo[i] - pad, box_hi[i] + pad], title=f"{a} ({scene.unit})")
-              for i, a in enumerate("xyz")}  # fmt: skip
+    ticks = tick_counts(box_hi - box_lo, np.array([eye["x"], eye["y"], eye["z"]]))
+    ranges = {f"{a}axis": dict(range=[box_lo[i] - pad, box_hi[i] + pad], title=f"{a} ({scene.unit})",
+                               nticks=int(ticks[i])) for i, a in enumerate("xyz")}  # fmt: skip
     key = f"grey bar: {triad[0].name} (east) · red: north · blue: up · axes relative to the header's offset"
     if scene.traces:
         key += f" · dark red lines: {len(scene.traces)} fracture traces"
@@ -153,11 +156,14 @@ def figure_3d(scene: ReportScene) -> dict:
             # drawn over it (the demo's Up arrow)
             domain=dict(x=[0.0, 1.0], y=[CAPTION_BAND, 1.0]),
             **ranges,
-            **face_camera(p, up, north=scene.frame.matrix[1]),
+            **camera,
         ),  # fmt: skip
     )
     return figure_json(fig)
 
+
+#: Where plotly puts the eye when the layout names no camera.
+PLOTLY_DEFAULT_EYE = {"x": 1.25, "y": 1.25, "z": 1.25}
 
 #: The share of the 3D view's height under the scene, where the caption is written.
 CAPTION_BAND = 0.07
@@ -369,18 +375,79 @@ def scale_length(size: float) -> float:
     return float(next(m * power for m in (5.0, 2.0, 1.0) if m * power <= raw))
 
 
-def _axes(scene: ReportScene):
-    """A triad just outside the cloud's lowest corner: east (a scale bar, labelled with its
-    round length and the cloud's unit), north and up, all that long; and the corners of a
-    box that holds them, so that no label is cut at the view's edge."""
+def tick_counts(extent: np.ndarray, eye: np.ndarray, most: int = 8) -> np.ndarray:
+    """Ticks on each axis in proportion to its length on the screen seen from ``eye``: an
+    axis seen end-on (the height of a terrain seen from above) got as many ticks as the
+    others, their labels over each other (autzen).
+
+    Examples
+    --------
+    >>> tick_counts(np.array([600.0, 300.0, 100.0]), np.array([0.0, -1.0, 1.4])).tolist()
+    [8, 3, 2]
+    """
+    toward = np.asarray(eye, dtype=np.float64) / np.linalg.norm(eye)
+    across = np.sqrt(np.clip(1.0 - toward**2, 0.0, None))  # an axis's length on the screen, per unit
+    seen = np.asarray(extent, dtype=np.float64) * across
+    return np.clip(np.round(most * seen / max(float(seen.max()), 1e-12)), 2, most).astype(int)
+
+
+def screen_axes(eye: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """The screen's right, up and toward-the-eye directions (rows) of a camera at ``eye`` (a
+    direction from the scene) with ``up`` up the screen."""
+    toward = np.asarray(eye, dtype=np.float64)
+    toward = toward / np.linalg.norm(toward)
+    right = np.cross(-toward, np.asarray(up, dtype=np.float64))
+    if np.linalg.norm(right) < 1e-9:  # looking straight down: the screen's right is east-ish
+        right = np.cross(np.array([0.0, 1.0, 0.0]), toward)
+    right /= np.linalg.norm(right)
+    return np.stack([right, np.cross(right, -toward), toward])
+
+
+def screen_corner(
+    points: np.ndarray, eye: np.ndarray, up: np.ndarray, margin: float, drop: float | None = None
+) -> np.ndarray:
+    """The point ``margin`` left of and ``drop`` (``margin`` unless given) below the cloud's
+    bottom-left corner as seen from
+    ``eye`` (a direction from the cloud), with ``up`` up the screen, at the depth of the
+    cloud's middle: outside the cloud's outline on the screen no point hides it, and
+    nearer the eye the perspective pushed it off the view (the demo's terrain).
+
+    Examples
+    --------
+    >>> wall = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 0.0, 5.0], [10.0, 0.0, 5.0]])
+    >>> screen_corner(wall, np.array([0.0, -1.0, 0.0]), np.array([0.0, 0.0, 1.0]), 1.0).round(6).tolist()
+    [-1.0, 0.0, -1.0]
+    >>> screen_corner(wall, np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0]), 1.0).round(6).tolist()
+    [11.0, 0.0, -1.0]
+    """
+    axes = screen_axes(eye, up)
+    local = points @ axes.T
+    middle = 0.5 * (local[:, 2].min() + local[:, 2].max())
+    drop = margin if drop is None else drop  # further down: the perspective lifts the middle depth
+    corner = np.array([local[:, 0].min() - margin, local[:, 1].min() - drop, middle])
+    return corner @ axes
+
+
+def _axes(scene: ReportScene, eye: np.ndarray):
+    """A triad at the cloud's bottom-left corner as the camera at ``eye`` (a direction, as
+    plotly's camera gives it) sees it, in front of the points: east (a scale bar, labelled
+    with its round length and the cloud's unit), north and up, all that long; and the
+    corners of a box that holds them, so that no label is cut at the view's edge.
+
+    The corner is read on the screen, not along the cloud's axes: at the lowest corner of
+    the box, the demo's view from the south cut the arrows at the view's edge, and on a
+    face seen along its normal the triad stood over the rock."""
     import plotly.graph_objects as go
 
     p = scene.points if len(scene.points) else np.zeros((1, 3), np.float32)
     lo, hi = p.min(axis=0).astype(float), p.max(axis=0).astype(float)
     size = float(np.max(hi - lo) or 1.0)
     length = scale_length(size)
-    origin = lo - 0.05 * size  # outside the box: no point hides the triad from the usual views
     east, north, up = scene.frame.matrix
+    # the whole triad left of the cloud on the screen: the scale bar and its label, drawn
+    # from the corner rightwards, lay over the cloud's edge
+    rightwards = max(0.0, float(east @ screen_axes(eye, up)[0])) * length + 0.12 * size
+    origin = screen_corner(p.astype(float), eye, up, margin=0.05 * size + rightwards, drop=0.1 * size)
     triad = ((f"{length:g} {scene.unit}", east, "#555555"), ("N", north, "#d62728"), ("Up", up, "#1f77b4"))
     traces, tips = [], [origin]
     for name, vector, color in triad:
