@@ -28,6 +28,11 @@ from geostructure.rockmass.notes import block_phrase, jv_phrase, off_face_scope,
 from geostructure.rockmass.rqd import block_size_class, rqd_from_jv, rqd_range
 from geostructure.rockmass.sets import MIN_SET_PLANES
 
+#: A plane's azimuths are printed as ``planes.csv`` holds them: "level" only where the file
+#: leaves them blank (:func:`~geostructure.core.orientation.level_blanked`), so that the
+#: table and the file never disagree on which planes are level.
+NO_UNCERTAINTY = float("nan")
+
 
 def stdout_console() -> Console:
     """stdout console; wide enough for the tables when stdout is a file or pipe."""
@@ -91,9 +96,9 @@ def print_planes(
             str(row["region_id"]),
             f"{row['n_points']:,}",
             f"{row['area_m2']:.4g}",
-            azimuth(row["strike"], row["dip"], row["normal_uncertainty_deg"]),
+            azimuth(row["strike"], row["dip"], NO_UNCERTAINTY),  # planes.csv's own blank: one rule
             f"{row['dip']:04.1f}",
-            azimuth(row["dip_direction"], row["dip"], row["normal_uncertainty_deg"]),
+            azimuth(row["dip_direction"], row["dip"], NO_UNCERTAINTY),
             f"{row['normal_uncertainty_deg']:.2f}",
             f"{row['centroid_x']:.2f}, {row['centroid_y']:.2f}, {row['centroid_z']:.2f}",
         )
@@ -236,7 +241,11 @@ def print_evaluation(evaluation, console: Console | None = None) -> None:
     ):
         table.add_column(column, justify="right")
     for s in evaluation.surfaces:
-        measured = f"{s.strike:05.1f}/{s.dip:04.1f}/{s.dip_direction:05.1f}" if s.found else "missed"
+        measured = (
+            f"{azimuth(s.strike, s.dip, NO_UNCERTAINTY)}/{s.dip:04.1f}/{azimuth(s.dip_direction, s.dip, NO_UNCERTAINTY)}"
+            if s.found
+            else "missed"
+        )
         table.add_row(
             s.surface,
             str(s.region) if s.found else "-",
@@ -265,7 +274,7 @@ def print_match(match, console: Console | None = None) -> None:
             row.surface,
             str(row.region) if found else "missed",
             f"{row.true_dip_direction:05.1f}/{row.true_dip:04.1f}",
-            f"{row.dip_direction:05.1f}/{row.dip:04.1f}" if found else "-",
+            f"{azimuth(row.dip_direction, row.dip, NO_UNCERTAINTY)}/{row.dip:04.1f}" if found else "-",
             f"{row.normal_error_deg:.3f}" if found else "-",
         )
     console.print(table)

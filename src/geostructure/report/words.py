@@ -11,10 +11,11 @@ from geostructure.core.orientation import whole_azimuth
 
 
 def azimuth(value: float, dip: float, uncertainty: float) -> str:
-    """A strike or dip direction as the tables print it, or "level" for a plane whose dip is
-    within its normal's uncertainty (degrees) of level, where no azimuth means anything
-    (a level plane printed a dip direction of 075.2 at dip 0.0); planes.csv leaves it blank where the
-    dip is under two of its standard errors (:func:`~geostructure.core.orientation.level_blanked`).
+    """A strike or dip direction as the tables print it, or "level" where it is blank (a
+    plane's, in planes.csv, where its dip is under two of its standard errors:
+    :func:`~geostructure.core.orientation.level_blanked`), or where the dip is within
+    ``uncertainty`` (degrees; a set mean's cone of confidence) of level, where no azimuth
+    means anything (a level plane printed a dip direction of 075.2 at dip 0.0).
 
     Examples
     --------
@@ -23,7 +24,7 @@ def azimuth(value: float, dip: float, uncertainty: float) -> str:
     >>> azimuth(float("nan"), 0.0007, 0.0006)  # planes.csv leaves a level plane's blank
     'level'
     """
-    return "level" if value != value or dip < 0.05 or dip < uncertainty else f"{value:05.1f}"
+    return "level" if value != value or dip < uncertainty else f"{value:05.1f}"
 
 
 def counted(n: int, noun: str) -> str:
