@@ -82,10 +82,15 @@ def run(argv=None) -> int:
         print("geostructure: interrupted while starting; nothing was written.", file=sys.stderr)
         return 130
     try:
-        return main(argv, parser=parser)
+        code = main(argv, parser=parser)
     except KeyboardInterrupt:  # between the start and the work (main answers one during it)
         print("geostructure: interrupted; nothing was written.", file=sys.stderr)
-        return 130
+        code = 130
+    # The command has said how it ended; an interrupt while the interpreter shuts down (its
+    # threads joined, its memory freed: a second or more after a large run) came out as
+    # exit 0 or a death by SIGINT with no word, the outputs whole either way.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return code
 
 
 if __name__ == "__main__":

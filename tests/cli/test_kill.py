@@ -107,6 +107,38 @@ def test_the_next_run_cleans_what_a_killed_one_left(runs, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("step", range(1, 16))
+def test_ctrl_c_at_each_rename_leaves_one_whole_set_and_says_which(runs, tmp_path, monkeypatch, capsys, step):
+    """A real SIGINT at the n-th rename: before the journal the old set stays; once the
+    commit has begun it finishes, so no command is needed to repair the folder, and the
+    message says which set the folder holds (it said "previous" beside a half-moved one)."""
+    clouds, folders, _ = runs
+    work = tmp_path / "work"
+    shutil.copytree(folders["old"], work)
+    real, calls = os.replace, []
+
+    def interrupted(src, dst):
+        calls.append(dst)
+        if len(calls) == step:
+            os.kill(os.getpid(), signal.SIGINT)
+        real(src, dst)
+
+    monkeypatch.setattr(outdir_module.os, "replace", interrupted)
+    from geostructure.cli import main
+
+    code = main(["measure", str(clouds["new"]), "-o", str(work), *ARGS])
+    err = capsys.readouterr().err
+    monkeypatch.setattr(outdir_module.os, "replace", real)
+    assert not (work / STAGING).exists(), (calls, err)
+    held = which_set(work, folders)
+    if len(calls) < step:
+        assert code == 0 and held == "new"
+    else:
+        assert code == 130
+        assert ("holds this run's new set" in err) == (held == "new"), err
+        assert ("keeps its previous set" in err) == (held == "old"), err
+
+
+@pytest.mark.parametrize("step", range(1, 16))
 def test_an_interruption_at_each_rename_of_the_commit(runs, tmp_path, monkeypatch, step):
     """Deterministic: interrupt the n-th rename of a measure (the staged writes, the record, the
     journal, then the commit's moves), as a kill at that instant would; 15 is past the last."""

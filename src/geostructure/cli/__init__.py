@@ -19,6 +19,7 @@ from geostructure.cli.measure import add_measure_commands
 from geostructure.cli.reconstruct import add_reconstruct_commands
 from geostructure.cli.rockmass import add_rockmass_commands
 from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
+from geostructure.io.outdir import folder_state
 
 EXIT_USER_ERROR = 2
 
@@ -31,7 +32,12 @@ def main(argv=None, parser=None) -> int:
         return EXIT_USER_ERROR
     with warnings.catch_warnings():
         warnings.simplefilter("always")
+        # Python's own default: a file left open by an interrupted import or reader is the
+        # interpreter's to close, not a message for the user ("unclosed file" on Ctrl-C)
+        warnings.simplefilter("ignore", ResourceWarning)
         warnings.showwarning = _warning_printer(quiet=getattr(args, "quiet", False))
+        outdir = getattr(args, "outdir", None)
+        before = folder_state(outdir)
         try:
             return args.run(args) or 0
         except GeoStructureError as exc:
@@ -42,11 +48,19 @@ def main(argv=None, parser=None) -> int:
             print(f"geostructure: error: {one_line(f'{where}{exc.strerror or exc}')}.", file=sys.stderr)
             return EXIT_USER_ERROR
         except KeyboardInterrupt:
-            print(
-                "geostructure: interrupted; the output folder keeps its previous set (no half-written files).",
-                file=sys.stderr,
-            )
+            print(f"geostructure: interrupted; {interrupted_folder(outdir, before)}", file=sys.stderr)
             return 130
+
+
+def interrupted_folder(outdir, before: tuple) -> str:
+    """What an interrupted command leaves in its output folder, read from the folder: the
+    commit finishes once begun (:func:`~geostructure.io.atomic.signals_deferred`), so it
+    holds the previous set or the new one whole, and the message says which."""
+    if outdir is None:
+        return "nothing was written."
+    if folder_state(outdir) != before:
+        return f"{outdir} holds this run's new set, whole (the interrupt came after it was written)."
+    return f"{outdir} keeps its previous set (no half-written files)."
 
 
 def one_line(message: str) -> str:

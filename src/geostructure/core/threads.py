@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import importlib
 import os
+import signal
+import threading
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from typing import Callable
 
 #: Fewer rows than this are done in the calling thread: a thread's start costs more.
@@ -125,3 +128,61 @@ def preload(*modules: str) -> None:
     """
     for name in modules:
         importlib.import_module(name)
+
+
+#: The signals a commit holds back until it is done: an interrupt (Ctrl-C) and a polite kill.
+DEFERRED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def signals_deferred():
+    """Hold SIGINT and SIGTERM back while the block runs, then deliver them: the few renames
+    that commit a set of outputs finish once begun, so an interrupt there leaves the new set
+    whole instead of new files beside the old record; a writer's threads are waited for, so
+    none writes into a folder already cleaned. Outside the main thread (where Python
+    cannot catch signals) the block runs as it is.
+
+    Examples
+    --------
+    >>> import os
+    >>> try:
+    ...     with signals_deferred():
+    ...         os.kill(os.getpid(), signal.SIGINT)
+    ...         done = True  # the block goes on to its end
+    ... except KeyboardInterrupt:
+    ...     print("interrupted after the block:", done)
+    interrupted after the block: True
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+    previous = {sig: signal.signal(sig, lambda number, frame: pending.append(number)) for sig in DEFERRED_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(pending):
+            signal.raise_signal(sig)
+
+
+@contextmanager
+def finished_pool(workers: int):
+    """A thread pool left only once its threads are done, even on an interrupt: the pool's
+    own exit waits, but a Ctrl-C during that wait left its threads writing into the output
+    folder's staging after the folder had cleaned it (:func:`signals_deferred`).
+
+    Examples
+    --------
+    >>> with finished_pool(2) as pool:
+    ...     futures = [pool.submit(pow, 2, n) for n in range(4)]
+    >>> [f.result() for f in futures]
+    [1, 2, 4, 8]
+    """
+    pool = ThreadPoolExecutor(workers)
+    try:
+        yield pool
+    finally:
+        with signals_deferred():
+            pool.shutdown(wait=True)

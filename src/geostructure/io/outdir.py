@@ -30,6 +30,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from geostructure.core.threads import signals_deferred
 from geostructure.errors import OutputError
 from geostructure.io.atomic import TEMP_PATTERN, plain, write_json
 
@@ -410,9 +411,10 @@ def _commit(outputs: OutputSet) -> None:
     for name in staged + [outputs.record_name]:
         _fsync(outputs.staging / name)
     remove = [n for n in outputs.stale if n not in manifest and n != outputs.record_name]
-    write_json({"files": staged + [outputs.record_name], "remove": remove}, outputs.staging / JOURNAL)
-    _fsync(outputs.staging)
-    _roll_forward(outputs.outdir)
+    with signals_deferred():  # once the journal is written, the renames finish: never a mixed folder
+        write_json({"files": staged + [outputs.record_name], "remove": remove}, outputs.staging / JOURNAL)
+        _fsync(outputs.staging)
+        _roll_forward(outputs.outdir)
 
 
 def _roll_forward(outdir: Path) -> None:
@@ -470,6 +472,30 @@ def recover(outdir) -> None:
         match = TEMP_PATTERN.match(entry.name)
         if match and match.group("name") in OWNED and entry.is_file():
             entry.unlink(missing_ok=True)
+
+
+def folder_state(outdir) -> tuple:
+    """What identifies the set an output folder holds now (its records' seals), to tell
+    after an interrupt whether the run's new set went in.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = tempfile.mkdtemp()
+    >>> before = folder_state(out)
+    >>> with output_set(out) as outputs:
+    ...     _ = outputs.path("planes.csv").write_text("region_id\\n")
+    >>> folder_state(out) != before
+    True
+    """
+    seals = []
+    for name in ("run.json", "sweep.json"):
+        record = read_record(Path(outdir) / name) if outdir is not None else None
+        try:
+            seals.append(None if record is None else record.get(SEAL) or record_digest(record))
+        except (TypeError, ValueError):  # a record no digest can be taken of: as good as unread
+            seals.append(None)
+    return tuple(seals)
 
 
 def _fsync(path: Path) -> None:

@@ -8,13 +8,12 @@ whole set through :mod:`.outdir`, so it appears in the folder together or not at
 from __future__ import annotations
 
 import platform
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from geostructure import __version__
-from geostructure.core.threads import preload
+from geostructure.core.threads import finished_pool, preload
 from geostructure.io.atomic import atomic_path, write_json, write_table_csv
 from geostructure.io.crs import recorded_unit
 from geostructure.io.exports import write_dips_csv, write_table
@@ -249,7 +248,7 @@ def write_result(
     preload("plyfile", "laspy", "lazrs")
     if callable(point_files):
         point_files(outputs, result, planes if labelled_sets else None, rock)
-    with ThreadPoolExecutor(2) as pool:
+    with finished_pool(2) as pool:
         point_writes = []
         if point_files is True:
             labelled = point_sets(result.labels, planes) if labelled_sets else None

@@ -7,14 +7,13 @@ them in one go.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
 
 from geostructure.core.orientation import Frame
 from geostructure.core.planes import Planes
-from geostructure.core.threads import preload
+from geostructure.core.threads import finished_pool, preload
 from geostructure.detect.uncertainty import normal_standard_errors, with_correlated_tilt
 from geostructure.io.crs import in_metres
 from geostructure.rockmass.exposure import exposure
@@ -163,7 +162,7 @@ def sets_and_rock_mass(
     report = progress or (lambda stage: None)
     report("sets")
     preload("scipy.ndimage")  # the exposure's thread imports it (threads.preload says why)
-    with ThreadPoolExecutor(1) as pool:  # left only once the exposure is done, error or not
+    with finished_pool(1) as pool:  # left only once the exposure is done, error or not
         f, metric = metres_per_unit, in_metres(points, metres_per_unit)  # one copy, for a cloud in feet
         # The face without the ground before it and the clutter (vegetation) on it.
         parts = face_parts(points, labels, planes.normal, frame.matrix[2], spacing=spacing, vegetation=vegetation)
