@@ -123,3 +123,25 @@ def test_the_vegetation_a_tile_classifies_is_kept_when_the_tiles_are_read_as_one
     assert cloud.vegetation is not None and cloud.vegetation.sum() == 30
     marked = cloud.points[cloud.vegetation] - UTM
     np.testing.assert_allclose(np.sort(marked[:, 0]), np.sort(points[100:130, 0]), atol=1e-3)
+
+
+@pytest.mark.parametrize("damage", ["random bytes", "empty", "one word"])
+def test_a_damaged_tile_in_a_folder_is_refused_by_name_not_left_out(tmp_path, capsys, damage):
+    """One of four XYZ tiles garbage or empty: the survey was measured from the other three
+    with no word (the tile was passed over as a folder's note). Now it is refused, by name,
+    before any work; a README.txt beside the tiles is still passed over, and said so."""
+    grid = np.mgrid[0:4:0.05, 0:4:0.05].reshape(2, -1).T
+    folder = tmp_path / "tiles"
+    folder.mkdir()
+    for i in range(3):
+        np.savetxt(folder / f"tile_{i}.xyz", np.c_[grid[:, 0] + 4 * i, grid[:, 1], np.zeros(len(grid))])
+    bad = folder / "tile_3.xyz"
+    bad.write_bytes({"random bytes": np.random.default_rng(0).bytes(4000), "empty": b"", "one word": b"hello\n"}[damage])
+    code, _, err = run_cli(capsys, "measure", folder, "-o", tmp_path / "out")
+    assert code == 2
+    assert_one_sentence(err, bad)
+    assert not (tmp_path / "out").exists()
+    bad.unlink()
+    (folder / "README.txt").write_text("Four tiles of the 2024 survey.\n")
+    code, _, err = run_cli(capsys, "measure", folder, "-o", tmp_path / "out")
+    assert code == 0 and "README.txt: passed over, a note" in err

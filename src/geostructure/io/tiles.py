@@ -24,7 +24,6 @@ from geostructure.io.crs import check_cloud_crs, parse_crs
 from geostructure.io.readers import (
     DEFAULT_MESH_SAMPLES,
     SUFFIXES,
-    TEXT_SUFFIXES,
     las_crs,
     merged_left_out,
     open_las,
@@ -80,10 +79,54 @@ def expand_inputs(specs) -> list[Path]:
 
 
 def _is_point_file(path: Path) -> bool:
-    """A folder's file to read: a point-cloud extension and, for text, rows of numbers (a
-    folder's PROVENANCE.txt or README.txt shares the extension of an XYZ cloud)."""
+    """A folder's file to read: a point-cloud extension, unless it is a note (a folder's
+    PROVENANCE.txt or README.txt shares the extension of an XYZ cloud), passed over with a
+    word. A tile that is empty, unreadable or damaged is read, and so refused by name: it
+    was passed over as a note, and the survey measured without it, with no word."""
     suffix = path.suffix.lower()
-    return suffix in SUFFIXES and (suffix not in TEXT_SUFFIXES or holds_rows_of_numbers(path))
+    if suffix not in SUFFIXES:
+        return False
+    if suffix in NOTE_SUFFIXES and is_note(path):
+        warnings.warn(GeoStructureNote(f"{path}: passed over, a note (words, not rows of numbers), not a point cloud."))
+        return False
+    return True
+
+
+#: The extensions a folder's notes share with clouds: a file named ``.xyz`` is a tile, whatever it holds.
+NOTE_SUFFIXES = (".txt",)
+#: Bytes of a text file read to tell a note from a cloud.
+NOTE_PROBE = 4096
+
+
+def is_note(path: Path) -> bool:
+    """Whether a text file is prose (a README, a provenance note): it reads as UTF-8, its
+    first data line is no row of numbers, and most of its first characters are letters. An
+    empty file, one that cannot be read or random bytes are no note.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "README.txt").write_text("Survey of 3 June, 2 stations.\\nSee the report.\\n")
+    >>> _ = (folder / "tile.txt").write_text("1.5 2.0 3.25\\n")
+    >>> _ = (folder / "noise.txt").write_bytes(bytes(range(256)) * 4)
+    >>> _ = (folder / "empty.txt").write_bytes(b"")
+    >>> [is_note(folder / n) for n in ("README.txt", "tile.txt", "noise.txt", "empty.txt")]
+    [True, False, False, False]
+    """
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(NOTE_PROBE)
+    except OSError:
+        return False
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    visible = [c for c in text if not c.isspace()]
+    if not visible or "\x00" in text or holds_rows_of_numbers(path):
+        return False
+    return sum(c.isalpha() for c in visible) >= 0.5 * len(visible)
 
 
 def describe(paths) -> str:
