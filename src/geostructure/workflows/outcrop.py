@@ -32,13 +32,17 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.cloud import Cloud
+from geostructure.core.density import point_spacing
 from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
+from geostructure.core.strays import MIN_NEIGHBOURS, STRAY_RADIUS_SPACINGS, stray_points
 from geostructure.detect.auto import choose_params
 from geostructure.detect.pipeline import Result, check_measurable, measure
-from geostructure.errors import GeoStructureNote
+from geostructure.errors import GeoStructureNote, GeoStructureWarning
 from geostructure.io.crs import cloud_unit, describe_north, given_crs, note_unstated_unit, true_north_frame
 from geostructure.io.tiles import read_tiles
 from geostructure.kinematics.slope import fit_face
@@ -231,6 +235,7 @@ def measure_outcrop(
         cloud = read_tiles(paths)
         seconds = {"read": time.perf_counter() - t, **(seconds or {})}
     params = params or Params()
+    cloud = without_strays(cloud)  # before anything reads the cloud's extent
     crs = given_crs(crs, cloud.crs, cloud.source)
     if crs != cloud.crs:
         cloud = dataclasses.replace(cloud, crs=crs)
@@ -276,6 +281,29 @@ def measure_outcrop(
                                            offset=result.filtered.offset, sections=run.rock.sections)  # fmt: skip
         run.kinematic_options = kinematics
     return run
+
+
+def without_strays(cloud: Cloud) -> Cloud:
+    """``cloud`` without its stray points (:func:`~geostructure.core.strays.stray_points`),
+    said in a warning and counted in ``run.json``'s ``left_out`` as ``strays``."""
+    if len(cloud) < 10:
+        return cloud
+    spacing = point_spacing(cloud.local)
+    strays = stray_points(cloud.local, spacing)
+    n = int(np.count_nonzero(strays))
+    if not n:
+        return cloud
+    first = int(np.argmax(strays))
+    warnings.warn(
+        f"{cloud.source}: left out {n:,} stray point(s), each with at most {MIN_NEIGHBOURS} others within "
+        f"{STRAY_RADIUS_SPACINGS:g} point spacings ({STRAY_RADIUS_SPACINGS * spacing:.3g} in the cloud's unit) (the first is "
+        f"point number {first + 1:,}, counting from 1): one such point made the cloud's extent, and every "
+        f"parameter read from it, many times the rock's.",
+        GeoStructureWarning,
+        stacklevel=3,
+    )
+    kept = cloud.subset(~strays)
+    return dataclasses.replace(kept, left_out={**(cloud.left_out or {}), "strays": n})
 
 
 def chosen_params(cloud: Cloud, params: Params, auto: bool, given: dict, on_choice=None):
