@@ -255,4 +255,4 @@ def test_a_control_character_quoted_from_a_file_stays_on_the_error_s_line(tmp_pa
     path.write_text("x,y,z\n5\x0b0006.3,4600002.6,100.0\n" + "500001.0,4600003.0,100.1\n" * 5)
     code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out", "-q")
     assert code == 2
-    assert_one_sentence(err, "scan.csv", "'5\\x0b0006.3' is not a number")
+    assert_one_sentence(err, "scan.csv", "line 2 holds a control character (\\x0b)")

@@ -14,7 +14,7 @@ from geostructure.report.html import fill_template, script_json
 #: A name that would run a script if it reached the page as markup, and that also holds a
 #: placeholder of the report's template.
 HOSTILE = "{{PAYLOAD}}<img src=x onerror=document.title='owned'>"
-FORMULAS = ['=HYPERLINK("http://x")', "=cmd|' /C calc'!A0", "+SUM(1+1)*cmd|x", "@SUM(A1)", "-1+2"]
+FORMULAS = ['=HYPERLINK("http://x")', "=cmd|' /C calc'!A0", "+SUM(1+1)*cmd|x", "@SUM(A1)", "-1+2", "+nan", "-inf"]
 
 
 def test_template_is_filled_in_one_pass():

@@ -299,3 +299,45 @@ def test_real_poisson_mesh_from_the_paper():
     assert len(read_cloud(path, mesh_samples=None)) == 9693
     cloud = read_cloud(path, mesh_samples=50_000)
     assert len(cloud) == 50_000 and cloud.normals is not None
+
+
+@pytest.mark.parametrize("control", [b"\x0b", b"\x0c", b"\x00"])
+def test_a_control_character_inside_a_row_is_refused_by_line(tmp_path, capsys, control):
+    """A vertical tab inside a number at line 300 was read as a break between columns: the
+    point kept with a wrong z, 14 planes where the clean file gives 20."""
+    from helpers import run_cli
+
+    rows = [f"{x * 0.1:.3f} {y * 0.1:.3f} {0.01 * x:.4f}" for x in range(30) for y in range(30)]
+    rows[299] = rows[299][:-2] + control.decode("latin-1") + rows[299][-2:]
+    path = tmp_path / "rock.xyz"
+    path.write_bytes(("\n".join(rows) + "\n").encode("latin-1"))
+    code, _, err = run_cli(capsys, "measure", path, "-o", tmp_path / "out")
+    assert code == 2 and "line 300 holds a control character" in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_text_cloud_rounded_far_coarser_than_its_spacing_is_refused(tmp_path, capsys):
+    """An XYZ of a 3 cm face rounded to 0.5 m gave 0 planes and a numpy warning; a cloud
+    stored to 1 mm measures as before."""
+    from helpers import run_cli, write_xyz
+
+    g = np.mgrid[0:6:0.03, 0:4:0.03].reshape(2, -1).T
+    face = np.c_[g[:, 0], 0.3 * g[:, 1], g[:, 1]] + [500_000.0, 5_000_000.0, 300.0]
+    write_xyz(tmp_path / "coarse.xyz", np.round(face * 2) / 2)
+    code, _, err = run_cli(capsys, "measure", tmp_path / "coarse.xyz", "-o", tmp_path / "out")
+    assert code == 2 and "least step between values of 0.5" in err and "heaped" in err, err
+    assert not (tmp_path / "out").exists()
+    write_xyz(tmp_path / "fine.xyz", np.round(face, 3))
+    code, _, err = run_cli(capsys, "measure", tmp_path / "fine.xyz", "-o", tmp_path / "out", "-q")
+    assert code == 0 and "step" not in err, err
+
+
+def test_a_pipe_named_like_a_cloud_is_refused_not_waited_on(tmp_path, capsys):
+    import os
+
+    from helpers import run_cli
+
+    fifo = tmp_path / "scan.laz"
+    os.mkfifo(fifo)
+    code, _, err = run_cli(capsys, "measure", fifo, "-o", tmp_path / "out")
+    assert code == 2 and "not a regular file" in err, err

@@ -136,7 +136,9 @@ def test_a_damaged_tile_in_a_folder_is_refused_by_name_not_left_out(tmp_path, ca
     for i in range(3):
         np.savetxt(folder / f"tile_{i}.xyz", np.c_[grid[:, 0] + 4 * i, grid[:, 1], np.zeros(len(grid))])
     bad = folder / "tile_3.xyz"
-    bad.write_bytes({"random bytes": np.random.default_rng(0).bytes(4000), "empty": b"", "one word": b"hello\n"}[damage])
+    bad.write_bytes(
+        {"random bytes": np.random.default_rng(0).bytes(4000), "empty": b"", "one word": b"hello\n"}[damage]
+    )
     code, _, err = run_cli(capsys, "measure", folder, "-o", tmp_path / "out")
     assert code == 2
     assert_one_sentence(err, bad)

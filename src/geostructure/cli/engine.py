@@ -8,7 +8,7 @@ import os
 import re
 import time
 
-from geostructure.cli.options import base_params, crs_from, given_factors, say_what_was_left
+from geostructure.cli.options import base_params, crs_from, given_factors, say_what_was_left, workers
 from geostructure.cli.progress import StageProgress
 from geostructure.cli.rockmass import wants_sets
 from geostructure.cli.tables import counted, print_evaluation, print_planes
@@ -82,7 +82,7 @@ def add_engine_options(p) -> None:
     g.add_argument(
         "--scheduler", metavar="ADDRESS", help="--engine dask: a running scheduler (default: a local cluster)"
     )
-    g.add_argument("--workers", type=int, default=None, help="--engine dask: local workers (default 2)")
+    g.add_argument("--workers", type=workers(), default=None, help="--engine dask: local workers (default 2)")
     g.add_argument(
         "--thin",
         action="store_true",

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from geostructure.cli.engine import add_engine_options, chosen_engine, measures_in_memory, run_streamed
 from geostructure.cli.options import (
+    MAX_DEMO_POINTS,
     add_measure_options,
     base_params,
     check_before_work,
@@ -25,6 +26,7 @@ from geostructure.cli.options import (
     positive_float,
     say_what_was_left,
     whole,
+    workers,
 )
 from geostructure.cli.progress import StageProgress
 from geostructure.cli.rockmass import add_kinematic_options, add_set_options, kinematic_settings, wants_sets
@@ -133,15 +135,15 @@ def add_measure_commands(sub) -> None:
     w.add_argument("--start", type=finite_float)
     w.add_argument("--end", type=finite_float)
     w.add_argument("--step", type=positive_float)
-    w.add_argument("--workers", type=whole(1), default=2, help="runs in parallel (default %(default)s)")
-    w.add_argument("--points", type=whole(1000), default=300_000, help="points in the --demo scene")
+    w.add_argument("--workers", type=workers(), default=2, help="runs in parallel (default %(default)s)")
+    w.add_argument("--points", type=whole(1000, MAX_DEMO_POINTS), default=300_000, help="points in the --demo scene")
     w.add_argument("--mesh-samples", type=whole(0, MAX_MESH_SAMPLES), default=DEFAULT_MESH_SAMPLES)
     add_measure_options(w, auto_default=False)
     w.set_defaults(run=run_sweep)
 
     d = sub.add_parser("demo", help="measure the bundled synthetic observatory scene")
     d.add_argument("-o", "--outdir", type=folder, default=Path("out/demo"))
-    d.add_argument("--points", type=whole(1000), default=300_000, help="points in the scene")
+    d.add_argument("--points", type=whole(1000, MAX_DEMO_POINTS), default=300_000, help="points in the scene")
     d.add_argument("--seed", type=whole(0), default=0, help="the scene's random seed, 0 or more")
     d.add_argument(
         "--report",

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import warnings
 from pathlib import Path
 
 from geostructure.core.orientation import Frame
-from geostructure.core.params import Params
+from geostructure.core.params import MAX_K, Params
 from geostructure.detect.facets import DETECTORS
 from geostructure.errors import GeoStructureNote, GeoStructureWarning, ParameterError
 from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, parse_crs
@@ -64,6 +65,20 @@ def whole(minimum: int, maximum: int | None = None):
 
     parse.__name__ = f"whole number >= {minimum}"
     return parse
+
+
+#: Processes or workers a command may start per core of the machine: more only queue, and a
+#: billion forked 5,702 processes (sweep) or grew a dask cluster to 24 GB before the kernel
+#: stopped it.
+WORKERS_PER_CORE = 4
+#: Points of the synthetic demo scene at most: 10 million take some 3 GB to measure; 10^10
+#: ran into the memory cap.
+MAX_DEMO_POINTS = 10_000_000
+
+
+def workers() -> object:
+    """An argparse type: a count of parallel workers, from 1 to :data:`WORKERS_PER_CORE` per core."""
+    return whole(1, WORKERS_PER_CORE * max(1, os.cpu_count() or 1))
 
 
 def folder(text: str) -> Path:
@@ -125,7 +140,7 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
     a.add_argument("--zeta", type=finite_float, help=f"voxel edge / largest extent (fixed default {defaults.zeta})")
     a.add_argument("--theta", type=finite_float, help=f"angle threshold, degrees (fixed default {defaults.theta})")
     a.add_argument("--psi", type=finite_float, help=f"offset threshold, voxel edges (fixed default {defaults.psi})")
-    a.add_argument("--k", type=int, help=f"neighbours per seed (fixed default {defaults.k})")
+    a.add_argument("--k", type=whole(1, MAX_K), help=f"neighbours per seed (fixed default {defaults.k})")
     a.add_argument(
         "--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)"
     )

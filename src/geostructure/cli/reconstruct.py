@@ -27,7 +27,7 @@ from geostructure.errors import GeoStructureError, InputError
 from geostructure.io.truth import read_truth
 from geostructure.reconstruct.dense import DenseOptions
 from geostructure.reconstruct.frames import FrameOptions, extract_frames
-from geostructure.reconstruct.georef import read_gcp, read_gcp_csv
+from geostructure.reconstruct.georef import check_control_layout, read_gcp, read_gcp_csv
 from geostructure.reconstruct.pipeline import ReconstructOptions, reconstruct
 from geostructure.reconstruct.sfm import SfmOptions, list_images
 from geostructure.reconstruct.surface import SurfaceOptions
@@ -53,7 +53,9 @@ def add_reconstruct_commands(sub) -> None:
         default="auto",
         help="SfM matching: sequential for video, exhaustive for photo sets (auto: by count)",
     )
-    g.add_argument("--max-image-size", type=whole(64), default=1600, help="SfM features on images this large (px)")
+    g.add_argument(
+        "--max-image-size", type=whole(64, MAX_IMAGE_SIZE), default=1600, help="SfM features on images this large (px)"
+    )
     g.add_argument(
         "--dense",
         choices=("auto", "colmap", "sgbm", "sweep", "none"),
@@ -64,7 +66,12 @@ def add_reconstruct_commands(sub) -> None:
     )
     g.add_argument("--dense-neighbours", type=whole(1), default=2, help="stereo partners per image (sgbm, sweep)")
     g.add_argument("--no-mesh", action="store_true", help="skip the Poisson surface: measure the dense cloud directly")
-    g.add_argument("--poisson-depth", type=whole(4), default=9, help="Poisson octree depth (default %(default)s)")
+    g.add_argument(
+        "--poisson-depth",
+        type=whole(4, MAX_POISSON_DEPTH),
+        default=9,
+        help="Poisson octree depth (default %(default)s)",
+    )
     e = r.add_argument_group("georeference (one is needed before strike and dip mean anything)")
     e.add_argument(
         "--gcp",
@@ -132,11 +139,12 @@ def run_run(args) -> int:
         raise InputError(f"{args.source}: no such file or folder.")
     if args.gcp:  # a bad control file is found now, not after SfM, dense and meshing
         if args.gcp.suffix.lower() != ".json":
-            read_gcp_csv(args.gcp)
+            check_control_layout(read_gcp_csv(args.gcp)[0], args.gcp)
         elif args.source.is_dir():  # OpenSfM's JSON names the photos, so it is checked against them
-            read_gcp(args.gcp, args.source)
+            check_control_layout(read_gcp(args.gcp, args.source)[0], args.gcp)
         elif not args.gcp.is_file():
             raise InputError(f"{args.gcp}: no such file.")
+    check_run_options(args)
     truth = read_truth(args.truth, frame) if args.truth else None
     if args.source.is_dir():
         list_images(args.source)  # every photo is an image, before any folder is made
@@ -162,6 +170,29 @@ def run_run(args) -> int:
     return measure_cloud(
         cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra, truth=truth, inputs=[args.truth, args.gcp]
     )
+
+
+#: The largest image side SfM is asked to read: a 100-megapixel frame is 12,000 px across.
+MAX_IMAGE_SIZE = 16_384
+#: The deepest Poisson octree: each level multiplies the cells by eight; at 14 a surface
+#: already takes tens of GB.
+MAX_POISSON_DEPTH = 14
+
+
+def check_run_options(args) -> None:
+    """Refuse, before any folder is made, what ``run`` found only after its first stages (and
+    left ``reconstruct.json`` and ``work/`` for): a scale without the axes it scales, a
+    dense stage this machine cannot run."""
+    if args.scale != 1.0 and not (args.up and args.north):
+        raise GeoStructureError("--scale is the manual georeference's: give --up and --north with it, in model axes.")
+    if args.dense == "colmap":
+        import pycolmap  # lazy: found installed by require_reconstruction_extra
+
+        if not pycolmap.has_cuda:
+            raise GeoStructureError(
+                "--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a machine with an "
+                "NVIDIA GPU); use --dense sgbm or --dense sweep here."
+            )
 
 
 #: What ``run`` needs beyond the measuring core, by import name, and the package it comes in.

@@ -19,6 +19,12 @@ DETECTORS = ("facets", "voxel")
 #: Beyond this many standard deviations the outlier filter keeps every point of any real cloud, and
 #: its squares stay far from overflow; ``--filter none`` says so plainly.
 MAX_FILTER_SIGMA = 1000.0
+#: The most neighbours a seed may ask for: the paper's k is 8 to 30; a billion asked for
+#: arrays of a billion rows per seed (a traceback, out of memory).
+MAX_K = 10_000
+#: The finest voxel edge, as a share of the extent: a million voxels along the cloud. At
+#: 1e-300 the run measured first and was refused after.
+MIN_ZETA = 1e-6
 
 #: The paper's Table 1 (start, end, step): the ranges of its four experiments.
 TABLE1 = {"zeta": (0.01, 0.07, 0.006), "theta": (0.0, 30.0, 3.0), "psi": (0.01, 0.6, 0.06), "k": (1, 20, 2)}
@@ -103,15 +109,21 @@ class Params:
             ):
                 raise ParameterError(f"{name} must be a whole number, not {value!r}.")
         checks = [
-            (0 < self.zeta < 1, f"zeta must lie between 0 and 1 (a fraction of the cloud's extent), got {self.zeta}"),
+            (
+                MIN_ZETA <= self.zeta < 1,
+                f"zeta must lie between {MIN_ZETA:g} and 1 (a fraction of the cloud's extent), got {self.zeta:g}",
+            ),
             (0 <= self.theta <= 90, f"theta must lie between 0 and 90 degrees, got {self.theta}"),
             (self.psi > 0, f"psi must be positive (voxel edges), got {self.psi}"),
             (
-                not 0 < self.zeta < 1 or self.psi * self.zeta <= 1,  # zeta's own check comes first
+                not MIN_ZETA <= self.zeta < 1 or self.psi * self.zeta <= 1,  # zeta's own check comes first
                 f"psi must be at most 1/zeta = {1 / max(self.zeta, 1e-300):g} voxel edges (a larger offset is "
                 f"wider than the cloud itself), got {self.psi:g}",
             ),
-            (int(self.k) == self.k and self.k >= 1, f"k must be a whole number of at least 1, got {self.k}"),
+            (
+                int(self.k) == self.k and 1 <= self.k <= MAX_K,
+                f"k must be a whole number from 1 to {MAX_K:,}, got {self.k}",
+            ),
             (self.min_points is None or self.min_points >= 3, f"min-points must be at least 3, got {self.min_points}"),
             (self.filter in FILTER_METHODS, f"filter must be one of {', '.join(FILTER_METHODS)}, got '{self.filter}'"),
             (self.filter_sigma > 0, f"filter sigma must be positive, got {self.filter_sigma}"),

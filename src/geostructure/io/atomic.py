@@ -132,14 +132,18 @@ def text_cell(text: str) -> str:
     --------
     >>> text_cell("=1+1"), text_cell("-2.5"), text_cell("@SUM(A1)"), text_cell("wall")
     ("'=1+1", '-2.5', "'@SUM(A1)", 'wall')
+    >>> text_cell("+nan"), text_cell("-inf")
+    ("'+nan", "'-inf")
     """
     if not text.startswith(_FORMULA_START):
         return text
     try:
-        float(text)
+        number = float(text)
     except ValueError:
         return "'" + text
-    return text
+    # "+nan" and "-inf" parse as numbers here, but a spreadsheet reads them as a formula
+    # or an infinity: a set or a surface named so is text
+    return text if math.isfinite(number) else "'" + text
 
 
 def write_columns_csv(columns: dict, path) -> Path:

@@ -15,6 +15,11 @@ from pathlib import Path
 import numpy as np
 
 from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning, InputError
+from geostructure.io.usercsv import user_text
+
+#: The longest WKT a CRS file holds: EPSG's longest definitions run to some 10 kB; a 50 MB
+#: "WKT" took 2.7 GB.
+MAX_WKT_BYTES = 1024 * 1024
 
 
 @lru_cache(maxsize=16)
@@ -37,7 +42,7 @@ def parse_crs(text: str, source: str = "--crs"):
         path = Path(text)
         if not path.is_file():
             raise GeoStructureError(f"{source}: {text}: neither EPSG:XXXX nor a file holding WKT.")
-        text = path.read_text(encoding="utf-8", errors="replace")
+        text = user_text(path, "WKT", limit=MAX_WKT_BYTES)
         source = str(path)
     try:
         return CRS.from_user_input(text)
@@ -100,9 +105,19 @@ def given_crs(given: str | None, declared: str | None, source: str) -> str | Non
     >>> given_crs(None, "EPSG:32633", "scan.las")
     'EPSG:32633'
     """
-    if given is None or declared is None:
-        return given or declared
-    if not parse_crs(given).equals(parse_crs(declared, source), ignore_axis_order=True):
+    if declared is None:
+        return given
+    try:
+        parsed = parse_crs(declared, source)
+    except GeoStructureError:
+        if given is None:  # said here, naming the file: a writer that needed it named none
+            raise InputError(
+                f"{source}: declares a CRS that PROJ cannot read; give the cloud's CRS with --crs EPSG:XXXX."
+            ) from None
+        return given  # --crs stands for a declaration that cannot be read
+    if given is None:
+        return declared
+    if not parse_crs(given).equals(parsed, ignore_axis_order=True):
         warnings.warn(
             f"{source}: declares {parse_crs(declared, source).name}, but --crs gives {parse_crs(given).name}; "
             f"measured in the latter, as asked, with the coordinates as they are (not reprojected).",

@@ -23,8 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
+from geostructure.core.cloud import MAX_COORDINATE
 from geostructure.errors import InputError
-from geostructure.io.usercsv import read_rows
+from geostructure.io.usercsv import read_user_rows
 
 #: Each field's accepted column names (lower case).
 NAMES = {
@@ -122,6 +123,7 @@ def read_field_map(path, *, located: bool = True) -> FieldMap:
                 raise InputError(f"{path}: row {r + 2} has no number for {field} ({cell!r}).") from None
     bad = ~np.isfinite(numbers[:, 3:]).all(axis=1) | (~np.isfinite(numbers[:, :3]).all(axis=1) if located else False)
     bad |= (numbers[:, 3] < 0) | (numbers[:, 3] > 90) | (numbers[:, 4] < 0) | (numbers[:, 4] > 360)
+    bad |= np.any(np.abs(numbers[:, :3]) > MAX_COORDINATE, axis=1)  # 1e308 stopped the matching with a traceback
     if bad.any():
         r = int(np.flatnonzero(bad)[0])
         raise InputError(
@@ -148,13 +150,7 @@ def read_field_map(path, *, located: bool = True) -> FieldMap:
 
 def _table(path: Path, what: str) -> list[list[str]]:
     """A user's CSV's non-empty rows, or one sentence naming the file and ``what`` it should be."""
-    if not path.is_file():
-        raise InputError(f"{path}: no such {what} file.")
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            return [row for row in read_rows(fh) if any(cell.strip() for cell in row)]
-    except (UnicodeDecodeError, ValueError):
-        raise InputError(f"{path}: not a {what} (not a UTF-8 text table).") from None
+    return [row for row in read_user_rows(path, what) if any(cell.strip() for cell in row)]
 
 
 def _optional_columns(path, header: list[str], rows: list) -> dict[str, np.ndarray]:

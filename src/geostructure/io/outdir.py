@@ -33,6 +33,7 @@ from pathlib import Path
 from geostructure.core.threads import signals_deferred
 from geostructure.errors import OutputError
 from geostructure.io.atomic import TEMP_PATTERN, plain, write_json
+from geostructure.io.runrecord import check_run_record
 
 STAGING = ".geostructure-staging"
 JOURNAL = "COMMIT.json"
@@ -263,10 +264,23 @@ def verified_record(outdir, record_name: str = "run.json", command: str = "geost
     record = read_record(path)
     if record is None:
         raise OutputError(f"{path}: not a GeoStructure run record (not a JSON object).")
-    if SEAL in record and record[SEAL] != record_digest(record):
+    if SEAL not in record:
+        # An unsealed record is one written by hand, by an older GeoStructure, or one whose
+        # seal was deleted: read as an older record, any edit passed the check.
+        raise OutputError(
+            f"{path}: has no seal ({SEAL}), so it was written by hand or by an older GeoStructure, or edited; "
+            f"run '{command}' again."
+        )
+    try:
+        changed = record[SEAL] != record_digest(record)
+    except (TypeError, ValueError):  # a value no JSON of ours holds (NaN, a huge integer)
+        changed = True
+    if changed:
         raise OutputError(
             f"{path}: was changed since GeoStructure wrote it, so it cannot be trusted; run '{command}' again."
         )
+    if record_name == "run.json":
+        check_run_record(record, path, command)
     outputs = record.get("outputs")
     if not isinstance(outputs, dict):
         raise OutputError(

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from geostructure.core.cloud import MAX_COORDINATE
 from geostructure.core.planes import COLUMNS, LATER_COLUMNS, Planes
 from geostructure.errors import InputError
 from geostructure.io.atomic import write_table_csv
@@ -101,4 +102,32 @@ def read_planes_csv(path, offset=None) -> Planes:
         raise InputError(
             f"{path}: not a GeoStructure planes.csv (a centroid is not finite, or a normal is not a unit vector)."
         )
+    for name, low, high in VALUE_RANGES:
+        values = column.get(name)
+        if values is None:
+            continue
+        with np.errstate(invalid="ignore"):
+            bad = ~((values >= low) & (values <= high)) & ~(np.isnan(values) & (name in BLANK_ALLOWED))
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise InputError(
+                f"{path}: row {row + 2}'s {name} {values[row]:g} lies outside {low:g} to {high:g}, so the table "
+                f"was edited or damaged; run 'geostructure measure' again."
+            )
     return Planes.from_columns(column, header, offset)
+
+
+#: What each column of a plane table can hold (a dip of 200, edited in and resealed, went
+#: through sets, kinematics and the report, and stayed in the new planes.csv).
+VALUE_RANGES = (
+    ("dip", 0.0, 90.0),
+    ("strike", 0.0, 360.0),
+    ("dip_direction", 0.0, 360.0),
+    ("n_points", 0.0, 1e15),
+    ("area_m2", 0.0, 1e24),  # a square of the largest coordinate a cloud may hold
+    ("centroid_x", -MAX_COORDINATE, MAX_COORDINATE),
+    ("centroid_y", -MAX_COORDINATE, MAX_COORDINATE),
+    ("centroid_z", -MAX_COORDINATE, MAX_COORDINATE),
+)
+#: Columns that may be blank: a level plane's azimuths, a size not measured.
+BLANK_ALLOWED = frozenset({"strike", "dip_direction", "n_points", "area_m2"})

@@ -16,7 +16,7 @@ import numpy as np
 from geostructure.core.cloud import Cloud
 from geostructure.core.duplicates import without_copies
 from geostructure.errors import GeoStructureNote, InputError, ParameterError
-from geostructure.io.checks import check_coordinate_step, check_points, las_step, ply_step
+from geostructure.io.checks import check_coordinate_step, check_points, las_step, observed_step, ply_step
 from geostructure.io.crs import check_cloud_crs
 from geostructure.io.failures import check_laz_chunks, laz_readers, translated_read_errors
 from geostructure.io.text import grey_of, read_text
@@ -65,6 +65,8 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
         raise InputError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
+    if not path.is_file():  # a FIFO, a device: reading it waits for a writer, or for ever
+        raise InputError(f"{path}: is not a regular file (a pipe or a device); save the cloud to a file first.")
     if path.stat().st_size == 0:
         raise InputError(f"{path}: the file is empty.")
     with translated_read_errors(path):  # a library's parse error: the user's file is at fault
@@ -76,6 +78,8 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
             cloud = read_e57(path)
         else:
             cloud = read_text(path)
+        if suffix not in (".ply", ".las", ".laz"):  # the step those formats declare is checked as they are read
+            check_coordinate_step(cloud.local, observed_step(cloud.local), path)
     check_points(cloud.local, path, offset=cloud.offset)  # no absolute copy: 192 MB at 8M points
     return without_copies(cloud, path)
 
@@ -148,7 +152,10 @@ def ply_vertices(path: Path):
 
 
 def check_ply_size(path: Path) -> None:
-    """Catch a binary PLY whose header promises more than the file holds (plyfile may not)."""
+    """Refuse a PLY whose header promises more rows than the file can hold, before plyfile
+    allocates for them: binary rows need their fixed-size properties' bytes (a list at least
+    its count), ASCII rows two bytes a property (a digit and a separator). A header claiming
+    10^9 faces ran to the memory cap; 3e8 reached 2.4 GB."""
     with open(path, "rb") as fh:
         head = fh.read(65536)
     end = head.find(b"end_header")
@@ -156,40 +163,37 @@ def check_ply_size(path: Path) -> None:
         raise InputError(f"{path}: not a PLY file (no 'ply' magic line or no 'end_header').")
     header = head[:end].decode("ascii", errors="replace")
     fmt = re.search(r"^format\s+(\S+)", header, re.M)
-    if not fmt or fmt.group(1) == "ascii":
-        return
-    sizes = {
-        "char": 1,
-        "uchar": 1,
-        "int8": 1,
-        "uint8": 1,
-        "short": 2,
-        "ushort": 2,
-        "int16": 2,
-        "uint16": 2,
-        "int": 4,
-        "uint": 4,
-        "int32": 4,
-        "uint32": 4,
-        "float": 4,
-        "float32": 4,
-        "double": 8,
-        "float64": 8,
-    }
-    need, count, fixed = 0, 0, True
+    ascii_rows = not fmt or fmt.group(1) == "ascii"
+    elements = []  # [name, count, least bytes a row]
     for line in header.splitlines():
         parts = line.split()
-        if parts[:1] == ["element"]:
-            count = int(parts[2])
-        elif parts[:2] == ["property", "list"]:
-            fixed = False  # list sizes vary: only the vertex block can be checked exactly
-        elif parts[:1] == ["property"] and fixed:
-            need += count * sizes.get(parts[1], 0)
+        if parts[:1] == ["element"] and len(parts) >= 3:
+            try:
+                elements.append([parts[1], int(parts[2]), 0])
+            except ValueError:
+                raise InputError(f"{path}: not a PLY file (element {parts[1]}'s count '{parts[2]}').") from None
+        elif parts[:1] == ["property"] and elements:
+            if ascii_rows:
+                elements[-1][2] += 2
+            elif parts[1:2] == ["list"]:
+                elements[-1][2] += PLY_SIZES.get(parts[2], 1) if len(parts) > 2 else 1
+            else:
+                elements[-1][2] += PLY_SIZES.get(parts[1], 0) if len(parts) > 1 else 0
     body = path.stat().st_size - (end + len(b"end_header\n"))
-    if body < need:
+    need = sum(count * least for _, count, least in elements)
+    if any(count < 0 for _, count, _ in elements) or body < need:
+        claims = ", ".join(f"{count:,} {name}" for name, count, _ in elements)
         raise InputError(
-            f"{path}: truncated: the header promises {need} bytes of fixed-size data, the file holds {body}."
+            f"{path}: truncated or damaged: its header promises {claims}, at least {need:,} bytes, and the file "
+            f"holds {max(body, 0):,}."
         )
+
+
+#: Bytes of each PLY property type.
+PLY_SIZES = {
+    "char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+    "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8,
+}  # fmt: skip
 
 
 def _ply_faces(data, n_vertices: int, path) -> np.ndarray | None:
@@ -444,6 +448,12 @@ def read_e57(path: Path) -> Cloud:
     import pye57
 
     e57 = pye57.E57(str(path))
+    claimed = sum(int(e57.get_header(i).point_count) for i in range(e57.scan_count))
+    if claimed > 8 * path.stat().st_size:  # a point's coordinates take a bit at the least, packed
+        raise InputError(
+            f"{path}: its scans claim {claimed:,} points, more than its {path.stat().st_size:,} bytes can hold; "
+            f"the file is damaged."
+        )
     parts = []
     for i in range(e57.scan_count):
         scan = e57.read_scan(i, ignore_missing_fields=True, transform=True)

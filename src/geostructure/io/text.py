@@ -29,6 +29,7 @@ def read_text(path: Path, colour: bool = True) -> Cloud:
     first_lines = _first_data_lines(path, 2)
     if not first_lines:
         raise InputError(f"{path}: holds no points.")
+    check_no_control_characters(path)
     # A PTS file (Leica, FARO) opens each block of points with a line holding its count.
     counted = len(first_lines) == 2 and first_lines[0][1].strip().isdigit() and len(first_lines[1][1].split()) >= 3
     if counted:
@@ -69,6 +70,52 @@ def read_text(path: Path, colour: bool = True) -> Cloud:
         raise
     grey = grey_of(points[:, 3:6]) if colour else None
     return Cloud.from_points(points[:, :3], source=str(path), grey=grey)
+
+
+#: Bytes no text cloud holds: the C0 controls but tab, line feed and carriage return, and DEL.
+CONTROL_BYTES = re.compile(rb"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+#: Bytes of a text file scanned at a time.
+SCAN_BLOCK = 1 << 24
+
+
+def check_no_control_characters(path: Path) -> None:
+    """Refuse a text cloud holding a control character (a vertical tab, a form feed, a NUL)
+    or a line longer than :data:`MAX_LINE`, naming its line, in one pass at the disk's
+    speed before the parser: it read a vertical tab inside a number as a break between
+    columns, so ``5<VT>0006`` became two numbers and the point was kept with a wrong z; a
+    sparse 2 GB file (NULs) or a 60 MB line ran it into the memory cap.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "cloud.xyz"
+    >>> _ = path.write_bytes(b"1 2 3\\n4 5 6\\n7 8 5\\x0b0006\\n")
+    >>> check_no_control_characters(path)
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.InputError: ...cloud.xyz: line 3 holds a control character (\\x0b) inside its row; the file may be damaged.
+    """
+    lines, since_break = 0, 0  # lines before this block; bytes since the last line break
+    with open(path, "rb") as fh:
+        while block := fh.read(SCAN_BLOCK):
+            found = CONTROL_BYTES.search(block)
+            if found is not None:
+                line = lines + block.count(b"\n", 0, found.start()) + 1
+                byte = found.group()[0]
+                name = "NUL" if byte == 0 else f"\\x{byte:02x}"
+                raise InputError(
+                    f"{path}: line {line:,} holds a control character ({name}) inside its row; the file may be damaged."
+                )
+            breaks = np.flatnonzero(np.frombuffer(block, dtype=np.uint8) == 10)
+            gaps = np.diff(np.r_[-1 - since_break, breaks, len(block)])  # each line's length, the last one open
+            if gaps.max() > MAX_LINE:
+                line = lines + int(np.argmax(gaps > MAX_LINE)) + 1
+                raise InputError(
+                    f"{path}: line {line:,} runs past {MAX_LINE:,} bytes, which no row of a cloud does; "
+                    f"the file may be damaged."
+                )
+            since_break = len(block) - 1 - int(breaks[-1]) if len(breaks) else since_break + len(block)
+            lines += len(breaks)
 
 
 #: Header names of colour columns (lower case, as :data:`AXIS_NAMES`).
@@ -172,9 +219,10 @@ def _decimal_points(line: str) -> str:
     return line.replace(",", ".")
 
 
-#: The longest line a text cloud's first lines may hold (characters): a point's line is
-#: under a hundred; a file whose first line runs on for a megabyte is no text cloud (a 2 GB
-#: file of NUL bytes, one "line", took 6.2 GB of memory before it was refused).
+#: The longest line a text cloud may hold (characters, and bytes): a point's line is under a
+#: hundred; a file whose first line runs on for a megabyte is no text cloud (a 2 GB file of
+#: NUL bytes, one "line", took 6.2 GB of memory before it was refused; a 60 MB line further
+#: on, 1.5 GB).
 MAX_LINE = 1 << 20
 
 

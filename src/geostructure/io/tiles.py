@@ -73,6 +73,8 @@ def expand_inputs(specs) -> list[Path]:
     for path in paths:
         if not path.exists():
             raise InputError(f"{path}: no such file.")
+        if not path.is_file():  # a FIFO, a device: reading it waits for a writer, or for ever
+            raise InputError(f"{path}: is not a regular file (a pipe or a device); save the cloud to a file first.")
         if path.suffix.lower() not in SUFFIXES:
             raise InputError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
     return paths

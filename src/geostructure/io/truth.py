@@ -13,7 +13,6 @@ a warning names the surface.
 
 from __future__ import annotations
 
-import csv
 import re
 import warnings
 from dataclasses import dataclass
@@ -21,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from geostructure.core.cloud import MAX_COORDINATE
 from geostructure.core.orientation import (
     Frame,
     angle_between_normals,
@@ -29,7 +29,7 @@ from geostructure.core.orientation import (
     orientation_from_normals,
 )
 from geostructure.errors import GeoStructureWarning, InputError
-from geostructure.io.usercsv import read_rows
+from geostructure.io.usercsv import read_user_rows
 
 QUADRANTS = {
     "N": 0,
@@ -135,15 +135,7 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
     (['wall', 'roof'], [89.0, 30.0])
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such ground-truth file.")
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's byte-order mark
-            rows = read_rows(fh)
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: is not a text CSV (not UTF-8); save the ground truth as UTF-8 CSV.") from None
-    except csv.Error as exc:
-        raise InputError(f"{path}: is not a readable CSV ({exc}).") from None
+    rows = read_user_rows(path, "ground-truth")
     rows = [
         (i, r) for i, r in enumerate(rows, start=1) if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")
     ]
@@ -183,7 +175,16 @@ def _number(cell: dict, key: str, path, line: int) -> float:
         raise InputError(f"{path}: line {line}: {key} '{text}' is not a number.") from None
     if not np.isfinite(value):
         raise InputError(f"{path}: line {line}: {key} '{text}' is not a finite number.")
+    limit = next((bound for prefix, bound in TRUTH_LIMITS.items() if key.startswith(prefix)), None)
+    if limit is not None and abs(value) > limit:
+        raise InputError(f"{path}: line {line}: {key} {text} is no {key.split('_')[0]} (at most {limit:g} either way).")
     return value
+
+
+#: How far each number of a truth row may go either way: an azimuth is degrees (a dip
+#: direction of 1e308 was read, and scored), a centre a coordinate no survey exceeds (one
+#: at 1e308 made the matching's costs infinite and stopped it with a traceback).
+TRUTH_LIMITS = {"strike": 360.0, "dip_direction": 360.0, "center_": MAX_COORDINATE, "normal_": 1e6}
 
 
 def _row_orientation(cell, frame, path, line, name):

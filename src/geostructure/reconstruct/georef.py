@@ -17,7 +17,6 @@ stage's ``enu`` frame applies to the transformed cloud.
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,7 +26,7 @@ from geostructure.core.alignment import similarity as umeyama  # the name contro
 from geostructure.core.geodesy import geodetic_to_enu
 from geostructure.core.orientation import Frame
 from geostructure.errors import InputError
-from geostructure.io.usercsv import read_rows
+from geostructure.io.usercsv import read_user_rows, user_text
 
 
 @dataclass
@@ -75,6 +74,29 @@ def unscaled(run_record: dict) -> bool:
     return georef.get("source") in ("cameras-level", "manual") and georef.get("scale") == 1.0
 
 
+def check_control_layout(world_points: dict, source) -> None:
+    """Refuse control points that can fix no georeference, before any reconstruction: fewer
+    than three, or all on one line (the rotation about it is unknown). Found only after
+    SfM, they left a half-made output folder behind.
+
+    Examples
+    --------
+    >>> check_control_layout({"a": (0, 0, 0), "b": (1, 1, 0), "c": (2, 2, 0)}, "gcp.csv")
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.InputError: gcp.csv: the 3 control points lie on one line; the rotation about it is unknown. Add one off the line.
+    """
+    if len(world_points) < 3:
+        raise InputError(f"{source}: {len(world_points)} control point(s); at least 3, not in a line, are needed.")
+    world = np.array(list(world_points.values()), dtype=np.float64)
+    spread = float(np.ptp(world, axis=0).max())
+    if spread == 0 or np.linalg.matrix_rank(world - world.mean(axis=0), tol=1e-9 * spread) < 2:
+        raise InputError(
+            f"{source}: the {len(world)} control points lie on one line; the rotation about it is unknown. "
+            f"Add one off the line."
+        )
+
+
 def solve_gcp(model_points: dict, world_points: dict) -> Georeference:
     """Similarity from control points seen in the model; residual per point."""
     names = sorted(set(model_points) & set(world_points))
@@ -108,15 +130,9 @@ def read_gcp_csv(path) -> tuple[dict, list, dict]:
     Returns (world by name, pixel observations [(name, image, u, v)], model points by name).
     """
     path = Path(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            table = [r for r in read_rows(fh) if any(c.strip() for c in r)]
-        width = len(table[0]) if table else 0  # a short row's missing cells are None, as csv.DictReader gives them
-        rows = [dict(zip(table[0], r + [None] * (width - len(r)))) for r in table[1:]]
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file.") from None
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise InputError(f"{path}: not a CSV file ({exc}).") from None
+    table = [r for r in read_user_rows(path, "control-point") if any(c.strip() for c in r)]
+    width = len(table[0]) if table else 0  # a short row's missing cells are None, as csv.DictReader gives them
+    rows = [dict(zip(table[0], r + [None] * (width - len(r)))) for r in table[1:]]
     if not rows:
         raise InputError(f"{path}: holds no control points.")
     columns = {c.strip().lower(): c for c in rows[0] if c is not None}  # None: cells past the header
@@ -171,7 +187,7 @@ def read_opensfm_gcp(path, image_dir) -> tuple[dict, list, dict, tuple | None]:
 
     path = Path(path)
     try:
-        points = json.loads(path.read_text())["points"]
+        points = json.loads(user_text(path, "control-point"))["points"]
         located = [p for p in points if p.get("position")]
         fixes = np.array(
             [

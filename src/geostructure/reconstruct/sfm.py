@@ -9,6 +9,7 @@ mapping is tried again from a start that allows forward motion (walks along a st
 from __future__ import annotations
 
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -115,12 +116,30 @@ def check_images(images) -> None:
 
     for path in images:
         try:
-            with Image.open(path) as image:
-                image.verify()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # judged below, by its size
+                with Image.open(path) as image:
+                    width, height = image.size
+                    image.verify()
+        except Image.DecompressionBombError:  # past PIL's own bound, above this one: no size given
+            raise InputError(
+                f"{path}: its header claims more pixels than any photo of an outcrop "
+                f"({MAX_IMAGE_PIXELS // 1_000_000} megapixels at most); remove it or scale it down."
+            ) from None
         except (UnidentifiedImageError, OSError, SyntaxError, ValueError):
             raise InputError(
                 f"{path}: is not an image that can be read (damaged, or not a photo); remove it from the folder."
             ) from None
+        if width * height > MAX_IMAGE_PIXELS:
+            raise InputError(
+                f"{path}: its header claims {width:,} x {height:,} pixels, more than any photo of an outcrop "
+                f"({MAX_IMAGE_PIXELS // 1_000_000} megapixels at most); remove it or scale it down."
+            )
+
+
+#: The largest photo read: a 100-megapixel camera's, and more (PIL refuses from 179). A PNG
+#: whose header claimed 40000 x 40000 stopped the run with PIL's DecompressionBombError.
+MAX_IMAGE_PIXELS = 150_000_000
 
 
 def run_sfm(image_dir, workdir, options: SfmOptions = SfmOptions(), progress=None):

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 import threading
 import warnings
 
@@ -61,7 +62,10 @@ class DaskExecutor:
         # default, dask-scratch-space in the temporary folder, outlived every run.
         import tempfile
 
-        self._scratch = tempfile.mkdtemp(prefix="geostructure-dask-")
+        from geostructure.stream.source import DASK_SCRATCH_PREFIX, remove_stale_spills  # lazy: local clusters only
+
+        remove_stale_spills(prefix=DASK_SCRATCH_PREFIX)  # a killed run's: it could not remove its own
+        self._scratch = tempfile.mkdtemp(prefix=f"{DASK_SCRATCH_PREFIX}{os.getpid()}-")
         if background:  # its start (some 3 s) while this process reads the survey
             self._starting = threading.Thread(target=self._start_local, args=(workers,), daemon=True)
             self._starting.start()

@@ -139,17 +139,20 @@ class Spill:
 
 #: A spill folder's name: this prefix, the process's id, a dash, a random part.
 SPILL_PREFIX = "geostructure-stream-"
+#: The Dask workers' scratch folder's name, made as a spill folder's is.
+DASK_SCRATCH_PREFIX = "geostructure-dask-"
 
 
-def remove_stale_spills(folder=None) -> list[Path]:
-    """Remove the spill folders in ``folder`` (the temporary folder by default) whose process
+def remove_stale_spills(folder=None, prefix: str = SPILL_PREFIX) -> list[Path]:
+    """Remove the spill folders (or, with ``prefix`` :data:`DASK_SCRATCH_PREFIX`, the Dask
+    workers' scratch folders) in ``folder`` (the temporary folder by default) whose process
     is gone: a run killed outright (SIGKILL, a power cut) cannot remove its own, which holds
     24 bytes or more a point of its survey. Returns what was removed."""
     import shutil
 
     removed = []
-    for path in Path(folder or tempfile.gettempdir()).glob(f"{SPILL_PREFIX}*-*"):
-        pid = path.name[len(SPILL_PREFIX) :].split("-")[0]
+    for path in Path(folder or tempfile.gettempdir()).glob(f"{prefix}*-*"):
+        pid = path.name[len(prefix) :].split("-")[0]
         if not pid.isdigit() or not path.is_dir():
             continue
         try:
