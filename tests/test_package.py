@@ -188,7 +188,7 @@ ALLOWED = {
     "kinematics": {"core", "detect", "rockmass", "errors", "report"},  # report: its nets, drawn lazily
     "synthetic": {"core", "rockmass", "errors"},
     "reconstruct": {"core", "io", "errors"},
-    "evaluation": {"core", "detect", "io", "errors"},
+    "evaluation": {"core", "detect", "io", "rockmass", "errors"},  # rockmass: the circular windows, map and ours alike
     "stream": {"core", "detect", "io", "errors"},
     "report": {"core", "io", "rockmass", "reconstruct", "errors"},
     "workflows": WORKFLOW_PARTS,

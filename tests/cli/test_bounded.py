@@ -167,3 +167,20 @@ def test_a_scale_without_its_axes_is_refused_before_any_folder(tmp_path, capsys)
     err = refused(capsys, "run", photos, "-o", out, "--scale", "2", "-q")
     assert "--scale" in err and "--up" in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["demo", "--unit", "mm", "--crs", "EPSG:32633"], ["--crs", "--unit"]),
+        (["demo", "--unit", "ft"], ["--unit"]),
+        (["sweep", "{flat}", "--demo"], ["--demo"]),
+    ],
+)
+def test_combinations_that_mean_nothing_are_refused(flat, tmp_path, capsys, argv, words):
+    """demo --unit mm --crs EPSG:32633 exited 0; sweep FILE --demo swept the demo and left
+    the file unread."""
+    out = tmp_path / "out"
+    err = refused(capsys, *[a.format(flat=flat) for a in argv], "-o", out, "-q")
+    assert_one_sentence(err, *words)
+    assert not out.exists()

@@ -286,6 +286,9 @@ def run_demo(args) -> int:
     base_params(args)
     check_outdir(args.outdir)
     crs = crs_from(args)
+    check_unit_given(args, [])  # --unit beside a --crs that says another unit means nothing
+    if getattr(args, "unit", None) not in (None, "m"):
+        raise ParameterError(f"--unit {args.unit}: the demo's scene is built in metres; leave --unit out.")
     scene = observatory_scene(args.points, seed=args.seed)
     if crs is not None:  # a made-up scene placed where the user says, to try the GIS files
         scene.cloud = dataclasses.replace(scene.cloud, crs=crs)
@@ -326,6 +329,8 @@ def run_sweep(args) -> int:
     for factor in factors:  # a bad range is refused before the cloud is read
         factor_values(factor, *ranges.get(factor, (None,) * 3))
     check_before_work(args, [args.input, args.truth])
+    if args.demo and (args.input is not None or args.truth is not None):  # it swept the demo, the file unread
+        raise ParameterError("sweep --demo sweeps the synthetic scene: give INPUT and --truth, or --demo, not both.")
     if args.demo:
         scene = observatory_scene(args.points)
         cloud, truth = scene.cloud, scene_truth(scene, frame)

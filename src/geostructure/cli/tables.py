@@ -319,6 +319,13 @@ def validation_lines(summary: dict) -> str:
                 f"{s['found_chord_median']:.2f} m; mapped {s['mapped_traces']}, {s['mapped_chord_sum']:.1f} m, median "
                 f"{s['mapped_chord_median']:.2f} m."
             )
+            if s.get("windows"):
+                lines.append(
+                    f"  In {s['windows']} circular windows of {s['window_radius_m']:.2f} m (censoring-free): mean trace "
+                    f"length {s['found_window_mean_m']:.2f} m, P21 {s['found_window_p21_per_m']:.2f} /m; mapped "
+                    f"{s['mapped_window_mean_m']:.2f} m, {s['mapped_window_p21_per_m']:.2f} /m; for nothing "
+                    f"{s['null_window_mean_m']:.2f} m, {s['null_window_p21_per_m']:.2f} /m."
+                )
     elif traces:
         lines.append(f"Traces: {traces['note']}.")
     errors = summary.get("set_errors_deg")

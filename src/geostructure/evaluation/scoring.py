@@ -19,7 +19,14 @@ from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE, mapped_set
 from geostructure.evaluation.framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from geostructure.evaluation.groundtruth import Evaluation, evaluate
 from geostructure.evaluation.tracescore import TOLERANCE as TRACE_TOLERANCE
-from geostructure.evaluation.tracescore import null_segments, score_traces, set_trace_figures, trace_lines
+from geostructure.evaluation.tracescore import (
+    mapped_segments,
+    null_segments,
+    score_traces,
+    set_trace_figures,
+    trace_lines,
+    window_figures,
+)
 from geostructure.io.atomic import write_json, write_table_csv
 from geostructure.io.crs import recorded_unit
 from geostructure.io.fieldmap import read_field_map, read_set_labels
@@ -27,6 +34,7 @@ from geostructure.io.outdir import EVALUATION_FILES, VALIDATION_FILES, OutputSet
 from geostructure.io.results import read_planes, read_regions, read_traces
 from geostructure.io.truth import GroundTruth, read_truth
 from geostructure.io.writers import write_evaluation_files
+from geostructure.rockmass.exposure import exposure
 
 
 def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Evaluation, dict, dict[str, Path]]:
@@ -261,6 +269,17 @@ def _trace_scores(outputs, mapped, map_normals, found, means, measured_sets) -> 
     if measured_sets is not None and means:
         figures = set_trace_figures(trace_sets, chords * metres, measured_sets, means, np.asarray(mapped.sets),
                                     2 * mapped.radius * metres)  # fmt: skip
+        # The censoring-free estimates (circular windows), one set of windows for ours, the
+        # map's and the null model's traces of each set.
+        face = exposure(points * metres, np.asarray(outputs.record["frame"]["rotation"], dtype=np.float64)[2])
+        segments = mapped_segments(centres, mapped.radius, disc_lines)
+        nulls = null_segments(points, tree, chords)
+        labels = np.asarray(mapped.sets)
+        for label, figure in figures.items():
+            ours = [line * metres for line, k in zip(local, trace_sets) if k == figure["measured_set"] >= 0]
+            theirs = [line * metres for line, k in zip(segments, labels) if k == label]
+            null_set = [line * metres for line, k in zip(nulls, trace_sets) if k == figure["measured_set"] >= 0]
+            figure.update(window_figures(face, ours, theirs, null_set))
         record["sets"] = figures
     return score.traced, record
 

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from geostructure.detect.traces import surface_normals
+from geostructure.rockmass.windows import MIN_WINDOWS, RADIUS_CELLS, count_in_windows, window_centres
 
 #: The rule's tolerances: 5 cm (in metres; scaled to the cloud's unit by the caller), 60% of
 #: 11 samples, 15 degrees, the surface from 30 points.
@@ -162,4 +163,33 @@ def set_trace_figures(trace_sets, chords, measured_means, published, mapped_sets
             "mapped_chord_sum": float(mapped.sum()),
             "mapped_chord_median": float(np.median(mapped)) if len(mapped) else float("nan"),
         }
+    return out
+
+
+def mapped_segments(centres: np.ndarray, radius: np.ndarray, lines: np.ndarray) -> list[np.ndarray]:
+    """The map's traces as segments: each disc's chord (``2 radius``, DICE's) along its trace
+    line (:func:`trace_lines`) through its centre."""
+    half = np.asarray(radius, dtype=np.float64)[:, None] * np.asarray(lines, dtype=np.float64)
+    return [np.stack([c - h, c + h]) for c, h in zip(np.asarray(centres, dtype=np.float64), half)]
+
+
+def window_figures(face, found: list, mapped: list, null: list) -> dict:
+    """Circular windows (:mod:`~geostructure.rockmass.windows`) laid once on ``face`` (an
+    :class:`~geostructure.rockmass.exposure.Exposure`, in the polylines' metres) and read for
+    the found traces, the map's and the null model's of one set: the same windows for all,
+    so the three stand side by side; {} when no window fits."""
+
+    for radius_cells in RADIUS_CELLS:
+        grid = window_centres(face.occupied, radius_cells)
+        if len(grid) >= MIN_WINDOWS:
+            break
+    else:
+        return {}
+    radius = radius_cells * face.cell
+    centres = face.lower + (grid + 0.5) * face.cell
+    out = {"window_radius_m": float(radius), "windows": int(len(grid))}
+    for name, lines in (("found", found), ("mapped", mapped), ("null", null)):
+        n, m = count_in_windows([face.project(line) for line in lines], centres, radius)
+        out[f"{name}_window_mean_m"] = float(np.pi * radius / 2 * n / m) if m else float("nan")
+        out[f"{name}_window_p21_per_m"] = float(n / (4 * radius * len(grid)))
     return out

@@ -287,6 +287,26 @@ def set_mean_wedge_lines(summary: dict) -> list[str]:
     return [set_mean_wedge_line(wedge) for wedge in summary.get("set_mean_wedges", [])]
 
 
+def window_words(row: dict) -> str:
+    """The circular windows' reading of a set's traces (``sets.csv``'s ``trace_window_*``),
+    as a clause: "" where no window was laid or no trace end lies in one.
+
+    Examples
+    --------
+    >>> window_words({"trace_windows": 6, "trace_window_radius_m": 0.9, "trace_window_mean_m": 0.571})
+    ', mean length 0.57 m in 6 windows of 0.90 m (censoring-free)'
+    >>> window_words({"trace_windows": 0})
+    ''
+    """
+    mean = float(row.get("trace_window_mean_m", float("nan")) or float("nan"))
+    if not int(row.get("trace_windows", 0) or 0) or mean != mean:
+        return ""
+    return (
+        f", mean length {mean:.2f} m in {int(row['trace_windows'])} windows of "
+        f"{float(row['trace_window_radius_m']):.2f} m (censoring-free)"
+    )
+
+
 def traces_per_set(rows: list[dict]) -> str:
     """The traces' figures per set (``sets.csv``'s trace columns), for the terminal and the
     report: how many, their areal intensity and median chord; "" without traces.
@@ -298,7 +318,7 @@ def traces_per_set(rows: list[dict]) -> str:
     """
     return "; ".join(
         f"set {int(row.get('set', s))}: {int(row['traces']):,}, P21 {float(row['trace_p21_per_m']):.2f} /m, "
-        f"median chord {float(row['trace_chord_median_m']):.2f} m"
+        f"median chord {float(row['trace_chord_median_m']):.2f} m" + window_words(row)
         for s, row in enumerate(rows)
         if row.get("traces") and float(row["traces"]) > 0
     )

@@ -235,6 +235,7 @@ class RockMass:
     clutter: np.ndarray | None = None  # per plane, as ground
     point_part: np.ndarray | None = None  # per point: face.FACE, GROUND or CLUTTER; None: all face
     joints: Joints | None = None  # the sets' facets grouped into joints, every discontinuity once
+    exposures: list = field(default_factory=list)  # the face's sections (Exposure), in metres: the circular windows
 
     @property
     def traces_only(self) -> np.ndarray:
@@ -322,7 +323,9 @@ class RockMass:
         p = self.persistence
         only = self.traces_only
         n_joints = self.joints.counts(len(self.lines)) if self.joints is not None else np.zeros(len(self.lines), int)
-        trace_rows = trace_set_rows(self.traces, len(self.lines), self.exposure_area, self.metres_per_unit)
+        trace_rows = trace_set_rows(
+            self.traces, len(self.lines), self.exposure_area, self.metres_per_unit, self.exposures
+        )
         for s, line in enumerate(self.lines):
             members = np.flatnonzero(self.set_labels == s)
             gap = spacing_statistics(line.gaps)
@@ -483,6 +486,7 @@ def rock_mass(
     n_sets = len(set_normals)
     result = RockMass(persistence, float(sum(f.area for f in exposures)), set_labels)
     result.exposure_span = exposure_span(exposures)
+    result.exposures = list(exposures)
     result.face_bend, result.face_sections, result.sections = face.bend, len(exposures), sections
     if parts is not None:
         result.ground, result.clutter, result.point_part = parts.ground, parts.clutter, parts.point_part

@@ -29,6 +29,7 @@ from geostructure.rockmass.mass import (
     RockMass,
 )
 from geostructure.rockmass.spacing import MIN_SCANLINE_COSINE
+from geostructure.rockmass.traces import persistence_class
 
 
 def set_notes(set_id: int, row: dict) -> list[str]:
@@ -85,11 +86,18 @@ def mostly_censored_note(set_id: int, row: dict) -> str | None:
     if not _flagged(row, TRACES_MOSTLY_CENSORED):
         return None
     traces, hidden = int(float(row["joint_traces"])), int(float(row["joint_traces_censored"]))
-    return (
+    sentence = (
         f"{hidden} of set {set_id}'s {traces} joint traces ({hidden / traces:.0%}) run out of sight: their mean "
         f"length, {float(row['joint_trace_mean_m']):.1f} m, leans on the censored model more than on the traces seen "
         f"whole, so its persistence, {row['persistence']}, is an upper guide."
     )
+    window = float(row.get("trace_window_mean_m", float("nan")) or float("nan"))
+    if int(float(row.get("trace_windows", 0) or 0)) and window == window:
+        sentence += (
+            f" Circular windows, which no censoring biases, read its fracture traces' mean length as {window:.2f} m "
+            f"({persistence_class(window)} persistence)."
+        )
+    return sentence
 
 
 def unmeasured_spacing(set_id: int, row: dict) -> str | None:

@@ -11,6 +11,7 @@ several times that, and a Dask worker on the same machine or a shared disk reads
 
 from __future__ import annotations
 
+import errno
 import os
 import tempfile
 from dataclasses import dataclass
@@ -175,6 +176,7 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     check_headers(paths)
     report = progress or (lambda stage, done, total: None)
     remove_stale_spills(folder)
+    given_folder = folder
     folder = Path(tempfile.mkdtemp(prefix=f"{SPILL_PREFIX}{os.getpid()}-", dir=folder))
     spill = Spill(folder, 0, np.full(3, np.inf), np.full(3, -np.inf), describe(paths))
     grids, left_outs, first, steps_checked = [], [], None, set()
@@ -237,10 +239,25 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
             os.unlink(spill.folder / "normals.f8")
         if not spill.has_vegetation:
             os.unlink(spill.folder / "vegetation.u1")
+    except OSError as exc:
+        spill.close()
+        if exc.errno not in SPILL_FULL:
+            raise
+        # the spill's folder, not the output folder, ran out: a full --spill-dir was told as
+        # "out: cannot write the outputs"
+        where = f"--spill-dir {folder.parent}" if given_folder is not None else f"the temporary folder {folder.parent}"
+        raise InputError(
+            f"{where}: cannot hold the survey's spill ({exc.strerror}, about {24 * max(spill.n_points, 1):,} bytes "
+            f"written); free space there or give --spill-dir a larger disk."
+        ) from None
     except BaseException:
         spill.close()
         raise
     return spill
+
+
+#: The errors of a disk that cannot take more (full, over quota, a file too large, read-only).
+SPILL_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})
 
 
 def _write_zeros(out, n: int, block: int = 1 << 24) -> None:
