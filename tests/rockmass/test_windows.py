@@ -54,3 +54,17 @@ def test_windows_lie_only_where_the_face_is_exposed():
 def test_a_trace_wholly_inside_a_window_gives_two_ends_and_no_crossing():
     inside = np.c_[np.linspace(-0.3, 0.3, 31), np.zeros(31)]
     assert count_in_windows([inside], np.array([[0.0, 0.0]]), 1.0) == (0, 2)
+
+
+def test_the_traces_p10_on_scanlines_across_them_is_their_count_per_metre():
+    """Straight traces 0.5 m apart across a 10 m square, censored by nothing: P10 is 2 /m;
+    a hole in the face takes its stretch of scanline and its crossings out alike."""
+    from geostructure.rockmass.windows import trace_p10
+
+    traces = [np.c_[np.full(101, x), np.linspace(0.0, 10.0, 101)] for x in np.arange(0.25, 10.0, 0.5)]
+    occupied = np.ones((100, 100), dtype=bool)
+    p10, crossings, length = trace_p10(traces, occupied, np.zeros(2), 0.1)
+    assert p10 == pytest.approx(2.0, rel=0.05) and crossings > 100
+    occupied[40:60, :] = False  # a hole across every scanline
+    holed, _, shorter = trace_p10(traces, occupied, np.zeros(2), 0.1)
+    assert holed == pytest.approx(2.0, rel=0.1) and shorter == pytest.approx(0.8 * length, rel=0.05)

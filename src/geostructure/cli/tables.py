@@ -324,7 +324,9 @@ def validation_lines(summary: dict) -> str:
                     f"  In {s['windows']} circular windows of {s['window_radius_m']:.2f} m (censoring-free): mean trace "
                     f"length {s['found_window_mean_m']:.2f} m, P21 {s['found_window_p21_per_m']:.2f} /m; mapped "
                     f"{s['mapped_window_mean_m']:.2f} m, {s['mapped_window_p21_per_m']:.2f} /m; for nothing "
-                    f"{s['null_window_mean_m']:.2f} m, {s['null_window_p21_per_m']:.2f} /m."
+                    f"{s['null_window_mean_m']:.2f} m, {s['null_window_p21_per_m']:.2f} /m. P10 on scanlines across "
+                    f"the map's traces: {s['found_p10_per_m']:.2f} /m; mapped {s['mapped_p10_per_m']:.2f}; for nothing "
+                    f"{s['null_p10_per_m']:.2f}."
                 )
     elif traces:
         lines.append(f"Traces: {traces['note']}.")

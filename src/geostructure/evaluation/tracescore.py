@@ -23,7 +23,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from geostructure.detect.traces import surface_normals
-from geostructure.rockmass.windows import MIN_WINDOWS, RADIUS_CELLS, count_in_windows, window_centres
+from geostructure.rockmass.windows import (
+    MIN_WINDOWS,
+    RADIUS_CELLS,
+    count_in_windows,
+    trace_direction,
+    trace_p10,
+    window_centres,
+)
 
 #: The rule's tolerances: 5 cm (in metres; scaled to the cloud's unit by the caller), 60% of
 #: 11 samples, 15 degrees, the surface from 30 points.
@@ -188,8 +195,12 @@ def window_figures(face, found: list, mapped: list, null: list) -> dict:
     radius = radius_cells * face.cell
     centres = face.lower + (grid + 0.5) * face.cell
     out = {"window_radius_m": float(radius), "windows": int(len(grid))}
+    # One set of scanlines too, across the map's traces of the set, for the three alike.
+    along = trace_direction([face.project(line) for line in mapped])
     for name, lines in (("found", found), ("mapped", mapped), ("null", null)):
-        n, m = count_in_windows([face.project(line) for line in lines], centres, radius)
+        uv = [face.project(line) for line in lines]
+        n, m = count_in_windows(uv, centres, radius)
         out[f"{name}_window_mean_m"] = float(np.pi * radius / 2 * n / m) if m else float("nan")
         out[f"{name}_window_p21_per_m"] = float(n / (4 * radius * len(grid)))
+        out[f"{name}_p10_per_m"] = trace_p10(uv, face.occupied, face.lower, face.cell, along)[0] if uv else 0.0
     return out

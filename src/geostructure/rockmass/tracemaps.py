@@ -15,12 +15,12 @@ from scipy.spatial import cKDTree
 from geostructure.core.orientation import orientation_from_normals
 from geostructure.detect.traces import DARK_LINE, Traces, find_traces
 from geostructure.rockmass.face import FACE
-from geostructure.rockmass.windows import set_window_estimates
+from geostructure.rockmass.windows import set_trace_p10, set_window_estimates
 
 #: The columns ``sets.csv`` adds per set from the traces.
 TRACE_SET_COLUMNS = ("traces", "trace_length_sum_m", "trace_chord_median_m", "trace_p21_per_m", "trace_window_radius_m",
                      "trace_windows", "trace_window_crossings", "trace_window_ends", "trace_window_mean_m",
-                     "trace_window_p21_per_m")  # fmt: skip
+                     "trace_window_p21_per_m", "trace_p10_per_m", "trace_scanline_m")  # fmt: skip
 #: The columns of ``traces.csv`` (one row a trace) and ``trace_vertices.csv`` (one row a vertex).
 TRACE_COLUMNS = ("trace_id", "set", "source", "region_id", "length_m", "chord_m", "n_vertices", "n_points",
                  "contrast", "dip", "dip_direction", "strike", "centre_x", "centre_y", "centre_z")  # fmt: skip
@@ -67,17 +67,19 @@ def trace_set_rows(
     """Per set, the traces' columns of ``sets.csv`` (:data:`TRACE_SET_COLUMNS`), in metres:
     with the face's sections (``exposures``), what circular windows laid on them read
     (:func:`~geostructure.rockmass.windows.set_window_estimates`: a mean trace length and
-    a P21 free of censoring; blank where no window fits).
+    a P21 free of censoring; blank where no window fits) and the traces' P10 on scanlines
+    across them (:func:`~geostructure.rockmass.windows.set_trace_p10`).
 
     Examples
     --------
     >>> t = Traces.from_polylines([np.array([[0.0, 0, 0], [1.0, 0, 0]]), np.array([[0.0, 1, 0], [3.0, 1, 0]])],
     ...                           ["plane", "dark line"], [0, -1])
     >>> t.set = np.array([0, 0])
-    >>> {k: v for k, v in trace_set_rows(t, 1, 4.0)[0].items() if not k.startswith("trace_window")}
+    >>> {k: v for k, v in trace_set_rows(t, 1, 4.0)[0].items() if k in TRACE_SET_COLUMNS[:4]}
     {'traces': 2, 'trace_length_sum_m': 4.0, 'trace_chord_median_m': 2.0, 'trace_p21_per_m': 1.0}
     """
     windows = set_window_estimates(traces, list(exposures), n_sets, metres)
+    p10 = set_trace_p10(traces, list(exposures), n_sets, metres)
     rows = []
     for s in range(n_sets):
         mine = np.zeros(0, dtype=bool) if traces is None else traces.set == s
@@ -89,6 +91,8 @@ def trace_set_rows(
             "trace_chord_median_m": float(np.median(chord)) if len(chord) else float("nan"),
             "trace_p21_per_m": float(length.sum() / exposure_area_m2) if exposure_area_m2 > 0 else float("nan"),
             **window_columns(windows[s]),
+            "trace_p10_per_m": p10[s][0],
+            "trace_scanline_m": p10[s][1],
         })  # fmt: skip
     return rows
 
