@@ -36,6 +36,7 @@ test: $(STAMP) system-deps lint
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests bench
 	$(VENV)/bin/ruff format --check src tests bench
+	$(VENV)/bin/mypy
 
 bench: $(STAMP) system-deps
 	$(PY) bench/bench_pipeline.py

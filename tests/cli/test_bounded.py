@@ -184,3 +184,23 @@ def test_combinations_that_mean_nothing_are_refused(flat, tmp_path, capsys, argv
     err = refused(capsys, *[a.format(flat=flat) for a in argv], "-o", out, "-q")
     assert_one_sentence(err, *words)
     assert not out.exists()
+
+
+def test_a_las_offset_of_1e308_is_a_damaged_header_without_numpy_warnings(tmp_path, capsys):
+    from helpers import write_classified_las
+
+    path = write_classified_las(tmp_path / "c.las", np.random.default_rng(1).random((500, 3)) * 10, np.full(500, 2))
+    data = bytearray(path.read_bytes())
+    struct.pack_into("<d", data, 163, 1e308)  # the y offset
+    path.write_bytes(bytes(data))
+    err = refused(capsys, "measure", path, "-o", tmp_path / "out")
+    assert_one_sentence(err, path, "y offset")
+
+
+def test_a_ply_of_random_floats_is_refused_without_numpy_warnings(tmp_path, capsys):
+    header = b"ply\nformat binary_little_endian 1.0\nelement vertex 100\n"
+    header += b"property float x\nproperty float y\nproperty float z\nend_header\n"
+    path = tmp_path / "random.ply"
+    path.write_bytes(header + np.random.default_rng(0).bytes(1200))
+    err = refused(capsys, "measure", path, "-o", tmp_path / "out")
+    assert_one_sentence(err, path)

@@ -13,10 +13,17 @@ from pathlib import Path
 
 import numpy as np
 
-from geostructure.core.cloud import Cloud
+from geostructure.core.cloud import MAX_COORDINATE, Cloud
 from geostructure.core.duplicates import without_copies
 from geostructure.errors import GeoStructureNote, InputError, ParameterError
-from geostructure.io.checks import check_coordinate_step, check_points, las_step, observed_step, ply_step
+from geostructure.io.checks import (
+    check_coordinate_step,
+    check_coordinates,
+    check_points,
+    las_step,
+    observed_step,
+    ply_step,
+)
 from geostructure.io.crs import check_cloud_crs
 from geostructure.io.failures import check_laz_chunks, laz_readers, translated_read_errors
 from geostructure.io.text import grey_of, read_text
@@ -78,9 +85,9 @@ def read_cloud(path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, seed: i
             cloud = read_e57(path)
         else:
             cloud = read_text(path)
-        if suffix not in (".ply", ".las", ".laz"):  # the step those formats declare is checked as they are read
-            check_coordinate_step(cloud.local, observed_step(cloud.local), path)
     check_points(cloud.local, path, offset=cloud.offset)  # no absolute copy: 192 MB at 8M points
+    if suffix not in (".ply", ".las", ".laz"):  # the step those formats declare is checked as they are read
+        check_coordinate_step(cloud.local, observed_step(cloud.local), path)
     return without_copies(cloud, path)
 
 
@@ -92,6 +99,7 @@ def read_ply(path: Path, *, mesh_samples: int | None = DEFAULT_MESH_SAMPLES, see
     data, vertex = ply_vertices(path)
     names = vertex.dtype.names
     points = vertex_columns(vertex, "xyz")
+    check_coordinates(points, path)  # first: random bytes' NaN gave numpy's warnings in the step's check
     check_coordinate_step(points, ply_step(points, vertex.dtype), path)
     normals = None
     if all(n in names for n in ("nx", "ny", "nz")):
@@ -400,18 +408,19 @@ def check_las_header(path: Path) -> None:
     if len(head) < 179 or head[:4] != b"LASF":
         raise InputError(f"{path}: not a LAS/LAZ file (no 'LASF' signature).")
     scales = struct.unpack_from("<3d", head, 131)
-    bad = next((axis for axis, scale in zip("xyz", scales) if not (np.isfinite(scale) and scale != 0)), None)
+    # Past a scale of 100 (steps of 100 units, which no survey stores), its 32-bit integers reach MAX_COORDINATE.
+    bad = next((axis for axis, scale in zip("xyz", scales) if not (np.isfinite(scale) and 0 < abs(scale) <= 100)), None)
     if bad is not None:
         raise InputError(
             f"{path}: the header is damaged: the {bad} scale is {scales['xyz'.index(bad)]:g}, where a LAS "
-            f"file's coordinates are integers times a scale that is not 0."
+            f"file's coordinates are integers times a scale that is not 0 (nor past 100)."
         )
     offsets = struct.unpack_from("<3d", head, 155)
-    bad = next((axis for axis, offset in zip("xyz", offsets) if not np.isfinite(offset)), None)
-    if bad is not None:
+    bad = next((axis for axis, offset in zip("xyz", offsets) if not abs(offset) <= MAX_COORDINATE), None)
+    if bad is not None:  # 1e308 overflowed every coordinate, with numpy's warnings beside the error
         raise InputError(
             f"{path}: the header is damaged: the {bad} offset is {offsets['xyz'.index(bad)]:g}, where a LAS "
-            f"file's coordinates are integers times a scale plus a finite offset."
+            f"file's coordinates are integers times a scale plus an offset within {MAX_COORDINATE:.0e}."
         )
     header_size, point_offset, n_vlrs = struct.unpack_from("<HII", head, 94)
     size = path.stat().st_size
