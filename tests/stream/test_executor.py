@@ -64,3 +64,27 @@ def test_workers_that_all_die_at_once_have_the_context_scattered_again(executor)
 def test_a_task_that_kills_every_worker_ends_the_run_with_one_sentence(executor):
     with pytest.raises(GeoStructureError, match=r"given up after the Dask workers that ran it died in turn"):
         list(executor.map(always_die, range(2), None))
+
+
+def test_ctrl_c_while_the_local_cluster_starts_leaves_no_cluster_behind(monkeypatch):
+    """An interrupt while LocalCluster started left it half made: distributed's exit hook
+    then printed an AssertionError traceback and log lines after the one-sentence message.
+    The start now finishes, the interrupt follows, and the cluster is closed."""
+    import os
+    import signal
+
+    pytest.importorskip("distributed")
+    from distributed.deploy.spec import SpecCluster
+
+    from geostructure.stream import DaskExecutor
+
+    real = DaskExecutor._start_local
+
+    def interrupted(self, workers):
+        os.kill(os.getpid(), signal.SIGINT)  # from the starting thread: the main thread is told
+        real(self, workers)
+
+    monkeypatch.setattr(DaskExecutor, "_start_local", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        DaskExecutor(workers=1)
+    assert not [c for c in SpecCluster._instances if c.status.name not in ("closed", "closing")]

@@ -66,12 +66,21 @@ class DaskExecutor:
 
         remove_stale_spills(prefix=DASK_SCRATCH_PREFIX)  # a killed run's: it could not remove its own
         self._scratch = tempfile.mkdtemp(prefix=f"{DASK_SCRATCH_PREFIX}{os.getpid()}-")
+        self._starting = threading.Thread(target=self._start_local, args=(workers,), daemon=True)
         if background:  # its start (some 3 s) while this process reads the survey
-            self._starting = threading.Thread(target=self._start_local, args=(workers,), daemon=True)
             self._starting.start()
-        else:
-            self._start_local(workers)
-            self._ready()
+            return
+        from geostructure.core.threads import signals_deferred  # lazy: local clusters only
+
+        # A cluster interrupted in its start was left half made, for distributed's exit hook
+        # to trip on: the start finishes, then the interrupt comes, and the cluster is closed.
+        try:
+            with signals_deferred():
+                self._starting.start()
+                self._ready()
+        except BaseException:
+            self.close()
+            raise
 
     def _start_local(self, workers: int | None) -> None:
         import dask
@@ -165,19 +174,47 @@ class DaskExecutor:
             )
 
     def close(self) -> None:
+        import logging
         import shutil
 
-        try:
-            if self._starting is not None:  # closed before it was needed: wait for its start
-                self._starting.join()
-            if self._client is not None:
-                self._client.close()
-            if self._cluster is not None:
-                self._cluster.close()
-                _stop_resource_tracker()
-        finally:
-            if self._scratch is not None:
-                shutil.rmtree(self._scratch, ignore_errors=True)
+        from geostructure.core.threads import signals_deferred  # lazy: closing a local cluster only
+
+        # An interrupt while the cluster started left it half made: closing it tripped an
+        # assertion of distributed's, and its exit hook printed the traceback and its log
+        # lines after our one sentence. The close runs to its end, quietly.
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)
+        with signals_deferred():
+            try:
+                if self._starting is not None:  # closed before it was needed: wait for its start
+                    self._starting.join()
+                if self._client is not None:
+                    self._client.close()
+                if self._cluster is not None:
+                    try:
+                        self._cluster.close()
+                    except Exception:  # a worker still starting: the processes are stopped below
+                        _forget_cluster(self._cluster)
+                    _stop_resource_tracker()
+            finally:
+                if self._scratch is not None:
+                    shutil.rmtree(self._scratch, ignore_errors=True)
+
+
+def _forget_cluster(cluster) -> None:
+    """Take a cluster that failed to close out of distributed's exit hook's list (it would
+    try again at exit, and print its traceback), stopping its processes as they stand."""
+    from distributed.deploy.spec import SpecCluster
+
+    for worker in list(getattr(cluster, "workers", {}).values()):
+        process = getattr(getattr(worker, "process", None), "process", None)
+        if process is not None and hasattr(process, "kill"):
+            try:
+                process.kill()
+            except Exception:  # already gone
+                pass
+    instances = getattr(SpecCluster, "_instances", None)  # private: absent, left to distributed
+    if instances is not None:
+        instances.discard(cluster)
 
 
 def _stop_resource_tracker() -> None:
