@@ -31,15 +31,32 @@ def set_color(label: int) -> str:
     return NO_SET_COLOR if label < 0 else SET_COLORS[label % len(SET_COLORS)]
 
 
+#: What the 3D view's other colours mean, after the planes' (the ramp of the points in no plane
+#: is plotly's "Earth", dark blue low to white high; the voxel planes' a cyclic one of their
+#: dip direction).
+OTHER_COLOURS = (
+    "points in a plane its colour, the others by height (dark blue low, white high) · voxel planes, when shown, by "
+    "dip direction"
+)
+
+
 def colour_key(scene: ReportScene) -> str:
     """The 3D view's colour legend, one line above its key: each set's colour and grey for
-    planes in no set ("" for planes without sets, each a colour of its own)."""
+    planes in no set (or, without sets, that each plane has a colour of its own), then what
+    the points' and the voxel planes' colours mean (the demo's view said none of it).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> colour_key(SimpleNamespace(planes=SimpleNamespace(extra={}))).startswith("planes: a colour each")
+    True
+    """
     if "set" not in scene.planes.extra:
-        return ""
+        return f"planes: a colour each (no joint sets: measure --sets) · {OTHER_COLOURS}<br>"
     sets = sorted({int(s) for s in scene.planes.extra["set"]} - {-1})
     swatch = "<span style='color:{}'>&#9632;</span> {}"
     parts = [swatch.format(set_color(s), f"set {s}") for s in sets] + [swatch.format(NO_SET_COLOR, "no set")]
-    return "planes by set: " + "  ".join(parts) + "<br>"
+    return "planes by set: " + "  ".join(parts) + f" · {OTHER_COLOURS}<br>"
 
 
 def plane_colors(scene: ReportScene) -> list[str]:
