@@ -47,7 +47,7 @@ _PUBLIC = {
     "save_measurement": "workflows.saving",
     "add_report": "workflows.saving",
     "add_evaluation": "evaluation.scoring",
-    "measure_stream": "stream",
+    "measure_survey": "workflows.survey",
     "measure_outcrop": "workflows.outcrop",
     "OutcropRun": "workflows.outcrop",
 }

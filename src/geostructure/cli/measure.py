@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import time
-import warnings
 from pathlib import Path
 
-from geostructure.cli.engine import add_engine_options, chosen_engine, measures_in_memory, run_streamed
+from geostructure.cli.engine import add_engine_options
 from geostructure.cli.options import (
     MAX_DEMO_POINTS,
     add_measure_options,
@@ -24,7 +23,6 @@ from geostructure.cli.options import (
     given_factors,
     params_from,
     positive_float,
-    say_what_was_left,
     whole,
     workers,
 )
@@ -40,24 +38,24 @@ from geostructure.cli.tables import (
     print_sweep,
     validation_lines,
 )
-from geostructure.cli.thinned import thinned_survey
 from geostructure.detect.pipeline import measure
-from geostructure.errors import GeoStructureNote, ParameterError
+from geostructure.errors import ParameterError
 from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE
-from geostructure.evaluation.groundtruth import evaluate, match_scene, scene_truth
+from geostructure.evaluation.groundtruth import match_scene, scene_truth
 from geostructure.evaluation.scoring import add_evaluation, add_validation
 from geostructure.evaluation.sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
 from geostructure.evaluation.sweep import run_sweep as sweep
-from geostructure.io.crs import cloud_unit
+from geostructure.io.crs import cloud_unit, recorded_unit
 from geostructure.io.outdir import output_set
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
-from geostructure.io.tiles import describe, expand_inputs, read_tiles
+from geostructure.io.tiles import expand_inputs
 from geostructure.io.truth import read_truth
 from geostructure.io.writers import write_table_csv
-from geostructure.rockmass.mass import with_rock_mass
 from geostructure.synthetic import observatory_scene
-from geostructure.workflows.outcrop import measure_outcrop
+from geostructure.workflows.advice import say_what_was_left
+from geostructure.workflows.engine import check_engine_options
 from geostructure.workflows.saving import add_report, save_measurement
+from geostructure.workflows.survey import measure_survey
 
 
 def add_measure_commands(sub) -> None:
@@ -158,100 +156,62 @@ def add_measure_commands(sub) -> None:
 def run_measure(args) -> int:
     frame = frame_from(args)
     crs_from(args)  # refused before any work
-    base_params(args)
-    kinematic_settings(args)  # refused before any work
+    params = base_params(args)
+    kinematics = kinematic_settings(args)  # refused before any work
     check_outdir(args.outdir)  # the folder first: it says nothing of the inputs
     paths = expand_inputs(args.input)
     check_before_work(args, [*paths, args.truth])
     check_unit_given(args, paths)
-    engine = chosen_engine(args, paths)
+    check_engine_options(args.engine, scheduler=args.scheduler, workers=args.workers, thin=args.thin,
+                         spill_dir=args.spill_dir)  # fmt: skip
     truth = read_truth(args.truth, frame) if args.truth else None
-    if engine != "memory" and measures_in_memory(args):
-        extra = {"inputs": [str(p) for p in paths]} if len(paths) > 1 else None
-        return measure_thinned(args, paths, frame, engine, extra, truth=truth, inputs=[*paths, args.truth])
-    if engine != "memory":
-        if args.engine == "auto":
-            warnings.warn(
-                f"{describe(paths)} holds more points than fit in --max-memory; measuring it streamed, in chunks, "
-                f"with the voxel detector.",
-                GeoStructureNote,
-                stacklevel=2,
-            )
-        extra = {"inputs": [str(p) for p in paths]} if len(paths) > 1 else None
-        return run_streamed(args, paths, frame, engine, extra, truth=truth, inputs=[*paths, args.truth])
-    t = time.perf_counter()
-    with StageProgress(enabled=not args.quiet and len(paths) > 1) as progress:
-        cloud = read_tiles(paths, mesh_samples=args.mesh_samples or None, progress=progress)
-    extra = {"inputs": [str(p) for p in paths]} if len(paths) > 1 else None
-    return measure_cloud(
-        cloud, args, frame, {"read": time.perf_counter() - t}, extra, truth=truth, inputs=[*paths, args.truth]
-    )
-
-
-def measure_thinned(args, paths, frame, engine: str, extra: dict | None, *, truth=None, inputs=()) -> int:
-    """Measure a survey too large for memory on a thinned cloud of it (:mod:`.thinned`), and
-    label every one of its points in the point files."""
-    t = time.perf_counter()
-    with thinned_survey(args, paths, engine) as survey:
-        record = {**(extra or {}), "engine": engine, "thinned": survey.record()}
-        seconds = {"read": time.perf_counter() - t}
-        # The facets on every point of the survey, in tiles; the rest on the thinned cloud.
-        full = base_params(args).detector == "facets" and not args.thin
-        facets = survey.full_resolution_facets if full else None
-        return measure_cloud(survey.cloud(), args, frame, seconds, record, truth=truth, inputs=inputs,
-                             point_files=survey.write_points, facets=facets)  # fmt: skip
-
-
-def measure_cloud(
-    cloud, args, frame, seconds: dict, extra: dict | None = None, *, truth=None, inputs=(), point_files=True,
-    facets=None,
-) -> int:  # fmt: skip
-    """Measure (:func:`~geostructure.workflows.outcrop.measure_outcrop`); write the outputs, the
-    evaluation and the report as one set; print the planes. ``point_files`` writes
-    ``regions.ply`` and ``regions.laz`` (:func:`~geostructure.workflows.saving.save_measurement`);
-    ``facets`` the facets found elsewhere, as :func:`~geostructure.detect.pipeline.measure` takes them."""
-    unit = getattr(args, "unit", None)  # checked against the CRS before reading (a reconstruction has none)
-
     t = time.perf_counter()
     with StageProgress(enabled=not args.quiet) as progress:
-        run = measure_outcrop(cloud, frame=frame, params=base_params(args), auto=args.auto, given=given_factors(args),
-                              crs=crs_from(args), unit=unit, grid_north=args.grid_north, sets=wants_sets(args),
-                              n_sets=getattr(args, "n_sets", None), kinematics=kinematic_settings(args), progress=progress,
-                              seconds=seconds, on_choice=choice_teller(args), facets=facets)  # fmt: skip
-        result, sets, rock = run.result, run.sets, run.rock
-        if truth is not None and run.record.get("north"):  # a compass's azimuths are true: read in the turned frame
-            truth = read_truth(args.truth, result.frame)
-        evaluation = evaluate(result.planes, truth) if truth is not None else None
-        paths = run.save(args.outdir, extra=extra, evaluation=evaluation, report=args.report, inputs=inputs,
-                         point_files=point_files, progress=progress)  # fmt: skip
-    cloud, crs = result.cloud, result.cloud.crs
-    kinematics, kinematic_summary = run.kinematic_options, run.kinematics
-    say_what_was_left(
-        len(result),
-        result.params.detector,
-        cloud.crs is not None or cloud.enu_origin is not None,
-        args.min_points,
-        result.counts,
-    )
-    if not args.quiet:
-        print_planes(result, planes=None if sets is None else with_rock_mass(result.planes, sets, rock),  # as written
-                     metres_per_unit=cloud_unit(crs, unit)["metres"])  # fmt: skip
-        if sets is not None:
-            print_sets(sets, rock=rock)
-        if kinematics is not None:
-            print_kinematics(kinematic_summary)
-        if evaluation is not None:
-            print_evaluation(evaluation)
-        # From reading to the last file written: what the user waited, less Python's start.
-        took = seconds.get("read", 0.0) + time.perf_counter() - t
-        thinned = (extra or {}).get("thinned") or {}
-        of_survey = f" of the survey's {thinned['survey_points']:,}" if thinned.get("cell") else ""
-        joints = f" ({len(rock.joints)} joints)" if rock is not None and rock.joints is not None else ""
-        print(
-            f"{counted(len(result), 'plane')}{joints} from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
-            f"wrote {', '.join(str(p) for p in paths.values())}"
-        )
+        run = measure_survey(paths, args.outdir, engine=args.engine, max_memory=args.max_memory, thin=args.thin,
+                             detector=args.detector,
+                             frame=frame, params=params, auto=args.auto, given=given_factors(args),
+                             crs=crs_from(args), unit=args.unit, grid_north=args.grid_north, sets=wants_sets(args),
+                             n_sets=args.n_sets, kinematics=kinematics, scheduler=args.scheduler,
+                             workers=args.workers, spill_dir=args.spill_dir, mesh_samples=args.mesh_samples or None,
+                             truth=truth, truth_path=args.truth, report=args.report, inputs=[*paths, args.truth],
+                             progress=progress, on_choice=choice_teller(args))  # fmt: skip
+    print_run(run, args, time.perf_counter() - t)
     return 0
+
+
+def print_run(run, args, took: float) -> None:
+    """What a measure says when done: what it left, the planes, sets, kinematics and
+    evaluation (unless ``-q``), and what it took and wrote."""
+    result, outcrop = run.result, run.outcrop
+    cloud = result.cloud
+    say_what_was_left(len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None,
+                      args.min_points, result.counts)  # fmt: skip
+    if args.quiet:
+        return
+    unit = getattr(args, "unit", None)
+    if outcrop is None:  # streamed
+        print_planes(result, metres_per_unit=recorded_unit({"crs": cloud.crs, **run.record})["metres"])
+        if run.evaluation is not None:
+            print_evaluation(run.evaluation)
+        print(f"{counted(len(result), 'plane')} from {result.counts['input']:,} points ({run.engine} engine) in "
+              f"{took:.1f} s; wrote {', '.join(str(p) for p in run.paths.values())}")  # fmt: skip
+        return
+    sets, rock = outcrop.sets, outcrop.rock
+    print_planes(result, planes=None if sets is None else outcrop.planes,  # as written
+                 metres_per_unit=cloud_unit(cloud.crs, unit)["metres"])  # fmt: skip
+    if sets is not None:
+        print_sets(sets, rock=rock)
+    if outcrop.kinematic_options is not None:
+        print_kinematics(outcrop.kinematics)
+    if run.evaluation is not None:
+        print_evaluation(run.evaluation)
+    thinned = run.record.get("thinned") or {}
+    of_survey = f" of the survey's {thinned['survey_points']:,}" if thinned.get("cell") else ""
+    joints = f" ({len(rock.joints)} joints)" if rock is not None and rock.joints is not None else ""
+    print(
+        f"{counted(len(result), 'plane')}{joints} from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
+        f"wrote {', '.join(str(p) for p in run.paths.values())}"
+    )
 
 
 def run_evaluate(args) -> int:

@@ -8,15 +8,13 @@ import argparse
 import math
 import os
 import sys
-import warnings
 from pathlib import Path
 
 from geostructure.core.orientation import Frame
 from geostructure.core.params import MAX_K, Params
-from geostructure.detect.facets import DETECTORS
-from geostructure.errors import GeoStructureNote, GeoStructureWarning, ParameterError
+from geostructure.detect.registry import DETECTORS, STREAMED_DETECTOR
+from geostructure.errors import ParameterError
 from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, parse_crs
-from geostructure.io.gis import NO_CRS_NOTE
 from geostructure.io.outdir import check_inputs_not_outputs, check_outdir
 from geostructure.io.tiles import check_headers
 from geostructure.workflows.outcrop import chosen_params
@@ -177,12 +175,11 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
     )
     a.add_argument(
         "--detector",
-        choices=DETECTORS,
+        choices=tuple(DETECTORS),
         default=None,
-        help="facets: grown on per-point planes, down to small joints on rough rock, with the paper's "
-        f"voxel growing where a facet is curved; voxel: the paper's region growing alone (default "
-        f"{defaults.detector} in memory; voxel when streamed, unless --sets, --kinematics or --detector facets "
-        f"thin the survey to what fits)",
+        help="; ".join(f"{name}: {spec.help}" for name, spec in DETECTORS.items())
+        + f" (default {defaults.detector} in memory; {STREAMED_DETECTOR} when streamed, unless --sets, --kinematics "
+        f"or --detector {defaults.detector} thin the survey to what fits)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no table")
 
@@ -275,50 +272,3 @@ def check_unit_given(args, paths) -> None:
     declared = check_headers(paths)
     if declared is not None:
         check_unit(unit, *declared)
-
-
-#: Below this share of the filtered points in a plane, a run says how few are.
-FEW_IN_PLANES = 0.5
-
-
-def say_what_was_left(
-    n_planes: int, detector: str, has_place: bool, min_points: int | None = None, counts: dict | None = None
-) -> None:
-    """After a run: the advice when no plane was found (a warning), a note when planes hold
-    fewer than :data:`FEW_IN_PLANES` of the filtered points (``counts``, the run's), and the
-    note that no GIS file was written when the cloud has no CRS (notes, which ``-q``
-    silences). In memory and streamed alike. ``min_points``: the user's ``--min-points``,
-    when given."""
-    if not n_planes:
-        warnings.warn(no_plane_advice(detector, min_points), GeoStructureWarning, stacklevel=2)
-    counts = counts or {}
-    kept, held = counts.get("filtered", 0), counts.get("labelled_points", 0)
-    if n_planes and kept and held < FEW_IN_PLANES * kept:
-        warnings.warn(
-            f"only {held:,} of the {kept:,} points ({held / kept:.0%}) lie in a plane: the rest are on surfaces too "
-            f"rough, curved or small to measure as one (planes.csv lists what was measured; regions.ply marks the "
-            f"rest -1).",
-            GeoStructureNote,
-            stacklevel=2,
-        )
-    if not has_place:
-        warnings.warn(NO_CRS_NOTE, GeoStructureNote, stacklevel=2)
-
-
-def no_plane_advice(detector: str, min_points: int | None = None) -> str:
-    """What to try when a run finds no plane, for the detector it ran; with the user's
-    ``--min-points``, that first (a plane smaller than it is not reported, however flat).
-
-    Examples
-    --------
-    >>> no_plane_advice("facets", 100_000)
-    'no plane found of 100,000 points or more (--min-points): a smaller --min-points reports smaller planes.'
-    """
-    if min_points is not None:
-        return f"no plane found of {min_points:,} points or more (--min-points): a smaller --min-points reports smaller planes."
-    if detector == "voxel":
-        return "no plane found; if the cloud is sparse, try a larger --zeta (voxels need at least 5 points each to fit a plane)."
-    return (
-        "no plane found: no part of the cloud is flat over a few point spacings (vegetation, scatter, or noise as "
-        "large as the spacing); --detector voxel fits coarser planes, and a larger --zeta coarser still."
-    )

@@ -3,34 +3,38 @@
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import shutil
 import time
 from pathlib import Path
 
-from geostructure.cli.measure import measure_cloud
+from geostructure.cli.measure import print_run
 from geostructure.cli.options import (
     add_measure_options,
     base_params,
     check_before_work,
+    choice_teller,
     crs_from,
     folder,
     frame_from,
+    given_factors,
     non_negative_float,
     positive_float,
     whole,
 )
 from geostructure.cli.progress import StageProgress
-from geostructure.core.cloud import Cloud
 from geostructure.core.orientation import Frame
-from geostructure.errors import GeoStructureError, InputError
+from geostructure.errors import InputError
 from geostructure.io.truth import read_truth
 from geostructure.reconstruct.dense import DenseOptions
 from geostructure.reconstruct.frames import FrameOptions, extract_frames
 from geostructure.reconstruct.georef import check_control_layout, read_gcp, read_gcp_csv
-from geostructure.reconstruct.pipeline import ReconstructOptions, reconstruct
+from geostructure.reconstruct.pipeline import ReconstructOptions
 from geostructure.reconstruct.sfm import SfmOptions, list_images
 from geostructure.reconstruct.surface import SurfaceOptions
+from geostructure.workflows.video import (
+    check_reconstruct_options,
+    reconstruct_and_measure,
+    require_reconstruction_extra,
+)
 
 
 def add_reconstruct_commands(sub) -> None:
@@ -129,7 +133,7 @@ def run_frames(args) -> int:
 def run_run(args) -> int:
     frame_from(args)  # refuse a half-given --up/--north before hours of reconstruction
     crs_from(args)
-    frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up
+    frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up: the truth is read in it
     base_params(args)
     require_reconstruction_extra(
         needs_video=args.source.is_file(), needs_mesh=not args.no_mesh and args.dense != "none"
@@ -144,7 +148,15 @@ def run_run(args) -> int:
             check_control_layout(read_gcp(args.gcp, args.source)[0], args.gcp)
         elif not args.gcp.is_file():
             raise InputError(f"{args.gcp}: no such file.")
-    check_run_options(args)
+    check_reconstruct_options(
+        ReconstructOptions(
+            dense=DenseOptions(method=args.dense),
+            use_dense=args.dense != "none",
+            up=args.up,
+            north=args.north,
+            scale=args.scale,
+        )
+    )
     truth = read_truth(args.truth, frame) if args.truth else None
     if args.source.is_dir():
         list_images(args.source)  # every photo is an image, before any folder is made
@@ -164,12 +176,13 @@ def run_run(args) -> int:
     t = time.perf_counter()
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     with StageProgress(enabled=not args.quiet) as progress:
-        made = _resumable(lambda: reconstruct(args.source, args.outdir, options, progress, log), args.outdir)
-    cloud = Cloud.from_points(made.points, source=made.cloud_path, enu_origin=made.georeference.enu_origin)
-    extra = {"reconstruction": {k: v for k, v in made.records.items()}}
-    return measure_cloud(
-        cloud, args, frame, {"reconstruct": time.perf_counter() - t}, extra, truth=truth, inputs=[args.truth, args.gcp]
-    )
+        run = reconstruct_and_measure(args.source, args.outdir, options, declination=args.declination,
+                                      params=base_params(args), auto=args.auto, given=given_factors(args),
+                                      crs=crs_from(args), unit=args.unit, grid_north=args.grid_north, truth=truth,
+                                      truth_path=args.truth, report=args.report, inputs=[args.truth, args.gcp],
+                                      progress=progress, log=log, on_choice=choice_teller(args))  # fmt: skip
+    print_run(run, args, time.perf_counter() - t)
+    return 0
 
 
 #: The largest image side SfM is asked to read: a 100-megapixel frame is 12,000 px across.
@@ -177,54 +190,3 @@ MAX_IMAGE_SIZE = 16_384
 #: The deepest Poisson octree: each level multiplies the cells by eight; at 14 a surface
 #: already takes tens of GB.
 MAX_POISSON_DEPTH = 14
-
-
-def check_run_options(args) -> None:
-    """Refuse, before any folder is made, what ``run`` found only after its first stages (and
-    left ``reconstruct.json`` and ``work/`` for): a scale without the axes it scales, a
-    dense stage this machine cannot run."""
-    if args.scale != 1.0 and not (args.up and args.north):
-        raise GeoStructureError("--scale is the manual georeference's: give --up and --north with it, in model axes.")
-    if args.dense == "colmap":
-        import pycolmap  # lazy: found installed by require_reconstruction_extra
-
-        if not pycolmap.has_cuda:
-            raise GeoStructureError(
-                "--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a machine with an "
-                "NVIDIA GPU); use --dense sgbm or --dense sweep here."
-            )
-
-
-#: What ``run`` needs beyond the measuring core, by import name, and the package it comes in.
-RECONSTRUCT_MODULES = {"pycolmap": "pycolmap", "cv2": "opencv-python-headless", "PIL": "pillow"}
-
-
-def require_reconstruction_extra(needs_video: bool, needs_mesh: bool) -> None:
-    """Say which extra to install when a reconstruction package is missing, before any work."""
-    modules = dict(RECONSTRUCT_MODULES)
-    if needs_video:
-        modules["av"] = "av"
-    if needs_mesh:
-        modules["open3d"] = "open3d"
-    missing = [package for module, package in modules.items() if importlib.util.find_spec(module) is None]
-    if missing:
-        raise GeoStructureError(
-            f"reconstruction needs {', '.join(missing)}, which is not installed; "
-            f"install it with: pip install 'geostructure[reconstruct]'."
-        )
-
-
-def _resumable(stages, outdir: Path):
-    """Run the reconstruction; on failure say what is kept and whether the same command resumes."""
-    existed = outdir.exists()
-    try:
-        return stages()
-    except GeoStructureError as exc:
-        if not existed and outdir.is_dir() and not (outdir / "reconstruct.json").exists():
-            shutil.rmtree(outdir, ignore_errors=True)  # nothing finished: leave no half-made folder
-            raise GeoStructureError(f"{exc} Nothing was kept.") from None
-        if (outdir / "reconstruct.json").exists():
-            raise GeoStructureError(
-                f"{exc} The finished stages are kept in {outdir}; the same command resumes after them."
-            ) from None
-        raise

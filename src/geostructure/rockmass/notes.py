@@ -15,6 +15,7 @@ import warnings
 
 import numpy as np
 
+from geostructure.detect.registry import detector_spec
 from geostructure.detect.uncertainty import MIN_TILT_FACETS
 from geostructure.errors import GeoStructureNote, GeoStructureWarning
 from geostructure.rockmass.exposure import BENT_FACE
@@ -354,7 +355,7 @@ def note_voxel_planes(detector: str | None, source) -> None:
     intensities count the larger joints alone. On the 40 x 16 m synthetic face of 3 m joints
     it found 253 planes where the facet detector finds 1,871, and the sets' spacing read 2.0
     to 2.7 times the facets' (docs/rockmass.md, "Facets: the default detector")."""
-    if detector != "voxel":
+    if detector is None or detector_spec(detector).finds_small_joints:
         return
     warnings.warn(
         f"{source}: its planes come from the voxel detector (--detector voxel, or the stream engine), which "

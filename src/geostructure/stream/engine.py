@@ -32,9 +32,10 @@ from geostructure.core.planes import Planes
 from geostructure.detect.auto import SAMPLE_POINTS, Occupancy, choose_from, samples_noise
 from geostructure.detect.filter import neighbourhoods
 from geostructure.detect.merge import merge_coplanar
-from geostructure.detect.pipeline import default_min_points, plane_table
+from geostructure.detect.pipeline import plane_table
 from geostructure.detect.rectangle import bound_plane, plane_from_scatter
 from geostructure.detect.regions import grow_regions
+from geostructure.detect.registry import STREAMED_DETECTOR, detector_spec, voxel_min_points
 from geostructure.detect.uncertainty import errors_from_sums, plane_axes
 from geostructure.detect.voxel import VoxelPlanes, voxel_planes_from_moments
 from geostructure.errors import InputError, ParameterError
@@ -104,10 +105,10 @@ def measure_spill(
         Point outputs, each with ``begin(n_points, lower, upper, cloud)``, ``write(points,
         labels)`` for each chunk's kept points (absolute) in order, and ``end()``.
     """
-    if params.detector != "voxel":
+    if not detector_spec(params.detector).streams:
         with warnings.catch_warnings():  # the user has been told of a zeta outside the paper's range
             warnings.simplefilter("ignore", ParameterWarning)
-            params = params.with_(detector="voxel")
+            params = params.with_(detector=STREAMED_DETECTOR)
     run = _Run(spill, params, executor or SerialExecutor(), chunk_points, progress)
     seconds, counts = {}, {"input": spill.n_points}
     t = time.perf_counter()
@@ -326,7 +327,7 @@ def _planes_of_voxels(voxels: VoxelPlanes, region_of_voxel, params: Params, n_ke
     labelled = region_of_voxel >= 0
     sizes = np.bincount(region_of_voxel[labelled], voxels.count[labelled], n_regions)
     n_voxels = np.bincount(region_of_voxel[labelled], minlength=n_regions)
-    min_points = params.min_points or default_min_points(n_kept, "voxel")
+    min_points = params.min_points or voxel_min_points(n_kept)
     candidates = np.flatnonzero((sizes >= min_points) & (n_voxels >= 3))
     candidates = candidates[np.argsort(-sizes[candidates], kind="stable")]
     renumber = np.full(n_regions + 1, -1, dtype=np.int64)

@@ -2,7 +2,7 @@
 measured on (one point a cell), its facets found on every point in tiles with halos
 (:meth:`ThinnedSurvey.full_resolution_facets`), and the writer that labels every point of
 the survey after (``measure --sets`` or ``--kinematics`` on a survey that does not fit). The
-command line spills and thins it (:mod:`geostructure.cli.thinned`).
+workflow spills and thins it (:mod:`geostructure.workflows.thinned`).
 
 The facets are the survey's own, at full resolution: a joint a few thinned cells across is
 found as a facet of its points, and each thinned point carries the facet of the survey's
