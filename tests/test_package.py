@@ -185,7 +185,7 @@ ALLOWED = {
     "io": {"core", "errors", "root"},
     "detect": {"core", "errors"},
     "rockmass": {"core", "detect", "errors"},
-    "kinematics": {"core", "detect", "rockmass", "errors", "report"},  # report: its nets, drawn lazily
+    "kinematics": {"core", "detect", "rockmass", "errors"},
     "synthetic": {"core", "rockmass", "errors"},
     "reconstruct": {"core", "io", "errors"},
     "evaluation": {"core", "detect", "io", "rockmass", "errors"},  # rockmass: the circular windows, map and ours alike

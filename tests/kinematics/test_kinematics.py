@@ -208,7 +208,8 @@ def test_kinematics_leaves_out_clutter_ground_and_the_face_itself():
     planes = Planes(normal=normals, area=[1.0, 2.0, 3.0, 4.0], n_points=np.array([500, 500, 500, 8]))
     planes = planes.with_columns(clutter=np.array([0, 1, 0, 0]), ground=np.array([0, 0, 1, 0]),
                                  face_surface=np.array([0, 0, 0, 0]))  # fmt: skip
-    summary, rows, _, _ = kinematics_of(planes, [], Slope(70.0, 180.0), 30.0)
+    tested = kinematics_of(planes, [], Slope(70.0, 180.0), 30.0)
+    summary, rows = tested.summary, tested.rows
     assert [r["left_out"] for r in rows] == ["", "clutter", "ground", ""]
     assert [r["planar_sliding"] for r in rows] == [True, False, False, True]
     assert summary["planes_tested"] == 2 and summary["left_out"] == {"ground": 1, "clutter": 1, "face_surface": 0}
@@ -527,13 +528,15 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
     from geostructure.kinematics.modes import Slope
     from geostructure.kinematics.summary import kinematics_of
     from geostructure.report.kinematics_net import kinematic_traces
+    from geostructure.report.kinematics_plot import kinematics_result_figure
 
     _, out = outcrop_folder
     sets, planes = read_sets(out), read_planes(out)
-    summary, _, _, figure = kinematics_of(planes, sets, Slope(65.0, 180.0), 30.0)
+    tested = kinematics_of(planes, sets, Slope(65.0, 180.0), 30.0)
+    summary, figure = tested.summary, kinematics_result_figure(tested)
     # with cohesion, the means' wedges are the same and hold better, as the planes' do
     strength = {"cohesion_kpa": 20.0, "unit_weight_kn_m3": 26.0, "height_m": 6.0}
-    strong = kinematics_of(planes, sets, Slope(65.0, 180.0), 30.0, strength=strength)[0]["set_mean_wedges"]
+    strong = kinematics_of(planes, sets, Slope(65.0, 180.0), 30.0, strength=strength).summary["set_mean_wedges"]
     assert [w["sets"] for w in strong] == [w["sets"] for w in summary["set_mean_wedges"]]
     assert all(s["wedge_fs"] > w["wedge_fs"] for s, w in zip(strong, summary["set_mean_wedges"]))
     console = Console(width=120, record=True, file=io.StringIO())
@@ -582,7 +585,7 @@ def test_a_face_of_more_joints_than_the_wedge_test_takes_is_tested_on_its_larges
     planes = Planes(normal=normals, area=np.sort(rng.uniform(0.1, 2.0, n))[::-1]).with_columns(
         joint=np.arange(n), set=np.zeros(n, dtype=int)
     )
-    summary = kinematics_of(planes, [], Slope(65.0, 180.0), 30.0)[0]
+    summary = kinematics_of(planes, [], Slope(65.0, 180.0), 30.0).summary
     wedge = summary["wedge_sliding"]
     k = MAX_WEDGE_PLANES
     assert 0.9 * k * (k - 1) // 2 < wedge["joint_pairs_tested"] <= k * (k - 1) // 2  # (near-parallel pairs aside)

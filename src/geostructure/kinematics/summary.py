@@ -1,5 +1,6 @@
 """The kinematic tests of a plane table and its sets against a slope, as ``kinematics.json``,
-``kinematics.csv`` and ``wedges.csv`` hold them, and ``kinematics.png``.
+``kinematics.csv`` and ``wedges.csv`` hold them, and what ``kinematics.png`` draws of each
+section (:class:`KinematicPanel`; the report draws it, :mod:`geostructure.report.kinematics_plot`).
 
 A face that turns (:mod:`.sections`) is tested section by section: each plane against the
 slope of the section it lies in, pairs of planes within a section, the sets' means against
@@ -9,7 +10,7 @@ every section's slope. The summary's modes count the planes critical in their ow
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -51,6 +52,40 @@ class _Tests:
     joint_wedges: Wedges | None = None  # among the joints' planes (joint_orientations), with the rock mass
 
 
+@dataclass
+class KinematicPanel:
+    """What one section's stereonet shows: its planes' dips and dip directions, its slope,
+    which planes are critical for planar sliding and for flexural toppling, the critical
+    wedges' and direct toppling's lines (trend, plunge), the sets' means (set, dip, dip
+    direction) and their critical wedges (set a, set b, trend, plunge), each pole's set."""
+
+    dip: np.ndarray
+    dip_direction: np.ndarray
+    slope: Slope
+    planar: np.ndarray
+    toppling: np.ndarray
+    wedge_lines: tuple
+    toppling_lines: tuple
+    oblique_lines: tuple
+    set_means: list
+    set_wedges: list
+    pole_sets: np.ndarray | None = None
+
+
+@dataclass
+class KinematicResult:
+    """The kinematic tests' results: the summary (as ``kinematics.json`` holds it), the plane
+    rows (``kinematics.csv``), the wedge columns (``wedges.csv``), the settings and one
+    :class:`KinematicPanel` a section of the face, for the figure."""
+
+    summary: dict
+    rows: list
+    wedge_columns: dict
+    friction: float
+    lateral_limit: float
+    panels: list = field(default_factory=list)
+
+
 def slope_dict(slope: Slope) -> dict:
     """A slope as ``kinematics.json`` writes it."""
     return {
@@ -90,21 +125,19 @@ def kinematics_of(
 
     Returns
     -------
-    tuple
+    KinematicResult
         The summary (as ``kinematics.json`` holds it), the plane rows and wedge columns (as
-        ``kinematics.csv`` and ``wedges.csv`` hold them) and the figure (``kinematics.png``).
+        ``kinematics.csv`` and ``wedges.csv`` hold them) and what the figure draws.
 
     Examples
     --------
     >>> from geostructure.core.planes import Planes
     >>> from geostructure.kinematics.modes import Slope
     >>> planes = Planes(normal=[[0.0, -0.5, 0.866], [0.0, 0.94, 0.342]], area=[2.0, 3.0])
-    >>> summary, rows, _, _ = kinematics_of(planes, [], Slope(65.0, 180.0), 30.0)
-    >>> summary["planar_sliding"]["planes"], [r["flexural_toppling"] for r in rows]
+    >>> tested = kinematics_of(planes, [], Slope(65.0, 180.0), 30.0)
+    >>> tested.summary["planar_sliding"]["planes"], [r["flexural_toppling"] for r in tested.rows]
     (1, [False, True])
     """
-    from geostructure.report.kinematics_plot import kinematics_figure  # lazy: matplotlib
-
     strength = strength or {"cohesion_kpa": 0.0, "unit_weight_kn_m3": UNIT_WEIGHT}
     everything = planes
     label, slopes = sections if sections is not None else (np.zeros(len(planes), dtype=np.int64), [slope])
@@ -114,8 +147,7 @@ def kinematics_of(
     n = len(planes)
     planar, toppling, base, oblique_base, in_wedge = (np.zeros(n, dtype=bool) for _ in range(5))
     fs = np.full(n, np.nan)
-    wedge_parts, parts = [], []
-    fig = None
+    wedge_parts, parts, panels = [], [], []
     for k, part_slope in enumerate(slopes):
         members = np.flatnonzero(label == k)
         part = planes.subset(members)
@@ -127,14 +159,16 @@ def kinematics_of(
         wedge_parts.append(_wedge_columns(tests.wedges, ids, k))
         parts.append({"section": k, "slope": slope_dict(part_slope), "planes": len(members),
                       **_summary(part, sets, tests, part_slope, friction, lateral_limit)})  # fmt: skip
-        fig = kinematics_figure(
-            part.dip, part.dip_direction, slope=part_slope, friction=friction, lateral_limit=lateral_limit,
-            planar=tests.planar, toppling=tests.toppling, wedge_lines=(tests.wedges.trend, tests.wedges.plunge),
-            toppling_lines=(tests.direct.trend, tests.direct.plunge),
-            oblique_lines=(tests.direct.oblique_trend, tests.direct.oblique_plunge),
-            set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
-            set_wedges=[(*w["sets"], w["trend"], w["plunge"]) for w in parts[-1]["set_mean_wedges"]],
-            fig=fig, panel=(k, len(slopes)), pole_sets=part.extra.get("set"),
+        panels.append(
+            KinematicPanel(
+                part.dip, part.dip_direction, part_slope, tests.planar, tests.toppling,
+                wedge_lines=(tests.wedges.trend, tests.wedges.plunge),
+                toppling_lines=(tests.direct.trend, tests.direct.plunge),
+                oblique_lines=(tests.direct.oblique_trend, tests.direct.oblique_plunge),
+                set_means=[(int(r["set"]), r["dip"], r["dip_direction"]) for r in sets],
+                set_wedges=[(*w["sets"], w["trend"], w["plunge"]) for w in parts[-1]["set_mean_wedges"]],
+                pole_sets=part.extra.get("set"),
+            )
         )  # fmt: skip
     set_labels = planes.extra.get("set", np.full(n, -1))
     rows = _plane_rows(everything, kept, reason, np.asarray(sections[0]) if sections is not None else None,
@@ -161,7 +195,7 @@ def kinematics_of(
         **common,
         **({"sections": parts} if len(parts) > 1 else {}),
     }
-    return summary, rows, wedge_columns, fig
+    return KinematicResult(summary, rows, wedge_columns, friction, lateral_limit, panels)
 
 
 #: Planes the kinematic tests leave out, by the column that marks them: no discontinuity can

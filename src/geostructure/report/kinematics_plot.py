@@ -132,3 +132,30 @@ def kinematics_figure(
     name = f"Section {k}" if n > 1 else "Kinematics"
     ax.set_title(f"{name}: slope {psi_f:.0f}/{whole_azimuth(alpha_f)}, friction {friction:g}°", y=1.08)
     return fig
+
+
+def kinematics_result_figure(tested):
+    """``kinematics.png`` of the kinematic tests' result
+    (:class:`~geostructure.kinematics.summary.KinematicResult`): one net a section of the
+    face, side by side.
+
+    Examples
+    --------
+    >>> from geostructure.core.planes import Planes
+    >>> from geostructure.kinematics.modes import Slope
+    >>> from geostructure.kinematics.summary import kinematics_of
+    >>> planes = Planes(normal=[[0.0, -0.5, 0.866], [0.0, 0.94, 0.342]], area=[2.0, 3.0])
+    >>> figure = kinematics_result_figure(kinematics_of(planes, [], Slope(65.0, 180.0), 30.0))
+    >>> len(figure.axes) >= 1
+    True
+    """
+    fig = None
+    for k, panel in enumerate(tested.panels):
+        fig = kinematics_figure(
+            panel.dip, panel.dip_direction, slope=panel.slope, friction=tested.friction,
+            lateral_limit=tested.lateral_limit, planar=panel.planar, toppling=panel.toppling,
+            wedge_lines=panel.wedge_lines, toppling_lines=panel.toppling_lines, oblique_lines=panel.oblique_lines,
+            set_means=panel.set_means, set_wedges=panel.set_wedges, fig=fig, panel=(k, len(tested.panels)),
+            pole_sets=panel.pole_sets,
+        )  # fmt: skip
+    return fig

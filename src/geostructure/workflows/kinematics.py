@@ -18,6 +18,7 @@ from geostructure.io.results import read_planes, read_sets
 from geostructure.kinematics.modes import LATERAL_LIMIT, UNIT_WEIGHT, Slope
 from geostructure.kinematics.slope import FittedFace, fit_face
 from geostructure.kinematics.summary import kinematics_of
+from geostructure.report.kinematics_plot import kinematics_result_figure
 from geostructure.rockmass.face import face_members
 from geostructure.rockmass.notes import bent_slope, gentle_slope, note_of, sectioned_slope, warn_of
 from geostructure.stream.thin import read_measured
@@ -138,9 +139,8 @@ def stage_kinematics(
     report("kinematics", 0, None)
     # each plane tested against the slope of the section it lies in
     sections = (face.plane_sections(planes), face.slopes) if len(face.slopes) > 1 else None
-    summary, rows, wedge_columns, figure = kinematics_of(
-        planes, read_sets(source), face.slope, friction, lateral_limit, strength, sections
-    )
+    tested = kinematics_of(planes, read_sets(source), face.slope, friction, lateral_limit, strength, sections)
+    summary, rows, wedge_columns = tested.summary, tested.rows, tested.wedge_columns
     where = outputs.outdir
     warn_of(bent_slope(summary["slope"]), where)
     warn_of(gentle_slope(summary), where)
@@ -150,7 +150,13 @@ def stage_kinematics(
     write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))
     write_json(summary, outputs.path("kinematics.json"))
     # tight: the legend grows with the sets and their wedges
-    write_figure(figure, outputs.path("kinematics.png").with_suffix(""), formats=("png",), dpi=120, bbox_inches="tight")
+    write_figure(
+        kinematics_result_figure(tested),
+        outputs.path("kinematics.png").with_suffix(""),
+        formats=("png",),
+        dpi=120,
+        bbox_inches="tight",
+    )
     outputs.record["kinematics"] = {k: summary[k] for k in ("slope", "friction_deg", "lateral_limit_deg", "strength")}
     names = {
         "kinematics": "kinematics.csv",
