@@ -293,3 +293,29 @@ def test_the_docs_name_only_test_files_and_modules_that_exist():
         if not (root / path).is_file()
     ]
     assert not missing, missing
+
+
+def test_the_command_line_only_parses_and_prints():
+    """Issue 54: every workflow in ``workflows/``; the command line under 1,200 lines."""
+    lines = sum(len(p.read_text().splitlines()) for p in (PACKAGE / "cli").glob("*.py"))
+    assert lines < 1200, lines
+    measuring = {"geostructure.detect.pipeline", "geostructure.stream", "geostructure.rockmass.mass"}
+    edges = graph()
+    assert [(m, t) for m, targets in edges.items() if part_of(m) == "cli" for t in targets if t in measuring] == []
+
+
+def test_a_detectors_name_is_compared_only_in_its_registry():
+    """Issue 54: a new detector is one entry of ``detect/registry.py``; no module compares a
+    detector's name (``detector == "voxel"``) but the registry and the parameters' check."""
+    import re
+
+    names = "|".join(("facets", "voxel"))
+    compared = re.compile(rf"""(==|!=)\s*["']({names})["']|["']({names})["']\s*(==|!=)|detector\w*\s*(==|!=)""")
+    found = [
+        f"{path.relative_to(PACKAGE)}:{number}"
+        for path in PACKAGE.rglob("*.py")
+        if path.name != "registry.py"
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        if compared.search(line.split("#")[0])
+    ]
+    assert found == []

@@ -120,7 +120,7 @@ def test_real_outcrop_gives_planes_at_a_zeta_its_density_supports():
 def test_the_terminal_table_shows_the_planes_with_most_points_and_says_where_the_rest_are(scene_result):
     from rich.console import Console
 
-    from geostructure.cli.tables import print_planes
+    from geostructure.report.terminal import print_planes
 
     console = Console(width=120, record=True)
     print_planes(scene_result, console=console, max_rows=3)

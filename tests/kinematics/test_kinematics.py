@@ -522,13 +522,13 @@ def test_the_figure_draws_the_sets_means_and_the_wedges_they_form(outcrop_folder
     import mplstereonet
     from rich.console import Console
 
-    from geostructure.cli.tables import print_kinematics
     from geostructure.core.projection import great_circle_xy
     from geostructure.io.results import read_planes, read_sets
     from geostructure.kinematics.modes import Slope
     from geostructure.kinematics.summary import kinematics_of
     from geostructure.report.kinematics_net import kinematic_traces
     from geostructure.report.kinematics_plot import kinematics_result_figure
+    from geostructure.report.terminal import print_kinematics
 
     _, out = outcrop_folder
     sets, planes = read_sets(out), read_planes(out)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 from pathlib import Path
 
@@ -28,8 +27,18 @@ from geostructure.cli.options import (
 )
 from geostructure.cli.progress import StageProgress
 from geostructure.cli.rockmass import add_kinematic_options, add_set_options, kinematic_settings, wants_sets
-from geostructure.cli.tables import (
+from geostructure.errors import ParameterError
+from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE
+from geostructure.evaluation.groundtruth import scene_truth
+from geostructure.evaluation.scoring import add_evaluation, add_validation
+from geostructure.evaluation.sweep import FACTORS, factor_values
+from geostructure.io.crs import cloud_unit, recorded_unit
+from geostructure.io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
+from geostructure.io.tiles import expand_inputs
+from geostructure.io.truth import read_truth
+from geostructure.report.terminal import (
     counted,
+    frame_fit_line,
     print_evaluation,
     print_kinematics,
     print_match,
@@ -38,23 +47,12 @@ from geostructure.cli.tables import (
     print_sweep,
     validation_lines,
 )
-from geostructure.detect.pipeline import measure
-from geostructure.errors import ParameterError
-from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE
-from geostructure.evaluation.groundtruth import match_scene, scene_truth
-from geostructure.evaluation.scoring import add_evaluation, add_validation
-from geostructure.evaluation.sweep import FACTORS, factor_values, plot_sweep, rows_as_dicts
-from geostructure.evaluation.sweep import run_sweep as sweep
-from geostructure.io.crs import cloud_unit, recorded_unit
-from geostructure.io.outdir import output_set
-from geostructure.io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
-from geostructure.io.tiles import expand_inputs
-from geostructure.io.truth import read_truth
-from geostructure.io.writers import write_table_csv
 from geostructure.synthetic import observatory_scene
 from geostructure.workflows.advice import say_what_was_left
 from geostructure.workflows.engine import check_engine_options
-from geostructure.workflows.saving import add_report, save_measurement
+from geostructure.workflows.experiments import run_demo as run_demo_scene
+from geostructure.workflows.experiments import sweep_and_save
+from geostructure.workflows.saving import add_report
 from geostructure.workflows.survey import measure_survey
 
 
@@ -231,45 +229,28 @@ def run_evaluate(args) -> int:
     if not args.quiet:
         print_evaluation(evaluation)
         if extra:
-            f = extra["frame_fit"]
-            print(
-                f"frame fitted to the ground truth: turned {f['rotation_deg']:.1f} deg; "
-                f"residuals {', '.join(f'{r:.1f}' for r in f['residuals_deg'])} deg (mean {f['mean_residual_deg']:.2f}); "
-                f"angles between surfaces off by {f['pairwise_mean_deg']:.2f} deg on average (frame-free)"
-            )
+            print(frame_fit_line(extra["frame_fit"]))
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0
 
 
 def run_demo(args) -> int:
     frame = frame_from(args)
-    base_params(args)
+    params = base_params(args)
     check_outdir(args.outdir)
     crs = crs_from(args)
     check_unit_given(args, [])  # --unit beside a --crs that says another unit means nothing
     if getattr(args, "unit", None) not in (None, "m"):
         raise ParameterError(f"--unit {args.unit}: the demo's scene is built in metres; leave --unit out.")
-    scene = observatory_scene(args.points, seed=args.seed)
-    if crs is not None:  # a made-up scene placed where the user says, to try the GIS files
-        scene.cloud = dataclasses.replace(scene.cloud, crs=crs)
-    params, auto, moments = params_from(args, scene.cloud)
     with StageProgress(enabled=not args.quiet) as progress:
-        result = measure(scene.cloud, params, frame, progress, moments=moments)
-        match = match_scene(result, scene)
-        progress("write", 0, None)
-        paths = save_measurement(
-            result,
-            args.outdir,
-            extra={"auto": auto, "demo": {"points": args.points, "seed": args.seed}},
-            evaluation=match,
-            evaluation_extra={"truth": "the scene's exact surfaces"},
-            report=args.report,
-        )
+        run = run_demo_scene(args.outdir, points=args.points, seed=args.seed, frame=frame, params=params,
+                             auto=args.auto, given=given_factors(args), crs=crs, report=args.report,
+                             progress=progress, on_choice=choice_teller(args))  # fmt: skip
     if not args.quiet:
-        print_planes(result)
-        print_match(match)
-        print(f"wrote {', '.join(str(p) for p in paths.values())}")
-    return 0 if match.all_found else 1
+        print_planes(run.result)
+        print_match(run.match)
+        print(f"wrote {', '.join(str(p) for p in run.paths.values())}")
+    return 0 if run.match.all_found else 1
 
 
 def run_report(args) -> int:
@@ -299,23 +280,13 @@ def run_sweep(args) -> int:
             raise ParameterError("sweep needs INPUT and --truth TRUTH.csv, or --demo.")
         truth = read_truth(args.truth, frame)
         cloud = read_cloud(args.input, mesh_samples=args.mesh_samples or None)
-    base, _, _ = params_from(args, cloud)
     t = time.perf_counter()
     with StageProgress(enabled=not args.quiet) as progress:
-        rows = sweep(cloud, truth, frame, factors, base, ranges=ranges, workers=args.workers, progress=progress)
-    with output_set(args.outdir, record_name="sweep.json", inputs=[args.input, args.truth]) as outputs:
-        write_table_csv(rows_as_dicts(rows), outputs.path("sweep.csv"))
-        figures = plot_sweep(rows, outputs.staging / f"sweep_{args.factor}")
-        outputs.record = {
-            "input": "demo" if args.demo else str(args.input),
-            "base_params": base.to_dict(),
-            "seconds": round(time.perf_counter() - t, 2),
-            "runs": rows_as_dicts(rows),
-        }
+        rows, written = sweep_and_save(cloud, truth, frame, factors, params_from(args, cloud)[0], args.outdir,
+                                       ranges=ranges, workers=args.workers, progress=progress, stem=args.factor,
+                                       input_name="demo" if args.demo else str(args.input),
+                                       inputs=[args.input, args.truth])  # fmt: skip
     if not args.quiet:
         print_sweep(rows)
-        print(
-            f"{len(rows)} runs in {time.perf_counter() - t:.0f} s; wrote {outputs.final('sweep.csv')}, "
-            f"{', '.join(str(outputs.final(p.name)) for p in figures)}"
-        )
+        print(f"{len(rows)} runs in {time.perf_counter() - t:.0f} s; wrote {', '.join(str(p) for p in written)}")
     return 0

@@ -22,19 +22,13 @@ from geostructure.cli.options import (
 )
 from geostructure.cli.progress import StageProgress
 from geostructure.core.orientation import Frame
-from geostructure.errors import InputError
 from geostructure.io.truth import read_truth
 from geostructure.reconstruct.dense import DenseOptions
 from geostructure.reconstruct.frames import FrameOptions, extract_frames
-from geostructure.reconstruct.georef import check_control_layout, read_gcp, read_gcp_csv
 from geostructure.reconstruct.pipeline import ReconstructOptions
-from geostructure.reconstruct.sfm import SfmOptions, list_images
+from geostructure.reconstruct.sfm import SfmOptions
 from geostructure.reconstruct.surface import SurfaceOptions
-from geostructure.workflows.video import (
-    check_reconstruct_options,
-    reconstruct_and_measure,
-    require_reconstruction_extra,
-)
+from geostructure.workflows.video import check_reconstruction, reconstruct_and_measure, require_reconstruction_extra
 
 
 def add_reconstruct_commands(sub) -> None:
@@ -135,31 +129,6 @@ def run_run(args) -> int:
     crs_from(args)
     frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up: the truth is read in it
     base_params(args)
-    require_reconstruction_extra(
-        needs_video=args.source.is_file(), needs_mesh=not args.no_mesh and args.dense != "none"
-    )
-    check_before_work(args, [args.truth, args.gcp])
-    if not args.source.exists():
-        raise InputError(f"{args.source}: no such file or folder.")
-    if args.gcp:  # a bad control file is found now, not after SfM, dense and meshing
-        if args.gcp.suffix.lower() != ".json":
-            check_control_layout(read_gcp_csv(args.gcp)[0], args.gcp)
-        elif args.source.is_dir():  # OpenSfM's JSON names the photos, so it is checked against them
-            check_control_layout(read_gcp(args.gcp, args.source)[0], args.gcp)
-        elif not args.gcp.is_file():
-            raise InputError(f"{args.gcp}: no such file.")
-    check_reconstruct_options(
-        ReconstructOptions(
-            dense=DenseOptions(method=args.dense),
-            use_dense=args.dense != "none",
-            up=args.up,
-            north=args.north,
-            scale=args.scale,
-        )
-    )
-    truth = read_truth(args.truth, frame) if args.truth else None
-    if args.source.is_dir():
-        list_images(args.source)  # every photo is an image, before any folder is made
     options = ReconstructOptions(
         frames=frame_options(args),
         sfm=SfmOptions(matching=args.matching, max_image_size=args.max_image_size),
@@ -173,6 +142,9 @@ def run_run(args) -> int:
         scale=args.scale,
         assume_level=args.assume_level,
     )
+    check_before_work(args, [args.truth, args.gcp])
+    check_reconstruction(args.source, options)
+    truth = read_truth(args.truth, frame) if args.truth else None
     t = time.perf_counter()
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     with StageProgress(enabled=not args.quiet) as progress:

@@ -10,9 +10,9 @@ from pathlib import Path
 
 from geostructure.cli.options import whole
 from geostructure.cli.progress import StageProgress
-from geostructure.cli.tables import print_kinematics, print_sets
 from geostructure.errors import ParameterError
-from geostructure.kinematics.modes import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction
+from geostructure.kinematics.modes import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction, check_strength
+from geostructure.report.terminal import print_kinematics, print_sets
 from geostructure.workflows.kinematics import add_kinematics
 from geostructure.workflows.saving import add_sets
 
@@ -122,12 +122,6 @@ def add_kinematic_options(parser, *, flag: bool) -> None:
     )
 
 
-#: The bounds of --cohesion (kPa), --unit-weight (kN/m3) and --height (m) taken.
-MAX_COHESION = 1e5
-MIN_UNIT_WEIGHT, MAX_UNIT_WEIGHT = 1.0, 100.0
-MIN_HEIGHT, MAX_HEIGHT = 0.01, 1e4
-
-
 def kinematic_settings(args) -> dict | None:
     """The kinematic tests' settings from the options, checked (before any work): friction,
     slope (None: fit it) and lateral limit; None when they were not asked for."""
@@ -146,18 +140,7 @@ def kinematic_settings(args) -> dict | None:
         upper = _dip_and_direction("--upper-slope", args.upper_slope, "12/195")
         if not (math.isfinite(upper[0]) and 0.0 <= upper[0] < (slope.dip if slope is not None else 90.0)):
             raise ParameterError(f"--upper-slope must dip 0 or more and less than the face, not {upper[0]:g} degrees.")
-    # Bounds no rock reaches, so that the arithmetic cannot overflow: the strongest intact
-    # rock's cohesion is some 50 MPa, rock weighs 20 to 30 kN/m3 (water 9.8), no slope is
-    # 10 km high, nor a block measured on one a centimetre.
-    for name, value, least, most in (
-        ("--cohesion", args.cohesion, 0.0, MAX_COHESION),
-        ("--unit-weight", args.unit_weight, MIN_UNIT_WEIGHT, MAX_UNIT_WEIGHT),
-        ("--height", args.height, MIN_HEIGHT, MAX_HEIGHT),
-    ):
-        if value is None:
-            continue
-        if not (math.isfinite(value) and least <= value <= most):
-            raise ParameterError(f"{name} must be a finite number from {least:g} to {most:g}, not {value:g}.")
+    check_strength(args.cohesion, args.unit_weight, args.height)
     return {
         "friction": args.friction,
         "slope": slope,

@@ -38,6 +38,7 @@ All angles are degrees; orientations are dip and dip direction (of planes), tren
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,6 +99,36 @@ def check_friction(friction: float) -> float:
     if not (np.isfinite(friction) and 0.0 < friction < 90.0):
         raise ParameterError(f"the friction angle must be more than 0 and less than 90 degrees, not {friction}.")
     return float(friction)
+
+
+#: The bounds of the cohesion (kPa), the unit weight (kN/m3) and the slope's height (m):
+#: bounds no rock reaches, so that the arithmetic cannot overflow. The strongest intact
+#: rock's cohesion is some 50 MPa, rock weighs 20 to 30 kN/m3 (water 9.8), no slope is 10 km
+#: high, nor a block measured on one a centimetre.
+MAX_COHESION = 1e5
+MIN_UNIT_WEIGHT, MAX_UNIT_WEIGHT = 1.0, 100.0
+MIN_HEIGHT, MAX_HEIGHT = 0.01, 1e4
+
+
+def check_strength(cohesion: float | None, unit_weight: float | None, height: float | None) -> None:
+    """Refuse a cohesion, unit weight or height (None: not given) out of its bounds, naming
+    the option.
+
+    Examples
+    --------
+    >>> check_strength(20.0, 26.0, None)
+    >>> check_strength(None, 1e9, None)
+    Traceback (most recent call last):
+    ...
+    geostructure.errors.ParameterError: --unit-weight must be a finite number from 1 to 100, not 1e+09.
+    """
+    for name, value, least, most in (
+        ("--cohesion", cohesion, 0.0, MAX_COHESION),
+        ("--unit-weight", unit_weight, MIN_UNIT_WEIGHT, MAX_UNIT_WEIGHT),
+        ("--height", height, MIN_HEIGHT, MAX_HEIGHT),
+    ):
+        if value is not None and not (math.isfinite(value) and least <= value <= most):
+            raise ParameterError(f"{name} must be a finite number from {least:g} to {most:g}, not {value:g}.")
 
 
 def angular_difference(a, b) -> np.ndarray:

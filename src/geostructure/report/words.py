@@ -1,6 +1,6 @@
 """The words and cells of the result tables, the terminal's and the report's alike: a
 figure or a dash, a count with its noun, an azimuth or "level", and the kinematic tables'
-columns and cells. The command line prints them (:mod:`geostructure.cli.tables`); the
+columns and cells. The command line prints them (:mod:`geostructure.report.terminal`); the
 report draws them (:mod:`.kinematic_tables`)."""
 
 from __future__ import annotations

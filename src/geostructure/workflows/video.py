@@ -13,8 +13,10 @@ from pathlib import Path
 from geostructure.core.cloud import Cloud
 from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
-from geostructure.errors import GeoStructureError
+from geostructure.errors import GeoStructureError, InputError
+from geostructure.reconstruct.georef import check_control_layout, read_gcp, read_gcp_csv
 from geostructure.reconstruct.pipeline import ReconstructOptions, reconstruct
+from geostructure.reconstruct.sfm import list_images
 from geostructure.workflows.outcrop import measure_outcrop
 from geostructure.workflows.survey import SurveyRun, save_outcrop
 
@@ -51,6 +53,28 @@ def check_reconstruct_options(options: ReconstructOptions) -> None:
                 "--dense colmap needs pycolmap built with CUDA (pip install pycolmap-cuda12 on a machine with an "
                 "NVIDIA GPU); use --dense sgbm or --dense sweep here."
             )
+
+
+def check_reconstruction(source, options: ReconstructOptions) -> None:
+    """Refuse, before any folder is made, a reconstruction that cannot run: a missing extra,
+    a source that is not there, a control file that cannot place the model (three points not
+    on one line), options that mean nothing together, a folder holding a file that is no
+    image."""
+    source = Path(source)
+    require_reconstruction_extra(needs_video=source.is_file(), needs_mesh=options.mesh and options.use_dense)
+    if not source.exists():
+        raise InputError(f"{source}: no such file or folder.")
+    gcp = Path(options.gcp) if options.gcp else None
+    if gcp is not None:  # a bad control file is found now, not after SfM, dense and meshing
+        if gcp.suffix.lower() != ".json":
+            check_control_layout(read_gcp_csv(gcp)[0], gcp)
+        elif source.is_dir():  # OpenSfM's JSON names the photos, so it is checked against them
+            check_control_layout(read_gcp(gcp, source)[0], gcp)
+        elif not gcp.is_file():
+            raise InputError(f"{gcp}: no such file.")
+    check_reconstruct_options(options)
+    if source.is_dir():
+        list_images(source)  # every photo is an image, before any folder is made
 
 
 def reconstruct_and_measure(

@@ -1,4 +1,6 @@
-"""Terminal tables (rich) for the planes, evaluations and sweeps the CLI prints."""
+"""The terminal's tables (rich) of the planes, sets, kinematics, evaluations and sweeps: the
+same words and cells as the HTML report (:mod:`geostructure.report.words`), printed by the
+command line."""
 
 from __future__ import annotations
 
@@ -86,8 +88,11 @@ def print_planes(
     console = console or stdout_console()
     planes = in_square_metres(result.planes if planes is None else planes, metres_per_unit)
     shown = planes.subset(np.argsort(-planes.n_points, kind="stable")[:max_rows])
-    caption = f"the {len(shown)} of {len(planes)} planes with the most points; all in planes.csv"
-    caption = caption if len(shown) < len(planes) else None
+    caption = (
+        f"the {len(shown)} of {len(planes)} planes with the most points; all in planes.csv"
+        if len(shown) < len(planes)
+        else None
+    )
     table = Table(title=f"Planes in {result.cloud.name} (frame: {result.frame.name})", caption=caption)
     for column in ("id", "points", "area m²", "strike", "dip", "dip dir", "± deg", "centroid"):
         table.add_column(column, justify="right")
@@ -260,6 +265,16 @@ def print_evaluation(evaluation, console: Console | None = None) -> None:
         f"z(R) = {evaluation.z:.4f} as printed in the paper, {evaluation.z_wrapped:.4f} wrap-aware; "
         f"normal error mean {evaluation.mean_error:.2f} deg, max {evaluation.max_error:.2f} deg; "
         f"{evaluation.n_found} of {len(evaluation.surfaces)} surfaces found"
+    )
+
+
+def frame_fit_line(fit: dict) -> str:
+    """The frame fitted to a ground truth (``run.json``'s ``frame_fit``), in a line."""
+    residuals = ", ".join(f"{r:.1f}" for r in fit["residuals_deg"])
+    return (
+        f"frame fitted to the ground truth: turned {fit['rotation_deg']:.1f} deg; residuals {residuals} deg (mean "
+        f"{fit['mean_residual_deg']:.2f}); angles between surfaces off by {fit['pairwise_mean_deg']:.2f} deg on "
+        f"average (frame-free)"
     )
 
 
