@@ -191,7 +191,7 @@ ALLOWED = {
     "evaluation": {"core", "detect", "io", "rockmass", "errors"},  # rockmass: the circular windows, map and ours alike
     "stream": {"core", "detect", "io", "errors"},
     "report": {"core", "io", "rockmass", "reconstruct", "errors"},
-    "workflows": WORKFLOW_PARTS,
+    "workflows": WORKFLOW_PARTS | {"synthetic"},  # synthetic: the demo's scene
     "testing": {"core", "detect", "evaluation", "synthetic", "io", "errors"},
     "cli": WORKFLOW_PARTS | {"synthetic", "workflows", "root"},
     "__main__": {"cli", "errors", "root"},

@@ -7,6 +7,7 @@ Each check names the file; the streamed reader runs them chunk by chunk.
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -149,3 +150,11 @@ def check_coordinate_step(points: np.ndarray, stored_step: tuple[float, str] | N
             GeoStructureWarning,
             stacklevel=2,
         )
+
+
+def check_step_once(points: np.ndarray, step: tuple[float, str] | None, path: Path, steps_checked: set) -> None:
+    """:func:`check_coordinate_step` on a file's first chunk, unless an earlier
+    file stored its coordinates in the same step."""
+    if step is not None and step[0] not in steps_checked:
+        check_coordinate_step(points, step, path)
+        steps_checked.add(step[0])

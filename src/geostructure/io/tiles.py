@@ -21,14 +21,8 @@ from geostructure.core.cloud import Cloud
 from geostructure.core.duplicates import without_copies
 from geostructure.errors import GeoStructureError, GeoStructureNote, InputError
 from geostructure.io.crs import check_cloud_crs, parse_crs
-from geostructure.io.readers import (
-    DEFAULT_MESH_SAMPLES,
-    SUFFIXES,
-    las_crs,
-    merged_left_out,
-    open_las,
-    read_cloud,
-)
+from geostructure.io.las import merged_left_out
+from geostructure.io.readers import DEFAULT_MESH_SAMPLES, SUFFIXES, format_of, read_cloud
 from geostructure.io.text import holds_rows_of_numbers
 
 #: Files named in a message before it says how many more there are.
@@ -75,8 +69,7 @@ def expand_inputs(specs) -> list[Path]:
             raise InputError(f"{path}: no such file.")
         if not path.is_file():  # a FIFO, a device: reading it waits for a writer, or for ever
             raise InputError(f"{path}: is not a regular file (a pipe or a device); save the cloud to a file first.")
-        if path.suffix.lower() not in SUFFIXES:
-            raise InputError(f"{path}: unknown extension '{path.suffix}'; expected one of {', '.join(SUFFIXES)}.")
+        format_of(path)  # an extension no format has is refused
     return paths
 
 
@@ -265,11 +258,11 @@ def check_headers(paths) -> tuple[str, Path] | None:
     they declare and the first tile declaring it, or None."""
     first = None
     for path in paths:
-        if path.suffix.lower() not in (".las", ".laz"):
+        header_crs = format_of(path).header_crs
+        if header_crs is None:
             continue
         try:
-            with open_las(path, points=False) as reader:
-                crs = las_crs(reader.header)
+            crs = header_crs(path)
         except GeoStructureError:  # counts that cannot be true: said now, before any tile is read
             raise
         except Exception:  # laspy's own refusal: read_cloud says what is wrong with it

@@ -22,21 +22,10 @@ import numpy as np
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.cloud import Cloud
 from geostructure.errors import InputError
-from geostructure.io.checks import check_coordinate_step, check_coordinates, las_step, ply_step
+from geostructure.io.checks import check_coordinates
 from geostructure.io.failures import translated_read_errors
-from geostructure.io.readers import (
-    DEFAULT_MESH_SAMPLES,
-    LasTally,
-    las_chunk_grey,
-    las_chunk_points,
-    las_chunk_vegetation,
-    las_crs,
-    merged_left_out,
-    open_las,
-    ply_vertices,
-    read_cloud,
-)
-from geostructure.io.text import grey_of
+from geostructure.io.las import merged_left_out
+from geostructure.io.readers import DEFAULT_MESH_SAMPLES, file_chunks
 from geostructure.io.tiles import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
@@ -191,7 +180,7 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
             for i, path in enumerate(paths):
                 start = spill.n_points
                 for points, normals, vegetation, grey, meta in _read_errors_told(
-                    path, _file_chunks(path, rows, mesh_samples, steps_checked)
+                    path, file_chunks(path, rows, mesh_samples, steps_checked)
                 ):
                     check_coordinates(points, path, spill.n_points - start)
                     points.astype("<f8", copy=False).tofile(out)
@@ -277,121 +266,3 @@ def _read_errors_told(path: Path, chunks):
             except StopIteration:
                 return
         yield chunk
-
-
-def _file_chunks(path: Path, rows: int, mesh_samples, steps_checked: set):
-    """(points, normals, vegetation, grey, meta) chunks of one file (``vegetation``: a LAS/LAZ
-    file's vegetation classes, :func:`~.io.readers.las_chunk_vegetation`; ``grey``: each
-    point's brightness where the file has colour, else None); ``meta`` carries
-    a Cloud with its CRS and, for LAS/LAZ, the file's grid.
-
-    A file whose coordinates are stored coarser than its points lie (32-bit floats far from
-    the origin, a coarse LAS scale) is refused or warned of as in memory
-    (:func:`~.io.checks.check_coordinate_step`), judged on its first chunk: the spacing a
-    chunk reads is the file's where a chunk is a patch of it (a tile's points in their scan
-    order) and reads wider, so errs towards measuring, where a chunk is thinned evenly. A
-    step is judged once (``steps_checked``): a survey's tiles share it, and each judgement
-    reads a spacing."""
-    suffix = path.suffix.lower()
-    if suffix in (".las", ".laz"):
-        yield from _las_chunks(path, rows, steps_checked)
-    elif suffix == ".ply" and not _ply_has_faces(path, mesh_samples):
-        yield from _ply_chunks(path, rows, steps_checked)
-    else:  # text, E57, a mesh to sample: read whole (one file at a time)
-        cloud = read_cloud(path, mesh_samples=mesh_samples)
-        points = cloud.points
-        meta = {"cloud": cloud}
-        for a in range(0, max(len(points), 1), rows):
-            normals = None if cloud.normals is None else cloud.normals[a : a + rows]
-            grey = None if cloud.grey is None else cloud.grey[a : a + rows]
-            yield points[a : a + rows], normals, None, grey, meta
-
-
-def _check_step(points: np.ndarray, step: tuple[float, str] | None, path: Path, steps_checked: set) -> None:
-    """:func:`~.io.checks.check_coordinate_step` on a file's first chunk, unless an earlier
-    file stored its coordinates in the same step."""
-    if step is not None and step[0] not in steps_checked:
-        check_coordinate_step(points, step, path)
-        steps_checked.add(step[0])
-
-
-def _las_chunks(path: Path, rows: int, steps_checked: set):
-    with open_las(path) as reader:
-        header = reader.header
-        grid = (np.array(header.scales, dtype=np.float64), np.array(header.offsets, dtype=np.float64))
-        meta = {"cloud": Cloud(np.zeros((0, 3)), crs=las_crs(header, path), source=str(path)), "grid": grid}
-        tally = LasTally()
-        for chunk in reader.chunk_iterator(rows):
-            first = not tally.read
-            points = tally.add(*las_chunk_points(chunk))
-            if first:
-                _check_step(points, las_step(header.scales), path, steps_checked)
-            yield points, None, las_chunk_vegetation(chunk), las_chunk_grey(chunk), meta
-        meta["cloud"].left_out = tally.finish(path, header.point_count)
-        if not tally.read:
-            yield np.zeros((0, 3)), None, None, None, meta
-
-
-def _ply_has_faces(path: Path, mesh_samples) -> bool:
-    from plyfile import PlyData
-
-    if not mesh_samples:
-        return False
-    try:
-        header = PlyData.read(str(path), mmap="r")
-    except Exception:  # read_cloud says what is wrong with it
-        return True
-    return "face" in header and len(header["face"].data) > 0
-
-
-def _ply_chunks(path: Path, rows: int, steps_checked: set):
-    _, vertex = ply_vertices(path)
-    names = vertex.dtype.names
-    has_normals = all(n in names for n in ("nx", "ny", "nz"))
-    colour = next((c for c in (("red", "green", "blue"), ("diffuse_red", "diffuse_green", "diffuse_blue"))
-                   if all(n in names for n in c)), None)  # fmt: skip
-    meta = {"cloud": Cloud(np.zeros((0, 3)), source=str(path))}
-    for a in range(0, max(len(vertex), 1), rows):
-        part = vertex[a : a + rows]
-        points = np.column_stack([np.asarray(part[c], dtype=np.float64) for c in "xyz"])
-        if not a:
-            _check_step(points, ply_step(points, vertex.dtype), path, steps_checked)
-        normals = (
-            np.column_stack([np.asarray(part[c], dtype=np.float64) for c in ("nx", "ny", "nz")])
-            if has_normals
-            else None
-        )
-        grey = None if colour is None else grey_of(np.column_stack([np.asarray(part[c]) for c in colour]))
-        yield points, normals, None, grey, meta
-
-
-def estimate_points(paths, mesh_samples: int | None = DEFAULT_MESH_SAMPLES) -> int:
-    """The points ``paths`` hold, from their headers (LAS/LAZ, PLY) or their size (about 30
-    bytes a point of text, 24 of E57), without reading them: what decides the engine."""
-    total = 0
-    for path in (Path(p) for p in paths):
-        suffix = path.suffix.lower()
-        try:
-            if suffix in (".las", ".laz"):
-                with open_las(path, points=False) as reader:
-                    total += int(reader.header.point_count)
-                continue
-            if suffix == ".ply":
-                total += _ply_points(path, mesh_samples)
-                continue
-        except Exception:  # a damaged header: the reader says what is wrong with it
-            pass
-        total += path.stat().st_size // (24 if suffix == ".e57" else 30)
-    return total
-
-
-def _ply_points(path: Path, mesh_samples) -> int:
-    import re
-
-    with open(path, "rb") as fh:
-        head = fh.read(65536).decode("ascii", errors="replace")
-    vertices = re.search(r"^element\s+vertex\s+(\d+)", head, re.M)
-    faces = re.search(r"^element\s+face\s+(\d+)", head, re.M)
-    if faces and int(faces.group(1)) and mesh_samples:
-        return int(mesh_samples)
-    return int(vertices.group(1)) if vertices else path.stat().st_size // 30

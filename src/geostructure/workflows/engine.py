@@ -14,8 +14,8 @@ import tempfile
 from pathlib import Path
 
 from geostructure.errors import ParameterError
+from geostructure.io.readers import estimate_points
 from geostructure.stream.engine import DEFAULT_CHUNK_POINTS
-from geostructure.stream.source import estimate_points
 
 #: The engines a survey is measured with; ``auto`` picks memory or stream.
 ENGINES = ("auto", "memory", "stream", "dask")
