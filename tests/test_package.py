@@ -190,7 +190,7 @@ ALLOWED = {
     "reconstruct": {"core", "io", "errors"},
     "evaluation": {"core", "detect", "io", "rockmass", "errors"},  # rockmass: the circular windows, map and ours alike
     "stream": {"core", "detect", "io", "errors"},
-    "report": {"core", "io", "rockmass", "reconstruct", "errors"},
+    "report": {"core", "io", "rockmass", "kinematics", "reconstruct", "errors"},  # kinematics: what it draws
     "workflows": WORKFLOW_PARTS | {"synthetic"},  # synthetic: the demo's scene
     "testing": {"core", "detect", "evaluation", "synthetic", "io", "errors"},
     "cli": WORKFLOW_PARTS | {"synthetic", "workflows", "root"},

@@ -590,3 +590,17 @@ def test_a_face_of_more_joints_than_the_wedge_test_takes_is_tested_on_its_larges
     k = MAX_WEDGE_PLANES
     assert 0.9 * k * (k - 1) // 2 < wedge["joint_pairs_tested"] <= k * (k - 1) // 2  # (near-parallel pairs aside)
     assert wedge["critical_joint_pairs"] > 0
+
+
+def test_every_failure_mode_of_the_catalogue_is_tested_and_written():
+    """Issue 54: a failure mode is one entry of ``kinematics/catalog.py``; each of its plane
+    columns is in every plane's row, and each summary row's key in the summary."""
+    from geostructure.core.planes import Planes
+    from geostructure.kinematics.catalog import PLANE_TEST_COLUMNS, SUMMARY_MODES
+    from geostructure.kinematics.summary import kinematics_of
+
+    planes = Planes(normal=[[0.0, -0.5, 0.866], [0.0, 0.94, 0.342]], area=[2.0, 3.0])
+    tested = kinematics_of(planes, [], Slope(65.0, 180.0), 30.0)
+    assert all(set(PLANE_TEST_COLUMNS) <= set(row) for row in tested.rows)
+    assert [mode.key for mode in SUMMARY_MODES if mode.key not in tested.summary] == []
+    assert [row["planar_sliding"] for row in tested.rows] == [True, False]

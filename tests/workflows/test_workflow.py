@@ -55,7 +55,7 @@ def test_the_streamed_workflow_writes_what_the_streamed_command_writes(tmp_path,
     from geostructure.workflows.survey import measure_survey
 
     cloud = write_xyz(tmp_path / "outcrop.xyz", outcrop_scene(width=6.0, height=4.0, seed=1).cloud.points)
-    run = measure_survey([cloud], tmp_path / "api")  # chunks as the command sizes them by default
+    run = measure_survey([cloud], tmp_path / "api", engine="stream")  # chunks as the command sizes them by default
     assert len(run.result) > 5 and run.paths["planes"].name == "planes.csv"
     code, _, _ = run_cli(capsys, "measure", cloud, "-o", tmp_path / "cli", "-q", "--engine", "stream")
     assert code == 0

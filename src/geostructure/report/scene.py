@@ -18,6 +18,7 @@ from geostructure.core.planes import Planes
 from geostructure.errors import OutputError
 from geostructure.io.crs import metres_per_unit, unit_symbol
 from geostructure.io.results import ply_field, read_planes, read_run, read_sets, read_spacings, read_traces
+from geostructure.kinematics.catalog import PLANE_MODES
 
 #: Points drawn in 3D at most: enough to read the outcrop's shape, few enough for WebGL
 #: to turn it fluently and for the file to stay small whatever the input's size.
@@ -67,12 +68,7 @@ class ReportScene:
 
 
 #: kinematics.csv's per-plane tests, as the report's plane table words them.
-FAILURE_WORDS = (
-    ("planar_sliding", "planar sliding"),
-    ("flexural_toppling", "flexural toppling"),
-    ("toppling_base", "toppling base"),
-    ("oblique_toppling_base", "oblique toppling base"),
-)
+FAILURE_WORDS = tuple((mode.key, mode.words) for mode in PLANE_MODES)
 
 
 def plane_failures(path: Path) -> dict:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from geostructure.core.orientation import whole_azimuth
+from geostructure.kinematics.catalog import SUMMARY_MODES
 
 
 def azimuth(value: float, dip: float, uncertainty: float) -> str:
@@ -50,8 +51,8 @@ def shown(value, digits: int = 2) -> str:
     return f"{value:.{digits}f}" if value is not None and np.isfinite(value) else "—"
 
 
-FAILURE_MODES = (("planar_sliding", "planar sliding"), ("wedge_sliding", "wedge sliding"),
-                 ("flexural_toppling", "flexural toppling"))  # fmt: skip
+#: The summary tables' failure modes: key, words (:data:`~geostructure.kinematics.catalog.SUMMARY_MODES`).
+FAILURE_MODES = tuple((mode.key, mode.words) for mode in SUMMARY_MODES)
 #: The per-set kinematics table's columns (:func:`set_kinematic_cells`).
 SET_KINEMATIC_COLUMNS = ("set", "mean dip/dd", "mean slides", "% planar", "mean topples", "% toppling",
                          "mean's wedges", "% in wedges")  # fmt: skip

@@ -15,6 +15,7 @@ from geostructure.io.atomic import write_columns_csv, write_figure, write_json, 
 from geostructure.io.crs import recorded_unit
 from geostructure.io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
 from geostructure.io.results import read_planes, read_sets
+from geostructure.kinematics.catalog import PLANE_TEST_COLUMNS
 from geostructure.kinematics.modes import LATERAL_LIMIT, UNIT_WEIGHT, Slope
 from geostructure.kinematics.slope import FittedFace, fit_face
 from geostructure.kinematics.summary import kinematics_of
@@ -174,11 +175,7 @@ KINEMATICS_COLUMNS = (
     "section",
     "dip",
     "dip_direction",
-    "planar_sliding",
-    "flexural_toppling",
-    "planar_fs",
-    "toppling_base",
-    "oblique_toppling_base",
+    *PLANE_TEST_COLUMNS,
     "left_out",
 )
 WEDGE_COLUMNS = ("region_id_a", "region_id_b", "section", "trend", "plunge", "wedge_fs", "slides_on")
