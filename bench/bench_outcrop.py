@@ -197,7 +197,7 @@ def score(scene, found: dict) -> dict:
     from geostructure.core.orientation import angle_between_normals
     from geostructure.core.planes import Planes
     from geostructure.evaluation.groundtruth import match_facets
-    from geostructure.rockmass.traces import persistence_class
+    from geostructure.rockmass.tracelengths import persistence_class
     from geostructure.synthetic.scanlines import exposed_trace_chords
 
     planes = Planes(normal=found["normals"], local_centroid=found["centroids"], fit_residual=0.0)
@@ -256,7 +256,7 @@ def main() -> None:
 
     compile_package()
     from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
-    from geostructure.synthetic.outcrop import DEFAULT_SETS
+    from geostructure.synthetic.rock_outcrop import DEFAULT_SETS
 
     print("end to end from a binary PLY, default options; the peer: DSE's method as written here")
     if args.road or args.crest or args.bushes:

@@ -10,7 +10,7 @@ its default options:
   clusters of 30 points or more (as that benchmark does) and of 10 or more (DSE's own
   minimum).
 
-Each is scored by the data's rule (``geostructure.evaluation.fieldmap``): mapped fractures matched
+Each is scored by the data's rule (``geostructure.evaluation.mapcheck``): mapped fractures matched
 (a plane's centroid within 0.6 m, its normal within 10 degrees), precision (the share of
 the planes that match one), and each published set's angle to the nearest set found; and
 GeoStructure's traces by the data's trace rule, the null model's score beside them, with the
@@ -37,7 +37,7 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "dice_lastoni_s
 def scores(found: dict) -> dict:
     """The data's rule on one method's planes and set normals."""
     from geostructure.core.orientation import normal_from_orientation
-    from geostructure.evaluation.fieldmap import mapped_set_means, set_errors, validate
+    from geostructure.evaluation.mapcheck import mapped_set_means, set_errors, validate
     from geostructure.io.fieldmap import read_field_map
 
     mapped = read_field_map(DATA / "fit_planes.csv")

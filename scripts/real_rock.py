@@ -23,7 +23,7 @@ import numpy as np
 from geostructure.core.density import point_spacing
 from geostructure.core.orientation import normal_from_orientation
 from geostructure.detect.roughfacets import FACE_CONE, MIN_FACET_POINTS, envelope_normals, point_normals
-from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE, axial_angle
+from geostructure.evaluation.mapcheck import MAX_ANGLE, MAX_DISTANCE, axial_angle
 from geostructure.io.fieldmap import read_field_map
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -232,7 +232,7 @@ def test_the_public_edge_raises_the_error_of_its_kind(tmp_path):
     """Readers raise InputError, options ParameterError, outputs OutputError (issue 44: 118
     of 193 raises used the base class, and no reader raised InputError)."""
     from geostructure import InputError, OutputError, ParameterError, Params, read_cloud, save_measurement
-    from geostructure.io.tiles import read_tiles
+    from geostructure.io.survey_files import read_tiles
 
     damaged = tmp_path / "c.ply"
     damaged.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nend_header\n")

@@ -58,7 +58,7 @@ def outcrop_sets(tmp_path_factory):
 def test_no_mean_trace_is_longer_than_the_exposure(outcrop_sets, capsys):
     """The 20 m face gave mean traces of 22.1 and 32.9 m (and, before, 106.3 m with a standard
     error as large): no face this size measures them. Now a bound, a flag and a sentence."""
-    from geostructure.rockmass.traces import persistence_class
+    from geostructure.rockmass.tracelengths import persistence_class
 
     cloud, out = outcrop_sets
     code, stdout, _ = run_cli(capsys, "measure", cloud, "-o", out, "--sets")

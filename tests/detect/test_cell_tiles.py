@@ -7,7 +7,7 @@ import pytest
 
 from geostructure.core.bounds import column_min
 from geostructure.detect.cells import CellGrid, grid_planes, with_sparse_cells_filled
-from geostructure.detect.tiles import cell_tiles, key_bound, key_codes
+from geostructure.detect.halo_tiles import cell_tiles, key_bound, key_codes
 from geostructure.synthetic import outcrop_scene
 
 
@@ -39,7 +39,7 @@ def test_facets_grown_in_small_tiles_are_the_whole_clouds():
     face at 1.5 cm), the thresholds the whole cloud's: every point's facet is the one the
     whole grid gives it (the issue asks 99% of the facets)."""
     from geostructure.detect.facets import detect_facets
-    from geostructure.detect.tiles import detect_facets_in_tiles
+    from geostructure.detect.halo_tiles import detect_facets_in_tiles
 
     points = outcrop_scene(width=8.0, height=5.0, seed=5).cloud.local
     whole = detect_facets(points)
@@ -54,7 +54,7 @@ def test_the_thresholds_and_the_far_scatter_read_in_tiles_are_the_whole_grids():
     and the medians are taken once: the same thresholds and scatter as the whole grid."""
     from geostructure.detect.facets import facet_thresholds
     from geostructure.detect.gridscatter import far_scatter
-    from geostructure.detect.tiles import grid_statistics_in_tiles
+    from geostructure.detect.halo_tiles import grid_statistics_in_tiles
 
     points = outcrop_scene(width=8.0, height=5.0, seed=5).cloud.local
     edge, lower = 0.05, column_min(points)

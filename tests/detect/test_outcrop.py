@@ -12,7 +12,7 @@ from geostructure.errors import ParameterError
 from geostructure.evaluation.groundtruth import match_facets
 from geostructure.kinematics.slope import fit_slope
 from geostructure.synthetic import bushes_on, outcrop_scene, road_before
-from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
+from geostructure.synthetic.rock_outcrop import DEFAULT_SETS, JointSet
 
 #: The issue's bar: facets larger than 0.3 m across, centroid on the facet, normal within 5 degrees.
 MIN_RECALL = 0.8

@@ -9,7 +9,7 @@ from conftest import shared_file
 from helpers import assert_one_sentence, run_cli
 
 from geostructure.core.orientation import normal_from_orientation
-from geostructure.evaluation.fieldmap import axial_angle
+from geostructure.evaluation.mapcheck import axial_angle
 from geostructure.io.fieldmap import read_field_map
 from geostructure.rockmass.exposure import face_plane
 

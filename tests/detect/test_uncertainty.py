@@ -11,10 +11,10 @@ from geostructure.detect.uncertainty import MIN_TILT_FACETS, correlated_tilt, no
 from geostructure.evaluation.groundtruth import match_facets
 from geostructure.rockmass.joints import PlaneMoments
 from geostructure.synthetic import outcrop_scene
-from geostructure.synthetic.outcrop import DEFAULT_SETS
-from geostructure.synthetic.surface import smooth_field
+from geostructure.synthetic.face_texture import smooth_field
+from geostructure.synthetic.rock_outcrop import DEFAULT_SETS
 from geostructure.workflows.saving import with_rock_mass
-from geostructure.workflows.sets import plane_rock_mass, plane_sets
+from geostructure.workflows.sets_and_mass import plane_rock_mass, plane_sets
 
 
 def noisy_planes(rng, *, size, spacing, white, correlated=0.0, wavelength=0.0, normal=(0.0, 0.0, 1.0), n=150):

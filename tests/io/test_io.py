@@ -143,7 +143,7 @@ def test_points_a_las_marks_withheld_or_noise_are_left_out(tmp_path, points, poi
     assert len(cloud.points) == (450 if point_format < 6 else 440)
     noise = 30 if point_format < 6 else 40  # the noise not withheld too
     assert cloud.left_out == {"withheld": 20, "noise": noise}  # for run.json
-    from geostructure.io.tiles import read_tiles
+    from geostructure.io.survey_files import read_tiles
 
     other = write_marked_las(tmp_path / "other.las", points + [0, 0, 100], classification, withheld, point_format)
     with pytest.warns(GeoStructureNote):

@@ -113,7 +113,7 @@ def test_the_vegetation_a_tile_classifies_is_kept_when_the_tiles_are_read_as_one
     those points and no other."""
     from helpers import write_classified_las
 
-    from geostructure.io.tiles import read_tiles
+    from geostructure.io.survey_files import read_tiles
 
     rng = np.random.default_rng(0)
     points = rng.random((200, 3)) * [10.0, 10.0, 1.0]

@@ -25,7 +25,7 @@ from geostructure.kinematics.wedge import wedge_blocks, wedge_factor_of_safety
 from geostructure.synthetic import outcrop_scene
 from geostructure.workflows.kinematics import add_kinematics
 from geostructure.workflows.saving import save_measurement
-from geostructure.workflows.sets import plane_sets
+from geostructure.workflows.sets_and_mass import plane_sets
 
 SLOPE = Slope(dip=60.0, dip_direction=135.0)
 

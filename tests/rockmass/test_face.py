@@ -9,7 +9,7 @@ import pytest
 from geostructure import measure
 from geostructure.detect.auto import choose_params
 from geostructure.rockmass.face import CLUTTER, FACE, clutter_points, face_parts
-from geostructure.workflows.sets import detected_spacing
+from geostructure.workflows.sets_and_mass import detected_spacing
 
 
 def slab(rng, n, size, z=0.0, noise=0.002):

@@ -31,11 +31,11 @@ from geostructure.rockmass.notes import (
 )
 from geostructure.rockmass.rqd import block_size_class, rqd_from_jv, rqd_range
 from geostructure.rockmass.spacing import Scanlines, nearest_plane_gaps, spacing_class, spacing_statistics
-from geostructure.rockmass.traces import persistence_class
+from geostructure.rockmass.tracelengths import persistence_class
 from geostructure.synthetic import bushes_on, crest_above, outcrop_scene, road_before
-from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
+from geostructure.synthetic.rock_outcrop import DEFAULT_SETS, JointSet
 from geostructure.synthetic.scanlines import exposed_trace_chords
-from geostructure.workflows.sets import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
+from geostructure.workflows.sets_and_mass import detected_spacing, plane_rock_mass, plane_sets, sets_and_rock_mass
 
 
 def measured(scene):

@@ -17,7 +17,7 @@ from geostructure.kinematics.slope import fit_face
 from geostructure.rockmass.exposure import BENT_FACE, face_bend, trace_turn
 from geostructure.rockmass.sections import face_sections
 from geostructure.synthetic import outcrop_scene
-from geostructure.synthetic.outcrop import DEFAULT_SETS
+from geostructure.synthetic.rock_outcrop import DEFAULT_SETS
 
 
 @pytest.mark.parametrize("turn", [30.0, 40.0, 90.0])

@@ -13,7 +13,7 @@ from geostructure.core.orientation import angle_between_normals, normal_from_ori
 from geostructure.errors import GeoStructureWarning
 from geostructure.rockmass.sets import find_sets, fisher_statistics
 from geostructure.synthetic import fisher_directions, outcrop_scene
-from geostructure.workflows.sets import plane_sets
+from geostructure.workflows.sets_and_mass import plane_sets
 
 
 def test_steep_planes_whose_poles_straddle_the_horizon():

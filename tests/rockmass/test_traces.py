@@ -5,7 +5,7 @@ import pytest
 
 from geostructure.rockmass.exposure import exposure
 from geostructure.rockmass.joints import PlaneMoments
-from geostructure.rockmass.traces import TRACE_MARGIN, Traces, joint_traces, persistence_class, trace_lengths
+from geostructure.rockmass.tracelengths import TRACE_MARGIN, Traces, joint_traces, persistence_class, trace_lengths
 
 
 def face_with_a_hole():

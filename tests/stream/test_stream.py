@@ -17,7 +17,7 @@ from geostructure import measure
 from geostructure.core.params import Params
 from geostructure.detect import auto
 from geostructure.detect.auto import choose_params
-from geostructure.io.tiles import read_tiles
+from geostructure.io.survey_files import read_tiles
 from geostructure.stream import DaskExecutor, measure_stream
 from geostructure.synthetic import observatory_scene
 

@@ -8,8 +8,8 @@ from scipy.spatial import cKDTree
 
 from geostructure.io.laz import write_laz
 from geostructure.stream import SerialExecutor, spill_inputs
-from geostructure.stream.survey import ThinnedSurvey
 from geostructure.stream.thin import thin_spill
+from geostructure.stream.thinnedsurvey import ThinnedSurvey
 from geostructure.synthetic import outcrop_scene
 from geostructure.workflows.outcrop import measure_outcrop
 

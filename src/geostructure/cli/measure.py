@@ -6,7 +6,6 @@ import argparse
 import time
 from pathlib import Path
 
-from geostructure.cli.engine import add_engine_options
 from geostructure.cli.options import (
     MAX_DEMO_POINTS,
     add_measure_options,
@@ -27,14 +26,15 @@ from geostructure.cli.options import (
 )
 from geostructure.cli.progress import StageProgress
 from geostructure.cli.rockmass import add_kinematic_options, add_set_options, kinematic_settings, wants_sets
+from geostructure.cli.scale_options import add_engine_options
 from geostructure.errors import ParameterError
-from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE
 from geostructure.evaluation.groundtruth import scene_truth
+from geostructure.evaluation.mapcheck import MAX_ANGLE, MAX_DISTANCE
 from geostructure.evaluation.scoring import add_evaluation, add_validation
 from geostructure.evaluation.sweep import FACTORS, factor_values
 from geostructure.io.crs import cloud_unit, recorded_unit
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
-from geostructure.io.tiles import expand_inputs
+from geostructure.io.survey_files import expand_inputs
 from geostructure.io.truth import read_truth
 from geostructure.report.terminal import (
     counted,
@@ -49,7 +49,7 @@ from geostructure.report.terminal import (
 )
 from geostructure.synthetic import observatory_scene
 from geostructure.workflows.advice import say_what_was_left
-from geostructure.workflows.engine import check_engine_options
+from geostructure.workflows.engine_choice import check_engine_options
 from geostructure.workflows.experiments import run_demo as run_demo_scene
 from geostructure.workflows.experiments import sweep_and_save
 from geostructure.workflows.saving import add_report

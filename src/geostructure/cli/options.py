@@ -16,7 +16,7 @@ from geostructure.detect.registry import DETECTORS, STREAMED_DETECTOR
 from geostructure.errors import ParameterError
 from geostructure.io.crs import UNITS, check_cloud_crs, check_unit, parse_crs
 from geostructure.io.outdir import check_inputs_not_outputs, check_outdir
-from geostructure.io.tiles import check_headers
+from geostructure.io.survey_files import check_headers
 from geostructure.workflows.outcrop import chosen_params
 
 

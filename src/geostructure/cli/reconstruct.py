@@ -25,8 +25,8 @@ from geostructure.core.orientation import Frame
 from geostructure.io.truth import read_truth
 from geostructure.reconstruct.dense import DenseOptions
 from geostructure.reconstruct.frames import FrameOptions, extract_frames
-from geostructure.reconstruct.pipeline import ReconstructOptions
 from geostructure.reconstruct.sfm import SfmOptions
+from geostructure.reconstruct.stages import ReconstructOptions
 from geostructure.reconstruct.surface import SurfaceOptions
 from geostructure.workflows.video import check_reconstruction, reconstruct_and_measure, require_reconstruction_extra
 

@@ -147,7 +147,7 @@ def measure(
         (a :class:`~geostructure.detect.facets.FacetDetection`) found elsewhere, given the
         filtered cloud and the filter's decisions: a survey larger than memory, measured on
         a thinned cloud, has its facets found on every point, in tiles
-        (:meth:`~geostructure.stream.survey.ThinnedSurvey.full_resolution_facets`).
+        (:meth:`~geostructure.stream.thinnedsurvey.ThinnedSurvey.full_resolution_facets`).
 
     Returns
     -------

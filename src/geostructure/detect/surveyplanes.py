@@ -1,7 +1,7 @@
 """A thinned survey's facets measured on all the survey's points (docs/tiles.md).
 
 A survey larger than memory is measured on a thinned cloud whose points carry the facets
-found on every point of the survey, in tiles (:mod:`geostructure.stream.survey`). A facet
+found on every point of the survey, in tiles (:mod:`geostructure.stream.thinnedsurvey`). A facet
 a few thinned cells across holds few thinned points: fitted on them, its plane is rough, and
 under the in-memory rule's 30 points it was no plane at all, though the survey holds
 hundreds of its points. Here a region that is exactly one facet (:func:`whole_facets`) is

@@ -68,7 +68,7 @@ class TilePieces:
 
 def grow_tile(tile, codes: np.ndarray, first, tile_cells: int, halo_cells: int, thresholds: FacetThresholds,
               points: np.ndarray) -> TilePieces:  # fmt: skip
-    """The facet pieces of one tile (a :class:`~geostructure.detect.tiles.CellTile` over
+    """The facet pieces of one tile (a :class:`~geostructure.detect.halo_tiles.CellTile` over
     ``points``, its cells' ``codes`` on the whole grid): the touching pairs of its sure cells
     tested as the whole grid tests them, their components, and its own points labelled
     (:func:`~geostructure.detect.facets.label_points`).
@@ -78,7 +78,7 @@ def grow_tile(tile, codes: np.ndarray, first, tile_cells: int, halo_cells: int, 
     tile : CellTile
         The tile's cells, core and halo.
     codes : (C,) int array
-        Each cell's code on the whole grid (:func:`~geostructure.detect.tiles.key_codes`).
+        Each cell's code on the whole grid (:func:`~geostructure.detect.halo_tiles.key_codes`).
     first : (3,) int array
         The least key of the tile's own cells.
     tile_cells, halo_cells : int

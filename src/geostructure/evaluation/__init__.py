@@ -9,7 +9,7 @@ from geostructure.core.lazy import lazy_names
 #: Public name -> the module of this package that defines it.
 _PUBLIC = {
     "evaluate": "groundtruth",
-    "validate": "fieldmap",
+    "validate": "mapcheck",
     "add_evaluation": "scoring",
     "add_validation": "scoring",
 }

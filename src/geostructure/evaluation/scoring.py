@@ -15,9 +15,9 @@ from scipy.spatial import cKDTree
 from geostructure.core.orientation import Frame, normal_from_orientation
 from geostructure.core.planes import Planes, reoriented
 from geostructure.errors import InputError, ParameterError
-from geostructure.evaluation.fieldmap import MAX_ANGLE, MAX_DISTANCE, mapped_set_means, set_errors, validate
 from geostructure.evaluation.framefit import fit_frame_to_truth, fitted_frame, pairwise_angle_error
 from geostructure.evaluation.groundtruth import Evaluation, evaluate
+from geostructure.evaluation.mapcheck import MAX_ANGLE, MAX_DISTANCE, mapped_set_means, set_errors, validate
 from geostructure.evaluation.tracescore import TOLERANCE as TRACE_TOLERANCE
 from geostructure.evaluation.tracescore import (
     mapped_segments,

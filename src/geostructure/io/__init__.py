@@ -11,7 +11,7 @@ from geostructure.core.lazy import lazy_names
 #: Public name -> the module of this package that defines it.
 _PUBLIC = {
     "read_cloud": "readers",
-    "read_tiles": "tiles",
+    "read_tiles": "survey_files",
     "read_planes_csv": "planetable",
     "write_planes_csv": "planetable",
     "read_truth": "truth",

@@ -6,7 +6,7 @@ Each :class:`Format` says how a file of it is read whole (a function returning a
 about so many bytes a point), whether the format declares its coordinates' step (checked as
 it is read) and the CRS its header declares (tiles checked against each other before
 any is read). :func:`read_cloud`, the stream (:func:`file_chunks`, :func:`estimate_points`)
-and the tiles' checks (:mod:`geostructure.io.tiles`) read this table.
+and the tiles' checks (:mod:`geostructure.io.survey_files`) read this table.
 
 Every reader turns a library's exception into a :class:`GeoStructureError` that names the
 file and what is wrong, and checks the points are finite and numerous enough to measure.

@@ -26,7 +26,7 @@ from geostructure.core.projection import (
     small_circle_xy,
 )
 from geostructure.io.atomic import atomic_path, plain
-from geostructure.io.tiles import describe
+from geostructure.io.survey_files import describe
 from geostructure.reconstruct.georef import describe_georeference
 from geostructure.report.kinematic_tables import kinematic_table, set_swatch
 from geostructure.report.kinematics_net import kinematic_traces
@@ -75,7 +75,7 @@ def build_report(outdir, path=None, *, max_points: int | None = None, title: str
 
 
 def source_title(scene: ReportScene) -> str:
-    """The input's file name as a title, or several files' names as :func:`~..io.tiles.describe`
+    """The input's file name as a title, or several files' names as :func:`~geostructure.io.survey_files.describe`
     names them (``run.json``'s ``input`` is their paths joined, which no file name can be cut
     from)."""
     return describe([Path(p).name for p in scene.inputs]) if scene.inputs else Path(scene.source).name

@@ -3,7 +3,7 @@
 A facet joins a joint when it lies on the joint's plane, fitted to all the joint's points
 at once (their moments pooled by the parallel-axis rule, :class:`PlaneMoments`), within a
 tolerance that grows with its distance from the joint's nearest facet (:func:`joint_planes`).
-Spacing (:mod:`.spacing`), traces (:mod:`.traces`) and the sets' joint count (:mod:`.sets`)
+Spacing (:mod:`.spacing`), traces (:mod:`.tracelengths`) and the sets' joint count (:mod:`.sets`)
 all count these joints.
 """
 

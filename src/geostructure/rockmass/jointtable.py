@@ -40,11 +40,11 @@ class Joints:
         """From each set's and section's grouping, in order: tuples of (the set's plane
         indices ``members`` (M,), each one's ``joint`` there (M,), ``set``, ``section``, the
         joints' ``normal`` (G, 3), and the stretches' ``joint`` (T,) with their
-        :class:`~geostructure.rockmass.traces.TraceLengths`, or None for a set along the face).
+        :class:`~geostructure.rockmass.tracelengths.TraceLengths`, or None for a set along the face).
 
         Examples
         --------
-        >>> from geostructure.rockmass.traces import TraceLengths
+        >>> from geostructure.rockmass.tracelengths import TraceLengths
         >>> stretches = TraceLengths(np.array([1.5, 2.0, 0.5]), np.array([False, True, False]))
         >>> group = (np.array([0, 2, 3]), np.array([0, 1, 0]), 0, 0, np.eye(3)[:2], np.array([0, 0, 1]), stretches)
         >>> joints = Joints.of(5, [group])

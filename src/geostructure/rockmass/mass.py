@@ -6,7 +6,7 @@
 
 - P10, joints met per metre along each set's scanlines;
 - P21, trace length per square metre of exposure, from the joints' traces on the face
-  (:mod:`.traces`: the stretches their facets show; a joint that crosses the face without a
+  (:mod:`.tracelengths`: the stretches their facets show; a joint that crosses the face without a
   face of its own leaves no trace in the cloud);
 - P32, joint area per cubic metre, from P10 with C13 = 1 / mean |n . line| over the set's
   planes, and from P21 with C23 = 1 / mean sin(angle between plane and face normals);
@@ -19,7 +19,7 @@
 Per set, the mean trace length is the exponential distribution's estimate with censoring,
 the sum of all traces over the number not censored, and not the mean of the traces, which
 censoring biases short: of its planes' traces (the facets', about 0.5 m whatever the joints'
-size), and of its joints' traces on the face (:mod:`.traces`), whose ISRM class is the set's
+size), and of its joints' traces on the face (:mod:`.tracelengths`), whose ISRM class is the set's
 persistence.
 """
 
@@ -44,8 +44,8 @@ from geostructure.rockmass.spacing import (
     spacing_class,
     spacing_statistics,
 )
+from geostructure.rockmass.tracelengths import TraceLengths, joint_traces, persistence_class, trace_lengths
 from geostructure.rockmass.tracemaps import TRACE_SET_COLUMNS, trace_set_rows
-from geostructure.rockmass.traces import TraceLengths, joint_traces, persistence_class, trace_lengths
 
 #: Palmstrom (2005)'s block shape factor for Vb = beta Jv^-3 (equidimensional blocks).
 BLOCK_SHAPE_FACTOR = 36.0
@@ -202,7 +202,7 @@ class RockMass:
     --------
     >>> from geostructure import measure
     >>> from geostructure.synthetic import outcrop_scene
-    >>> from geostructure.workflows.sets import plane_sets
+    >>> from geostructure.workflows.sets_and_mass import plane_sets
     >>> result = measure(outcrop_scene(width=8.0, height=5.0, seed=5).cloud)
     >>> sets = plane_sets(result.planes)
     >>> rock = rock_mass(result.filtered.local, result.labels, result.planes.normal, sets.labels, sets.mean_normal)
@@ -441,7 +441,7 @@ def rock_mass(
         (:func:`~geostructure.detect.uncertainty.correlated_tilt`).
     face : :class:`~geostructure.rockmass.exposure.Exposure`, optional
         ``exposure(points, up)``, when it was made already (it needs the points alone, so
-        :func:`~geostructure.workflows.sets.sets_and_rock_mass` makes it while the sets are found).
+        :func:`~geostructure.workflows.sets_and_mass.sets_and_rock_mass` makes it while the sets are found).
     parts : :class:`~geostructure.rockmass.face.FaceParts`, optional
         The face's ground and clutter the exposure ``face`` left out, recorded in the
         result; found here when ``face`` is not given.
@@ -456,7 +456,7 @@ def rock_mass(
     Examples
     --------
     >>> from geostructure import measure
-    >>> from geostructure.workflows.sets import plane_sets
+    >>> from geostructure.workflows.sets_and_mass import plane_sets
     >>> from geostructure.synthetic import outcrop_scene
     >>> scene = outcrop_scene(width=8.0, height=5.0, seed=5)
     >>> result = measure(scene.cloud)

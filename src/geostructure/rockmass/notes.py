@@ -30,7 +30,7 @@ from geostructure.rockmass.mass import (
     RockMass,
 )
 from geostructure.rockmass.spacing import MIN_SCANLINE_COSINE
-from geostructure.rockmass.traces import persistence_class
+from geostructure.rockmass.tracelengths import persistence_class
 
 
 def set_notes(set_id: int, row: dict) -> list[str]:

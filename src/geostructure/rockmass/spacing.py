@@ -6,7 +6,7 @@ The joints are a set's facets grouped by plane (:func:`~geostructure.rockmass.jo
   :data:`LINE_SPACING`, in the direction of the set's mean normal projected onto the face
   (the direction that meets most of the set's joints), each as long as the cloud under it.
   Every joint is extended as a persistent plane and meets a line where its plane crosses
-  it; or, given its traces (:func:`~geostructure.rockmass.traces.joint_traces`), only where the stretches of its trace
+  it; or, given its traces (:func:`~geostructure.rockmass.tracelengths.joint_traces`), only where the stretches of its trace
   that its facets show cross it (joints a few metres long on a longer face). The gaps
   between consecutive crossings, times the cosine between line and mean normal (Terzaghi
   1965), are normal spacings; the set's mean normal spacing is the cosine
@@ -113,9 +113,9 @@ def scanline_spacing(points, joint_normal, joint_centre, mean, face: Exposure, u
     face : Exposure
     uv : (N, 2) array, optional
         ``face.project(points)``, when made already (one projection serves every set).
-    traces : ~.traces.Traces, optional
+    traces : ~.tracelengths.Traces, optional
         Each joint's trace on the face and the stretches of it its facets show
-        (:func:`~geostructure.rockmass.traces.joint_traces`): a line meets a joint only there. Without it, every joint is
+        (:func:`~geostructure.rockmass.tracelengths.joint_traces`): a line meets a joint only there. Without it, every joint is
         a persistent plane across the face.
     """
     direction = mean - (mean @ face.normal) * face.normal

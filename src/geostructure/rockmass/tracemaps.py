@@ -41,7 +41,7 @@ def face_traces(points, labels, planes, sets, point_part=None, grey=None, tested
     Examples
     --------
     >>> from geostructure import measure
-    >>> from geostructure.workflows.sets import plane_sets
+    >>> from geostructure.workflows.sets_and_mass import plane_sets
     >>> from geostructure.synthetic import outcrop_scene
     >>> result = measure(outcrop_scene(width=6.0, height=4.0, seed=1).cloud)
     >>> traces = face_traces(result.filtered.local, result.labels, result.planes, plane_sets(result.planes))

@@ -26,7 +26,7 @@ from geostructure.io.checks import check_coordinates
 from geostructure.io.failures import translated_read_errors
 from geostructure.io.las import merged_left_out
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES, file_chunks
-from geostructure.io.tiles import check_headers, check_same_crs, describe
+from geostructure.io.survey_files import check_headers, check_same_crs, describe
 
 #: Bytes of one point in the spill file (x, y, z as float64).
 POINT_BYTES = 24

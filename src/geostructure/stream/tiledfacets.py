@@ -13,7 +13,7 @@ The passes, each over the spill's chunks or over the tiles:
    holds them (:data:`HALO_CELLS` cells of halo), with their rows in the spill.
 3. **The thresholds**: each tile's core cells' statistics counted in fine bins that add,
    the medians read from the sums to within a bin
-   (:func:`~geostructure.detect.tiles.binned_thresholds`).
+   (:func:`~geostructure.detect.halo_tiles.binned_thresholds`).
 4. **The pieces**: each tile grows its facet pieces
    (:func:`~geostructure.detect.tilejoin.grow_tile`); its points' pieces and cell normals go
    to its own files, the pieces' entries come back and are joined
@@ -48,6 +48,15 @@ from geostructure.detect.facets import (
     edge_blocks,
     edge_of_blocks,
 )
+from geostructure.detect.halo_tiles import (
+    SCATTER_HALO_CELLS,
+    binned_statistics,
+    binned_thresholds,
+    cell_keys,
+    key_codes,
+    tile_cells_of,
+    tile_statistics,
+)
 from geostructure.detect.roughtiles import HALO_SPACINGS
 from geostructure.detect.tilejoin import (
     FacetPlanes,
@@ -57,15 +66,6 @@ from geostructure.detect.tilejoin import (
     join_pieces,
     piece_facets,
     planar_renumbering,
-)
-from geostructure.detect.tiles import (
-    SCATTER_HALO_CELLS,
-    binned_statistics,
-    binned_thresholds,
-    cell_keys,
-    key_codes,
-    tile_cells_of,
-    tile_statistics,
 )
 from geostructure.stream.executor import SerialExecutor
 from geostructure.stream.passes import DROPPED, local_points

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from geostructure.detect.cells import CellGrid
+from geostructure.detect.halo_tiles import cell_keys
 from geostructure.detect.roughfacets import EnvelopeTable, envelope_edge, envelope_table
 from geostructure.detect.roughtiles import grow_rough_tile, join_rough_pieces, read_rough_tile, rough_medians
 from geostructure.detect.tilejoin import moved_moments
-from geostructure.detect.tiles import cell_keys
 from geostructure.stream.passes import local_points
 
 

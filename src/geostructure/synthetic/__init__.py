@@ -7,7 +7,7 @@
   a survey of a rock cut holds besides its rock.
 """
 
-from geostructure.synthetic.joints import fisher_directions
+from geostructure.synthetic.jointsets import fisher_directions
 from geostructure.synthetic.observatory import (
     PAPER_NORMALS,
     PAPER_TABLE,
@@ -18,7 +18,7 @@ from geostructure.synthetic.observatory import (
     paper_to_enu,
     sample_rectangle,
 )
-from geostructure.synthetic.outcrop import JointSet, OutcropScene, outcrop_scene
+from geostructure.synthetic.rock_outcrop import JointSet, OutcropScene, outcrop_scene
 from geostructure.synthetic.surroundings import bushes_on, crest_above, road_before
 
 __all__ = [

@@ -1,5 +1,5 @@
 """Scanlines across a synthetic face: where a set's planes cross them (the generator's truth
-of spacing and P32, :meth:`~.outcrop.OutcropScene.scanlines`)."""
+of spacing and P32, :meth:`~.rock_outcrop.OutcropScene.scanlines`)."""
 
 from __future__ import annotations
 
@@ -61,14 +61,14 @@ def _segment_in_rectangle(origin, direction, along, up_dip, width, height):
 
 def exposed_trace_chords(scene, set_index: int) -> np.ndarray:
     """The true trace lengths (m) of set ``set_index``'s joints that the face shows (an
-    :class:`~.outcrop.OutcropScene`'s): the chord in which each disc with a facet crosses the
+    :class:`~.rock_outcrop.OutcropScene`'s): the chord in which each disc with a facet crosses the
     mean face's plane (inf for planes through the rock mass). A disc exposed only where the
     face lies off its mean (in a step) may miss that plane: it is left out.
 
     Examples
     --------
     >>> from geostructure.synthetic import outcrop_scene
-    >>> from geostructure.synthetic.outcrop import DEFAULT_SETS, JointSet
+    >>> from geostructure.synthetic.rock_outcrop import DEFAULT_SETS, JointSet
     >>> sets = tuple(JointSet(**{**vars(s), "persistence": 3.0}) for s in DEFAULT_SETS)
     >>> chords = exposed_trace_chords(outcrop_scene(width=6.0, height=4.0, seed=1, sets=sets), 0)
     >>> bool(2.0 < chords.mean() < 5.0)

@@ -15,6 +15,7 @@ _PUBLIC = {
     "add_sets": "saving",
     "add_report": "saving",
     "add_kinematics": "kinematics",
+    "reconstruct_and_measure": "video",
 }
 
 __all__, __getattr__, __dir__ = lazy_names(__name__, _PUBLIC)

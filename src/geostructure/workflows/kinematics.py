@@ -106,7 +106,7 @@ def stage_kinematics(
     which commits them with the rest of its files: one command, one commit (a refusal or an
     interrupt here leaves the folder as it was). The keywords are described under
     :func:`add_kinematics`; returns the summary and output kind -> final path."""
-    from geostructure.workflows.sets import detected_spacing  # lazy, as above
+    from geostructure.workflows.sets_and_mass import detected_spacing  # lazy, as above
 
     report = progress or (lambda stage, done, total: None)
     source = Path(source)

@@ -9,7 +9,7 @@ and prints; a notebook gets the same result from the same two calls. The stages,
 2. the parameters: chosen from the cloud (:func:`~geostructure.detect.auto.choose_params`) unless ``auto`` is
    off or every factor is given;
 3. the planes (:func:`~geostructure.detect.pipeline.measure`);
-4. with ``sets``: the joint sets and the rock mass (:func:`~geostructure.workflows.sets.sets_and_rock_mass`), and
+4. with ``sets``: the joint sets and the rock mass (:func:`~geostructure.workflows.sets_and_mass.sets_and_rock_mass`), and
    the notes on what the face hides;
 5. with ``kinematics``: the slope fitted to the face (:func:`~geostructure.kinematics.slope.fit_face`)
    unless given; the tests themselves run as the files are written
@@ -44,7 +44,7 @@ from geostructure.detect.auto import choose_params
 from geostructure.detect.pipeline import Result, check_measurable, measure
 from geostructure.errors import GeoStructureNote, GeoStructureWarning
 from geostructure.io.crs import cloud_unit, describe_north, given_crs, note_unstated_unit, true_north_frame
-from geostructure.io.tiles import read_tiles
+from geostructure.io.survey_files import read_tiles
 from geostructure.kinematics.slope import fit_face
 from geostructure.rockmass.face import FACE
 from geostructure.rockmass.mass import RockMass, with_rock_mass
@@ -52,7 +52,7 @@ from geostructure.rockmass.notes import note_bent_face, note_tilt_unread, note_v
 from geostructure.rockmass.sets import JointSets
 from geostructure.workflows.kinematics import stage_kinematics
 from geostructure.workflows.saving import save_measurement
-from geostructure.workflows.sets import detected_spacing, sets_and_rock_mass
+from geostructure.workflows.sets_and_mass import detected_spacing, sets_and_rock_mass
 
 #: The factors the automatic choice sets, unless given.
 FACTORS = ("zeta", "theta", "psi", "k")

@@ -30,7 +30,7 @@ from geostructure.rockmass.sets import JointSets
 from geostructure.rockmass.tables import rock_mass_tables, sets_record
 from geostructure.stream.output import rewrite_regions_laz
 from geostructure.stream.thin import FOLDER_ROWS, cell_point_sets, point_set_values, read_measured
-from geostructure.workflows.sets import detected_spacing, sets_and_rock_mass
+from geostructure.workflows.sets_and_mass import detected_spacing, sets_and_rock_mass
 
 
 def save_measurement(

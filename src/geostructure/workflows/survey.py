@@ -5,7 +5,7 @@ The command line parses its options, calls :func:`measure_survey` and prints.
 
 The engines, in the order :func:`measure_survey` tries them:
 
-1. ``memory``: the files read whole (:func:`~geostructure.io.tiles.read_tiles`), measured
+1. ``memory``: the files read whole (:func:`~geostructure.io.survey_files.read_tiles`), measured
    (:func:`~geostructure.workflows.outcrop.measure_outcrop`) and saved;
 2. with the sets, the kinematics or a detector that does not stream, on a survey too large
    for memory: the survey thinned to what fits (:mod:`geostructure.workflows.thinned`),
@@ -30,12 +30,12 @@ from geostructure.evaluation.scoring import stage_evaluation
 from geostructure.io.crs import cloud_unit, describe_north
 from geostructure.io.outdir import output_set
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES
-from geostructure.io.tiles import describe, read_tiles
+from geostructure.io.survey_files import describe, read_tiles
 from geostructure.io.truth import read_truth
 from geostructure.io.writers import write_result
 from geostructure.stream import DaskExecutor, SerialExecutor, measure_stream
 from geostructure.stream.output import RegionsLaz, RegionsPly
-from geostructure.workflows.engine import check_engine_options, choose_engine, chunk_points, measures_in_memory
+from geostructure.workflows.engine_choice import check_engine_options, choose_engine, chunk_points, measures_in_memory
 from geostructure.workflows.outcrop import OutcropRun, measure_outcrop
 from geostructure.workflows.saving import stage_report
 from geostructure.workflows.thinned import thinned_survey

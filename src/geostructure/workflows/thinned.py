@@ -9,9 +9,14 @@ from contextlib import contextmanager
 
 from geostructure.errors import ParameterError
 from geostructure.stream import DaskExecutor, SerialExecutor, spill_inputs
-from geostructure.stream.survey import ThinnedSurvey
 from geostructure.stream.thin import thin_spill
-from geostructure.workflows.engine import MEMORY_BASE_BYTES, chunk_points, default_max_memory, memory_bytes_per_point
+from geostructure.stream.thinnedsurvey import ThinnedSurvey
+from geostructure.workflows.engine_choice import (
+    MEMORY_BASE_BYTES,
+    chunk_points,
+    default_max_memory,
+    memory_bytes_per_point,
+)
 
 #: The fewest points a rock mass is measured on: fewer cannot show joints of a metre.
 MIN_THINNED_POINTS = 20_000
@@ -43,7 +48,7 @@ def thinned_survey(
     unit: str | None = None, progress=None,
 ):  # fmt: skip
     """Spill ``paths`` and thin them to what ``max_memory`` holds; yields the
-    :class:`~geostructure.stream.survey.ThinnedSurvey`. The spill is removed when the block
+    :class:`~geostructure.stream.thinnedsurvey.ThinnedSurvey`. The spill is removed when the block
     ends, however it ends. ``full_resolution``: its facets are to be found on every point,
     in tiles (what its notes say)."""
     target = thinned_points(max_memory, rock)  # a bound too small is refused before any work

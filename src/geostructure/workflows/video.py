@@ -1,5 +1,5 @@
 """One call for what ``geostructure run`` does: a video or a folder of photos reconstructed
-(frames, SfM, dense, surface, georeference: :func:`~geostructure.reconstruct.pipeline.reconstruct`)
+(frames, SfM, dense, surface, georeference: :func:`~geostructure.reconstruct.stages.reconstruct`)
 and its cloud measured and saved as one set, as ``measure`` does. A reconstruction that
 fails keeps its finished stages, and the same call resumes after them."""
 
@@ -15,8 +15,8 @@ from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
 from geostructure.errors import GeoStructureError, InputError
 from geostructure.reconstruct.georef import check_control_layout, read_gcp, read_gcp_csv
-from geostructure.reconstruct.pipeline import ReconstructOptions, reconstruct
 from geostructure.reconstruct.sfm import list_images
+from geostructure.reconstruct.stages import ReconstructOptions, reconstruct
 from geostructure.workflows.outcrop import measure_outcrop
 from geostructure.workflows.survey import SurveyRun, save_outcrop
 
@@ -109,6 +109,16 @@ def reconstruct_and_measure(
     -------
     SurveyRun
         Its ``record`` holds the reconstruction's stages.
+
+    Examples
+    --------
+    >>> from geostructure.reconstruct.stages import ReconstructOptions
+    >>> options = ReconstructOptions(assume_level=True)  # no control points: dips approximate
+    >>> options.mesh, options.use_dense
+    (True, True)
+    >>> run = reconstruct_and_measure("walk.mp4", "out/walk", options)  # doctest: +SKIP
+    >>> len(run.outcrop.planes)  # doctest: +SKIP
+    212
     """
     check_reconstruct_options(options)
     outdir = Path(outdir)

@@ -1,7 +1,7 @@
 """The joints of the synthetic outcrop's sets: Fisher-distributed normals, planes through
 the rock mass or discs (Baecher et al. 1977), and the joint each face cell is exposed on.
 
-``joint`` below is an :class:`~.outcrop.JointSet` (its ``normal``, ``kappa``, ``spacing``
+``joint`` below is an :class:`~.rock_outcrop.JointSet` (its ``normal``, ``kappa``, ``spacing``
 and ``persistence``).
 """
 

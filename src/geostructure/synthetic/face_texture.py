@@ -1,4 +1,4 @@
-"""How a synthetic face is sampled, roughened and seen: the pieces :mod:`.outcrop` builds
+"""How a synthetic face is sampled, roughened and seen: the pieces :mod:`.rock_outcrop` builds
 its rock face from, each a function of the face's 2-D coordinates (``ab``, metres along
 strike and up dip) and a seeded generator."""
 

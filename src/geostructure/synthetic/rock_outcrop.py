@@ -44,9 +44,9 @@ from scipy.spatial import cKDTree
 from geostructure.core.cloud import Cloud
 from geostructure.core.orientation import normal_from_orientation
 from geostructure.errors import ParameterError
-from geostructure.synthetic.joints import joint_discs, nearest_joint, persistent_planes
+from geostructure.synthetic.face_texture import facet_seeds, jittered_grid, smooth_field, visible_points
+from geostructure.synthetic.jointsets import joint_discs, nearest_joint, persistent_planes
 from geostructure.synthetic.scanlines import scanline_crossings
-from geostructure.synthetic.surface import facet_seeds, jittered_grid, smooth_field, visible_points
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """``measure --engine``'s options: in memory, streamed in chunks, or on a Dask cluster, and
-the memory bound that chooses between them (:mod:`geostructure.workflows.engine`)."""
+the memory bound that chooses between them (:mod:`geostructure.workflows.engine_choice`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import argparse
 import re
 
 from geostructure.cli.options import workers
-from geostructure.workflows.engine import BASELINE_BYTES, ENGINES
+from geostructure.workflows.engine_choice import BASELINE_BYTES, ENGINES
 
 _UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 
