@@ -94,6 +94,20 @@ def _georeference_note(record: dict | None) -> dict | None:
     return {"text": describe_georeference(record), "warning": warning}
 
 
+def side_panels() -> tuple:
+    """The figures beside the 3D view, top to bottom: the one place a new panel is added.
+    Each is (its element's id, a function of the :class:`~geostructure.report.scene.ReportScene`
+    giving its Plotly figure, or None where the folder has nothing to draw); the page draws
+    them in this order, the stereonet also answering a click on a plane.
+
+    Examples
+    --------
+    >>> [name for name, _ in side_panels()]
+    ['stereonet', 'rose', 'spacing']
+    """
+    return (("stereonet", figure_stereonet), ("rose", figure_rose), ("spacing", figure_spacing))
+
+
 def render(scene: ReportScene, title: str) -> str:
     from plotly.offline import get_plotlyjs
 
@@ -101,9 +115,8 @@ def render(scene: ReportScene, title: str) -> str:
     payload = {
         "title": title,
         "scene": figure_3d(scene),
-        "stereonet": figure_stereonet(scene),
-        "rose": figure_rose(scene),
-        "spacing": figure_spacing(scene),
+        **{name: draw(scene) for name, draw in side_panels()},
+        "side_panels": [name for name, _ in side_panels()],
         "planes": table_rows(scene),
         "columns": [{"key": k, "label": label.format(unit=unit), "digits": d} for k, label, d in COLUMNS]
         + ([{"key": "set", "label": "Set", "digits": 0}] if "set" in scene.planes.extra else [])
@@ -132,6 +145,7 @@ def render(scene: ReportScene, title: str) -> str:
             "TITLE": _escape(title),
             "CSS": (assets / "report.css").read_text(encoding="utf-8"),
             "PLOTLY": get_plotlyjs(),
+            "PANELS": "".join(f'<div id="{name}"></div>' for name, _ in side_panels()),
             "SETS": set_table(scene) + kinematic_table(scene),
             "PAYLOAD": data,
             "APP": (assets / "report.js").read_text(encoding="utf-8"),

@@ -36,8 +36,9 @@
   const ready = [
     Plotly.newPlot(scene, P.scene.data, P.scene.layout, config).then(() => { window.reportTimings.scene = performance.now(); }),
     Plotly.newPlot(net, P.stereonet.data, P.stereonet.layout, config).then(() => { window.reportTimings.net = performance.now(); }),
-    Plotly.newPlot("rose", P.rose.data, P.rose.layout, config),
-    P.spacing ? Plotly.newPlot("spacing", P.spacing.data, P.spacing.layout, config) : Promise.resolve(),
+    // the other side panels (report.html.side_panels), each where the folder has one
+    ...P.side_panels.filter(id => id !== "stereonet")
+      .map(id => P[id] ? Plotly.newPlot(id, P[id].data, P[id].layout, config) : Promise.resolve()),
   ];
 
   document.querySelectorAll("#layers input").forEach(box => {
