@@ -14,7 +14,7 @@ def the_commands_memory_settings() -> None:
     """Every timed process (this one's children) with the memory settings the ``geostructure``
     command gives itself: numpy's small pages (``NUMPY_MADVISE_HUGEPAGE=0``) and, on glibc,
     freed memory reused (``MALLOC_ARENA_MAX=1``, ``MALLOC_MMAP_MAX_=0``, a high trim
-    threshold: docs/architecture.md, "Reused memory"), so that the ratios compare the methods,
+    threshold: docs/design.md, "Reused memory"), so that the ratios compare the methods,
     not the allocators. Set in this process's environment, which the children inherit."""
     from geostructure.__main__ import reuse_freed_memory
 

@@ -319,3 +319,16 @@ def test_a_detectors_name_is_compared_only_in_its_registry():
         if compared.search(line.split("#")[0])
     ]
     assert found == []
+
+
+def test_the_architecture_page_names_every_module_and_only_modules_that_exist():
+    """Issue 54: ``docs/architecture.md`` is the layout a newcomer reads: every module of the
+    package in its table, and no module named there that is gone."""
+    import re
+
+    page = (PACKAGE.parents[1] / "docs" / "architecture.md").read_text()
+    named = set(re.findall(r"`((?:[a-z_]+)/[a-z_0-9]+)(?:\.py)?`", page))
+    modules = {f"{p.parent.name}/{p.stem}" for p in PACKAGE.glob("*/*.py") if p.stem != "__init__"}
+    assert sorted(modules - named) == []
+    gone = [n for n in named if n.split("/")[0] in {p.name for p in PACKAGE.iterdir()} and n not in modules]
+    assert [n for n in gone if not (PACKAGE / n).is_dir() and not (PACKAGE / f"{n}.py").is_file()] == []

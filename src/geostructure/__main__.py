@@ -18,7 +18,7 @@ def prefer_small_pages() -> None:
     megabyte against 0.4 ms for small pages (256 MB: 2.6 s against 0.11 s), which made
     a third of a measure's time. On a physical machine huge pages save a fraction of
     that small cost. Set here, at the command's start, and inherited by the worker
-    processes it starts; the library itself sets nothing (``docs/architecture.md``).
+    processes it starts; the library itself sets nothing (``docs/design.md``, "Reused memory").
     """
     choice = os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
     numpy = sys.modules.get("numpy")
@@ -44,7 +44,7 @@ def reuse_freed_memory() -> bool:
     its 20 CPU seconds in the kernel on a virtual machine. With one arena and nothing mapped
     per allocation, freed arrays are reused: 0.4 million faults, the measure 0.83 of the
     time, its peak within 2%; 0.97 of the time at 0.3M and 0.7M points
-    (docs/architecture.md, "Reused memory"). Set for this process through ``mallopt``, and in
+    (docs/design.md, "Reused memory"). Set for this process through ``mallopt``, and in
     the environment for the worker processes it starts; the library sets nothing. Elsewhere
     than glibc (macOS, musl), nothing is done. Returns whether it was set.
     """

@@ -1,7 +1,7 @@
 """Measuring a survey larger than memory: the voxel pipeline in passes over chunks.
 
 Every stage of the voxel detector needs from the whole cloud only sums that add over its
-parts (``docs/architecture.md``, "Streaming larger than memory"), so the survey is read once
+parts (``docs/design.md``, "Streaming larger than memory"), so the survey is read once
 into a spill file and then swept in chunks, each pass a map over the chunks and a sum:
 
 1. (``--auto``) an order-free sample and the voxel moments at one or two zetas: the same
