@@ -21,7 +21,7 @@ from geostructure.cli.options import (
     given_factors,
     params_from,
     positive_float,
-    whole,
+    whole_number,
     workers,
 )
 from geostructure.cli.progress import StageProgress
@@ -32,23 +32,19 @@ from geostructure.evaluation.groundtruth import scene_truth
 from geostructure.evaluation.mapcheck import MAX_ANGLE, MAX_DISTANCE
 from geostructure.evaluation.scoring import add_evaluation, add_validation
 from geostructure.evaluation.sweep import FACTORS, factor_values
-from geostructure.io.crs import cloud_unit, recorded_unit
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES, MAX_MESH_SAMPLES, read_cloud
 from geostructure.io.survey_files import expand_inputs
 from geostructure.io.truth import read_truth
 from geostructure.report.terminal import (
-    counted,
     frame_fit_line,
     print_evaluation,
-    print_kinematics,
     print_match,
     print_planes,
-    print_sets,
+    print_run,
     print_sweep,
     validation_lines,
 )
 from geostructure.synthetic import observatory_scene
-from geostructure.workflows.advice import say_what_was_left
 from geostructure.workflows.engine_choice import check_engine_options
 from geostructure.workflows.experiments import run_demo as run_demo_scene
 from geostructure.workflows.experiments import sweep_and_save
@@ -68,7 +64,7 @@ def add_measure_commands(sub) -> None:
     m.add_argument("-o", "--outdir", type=folder, required=True, help="folder for planes.csv, regions.ply, run.json")
     m.add_argument(
         "--mesh-samples",
-        type=whole(0, MAX_MESH_SAMPLES),
+        type=whole_number(0, MAX_MESH_SAMPLES),
         default=DEFAULT_MESH_SAMPLES,
         help="points sampled on a PLY mesh's faces (0: use the vertices only)",
     )
@@ -115,7 +111,7 @@ def add_measure_commands(sub) -> None:
     r.add_argument("outdir", type=Path, help="a folder written by 'geostructure measure'")
     r.add_argument(
         "--max-points",
-        type=whole(1),
+        type=whole_number(1),
         default=None,
         help="points drawn in 3D at most (default 100000; the file grows ~70 bytes a point)",
     )
@@ -132,15 +128,17 @@ def add_measure_commands(sub) -> None:
     w.add_argument("--end", type=finite_float)
     w.add_argument("--step", type=positive_float)
     w.add_argument("--workers", type=workers(), default=2, help="runs in parallel (default %(default)s)")
-    w.add_argument("--points", type=whole(1000, MAX_DEMO_POINTS), default=300_000, help="points in the --demo scene")
-    w.add_argument("--mesh-samples", type=whole(0, MAX_MESH_SAMPLES), default=DEFAULT_MESH_SAMPLES)
+    w.add_argument(
+        "--points", type=whole_number(1000, MAX_DEMO_POINTS), default=300_000, help="points in the --demo scene"
+    )
+    w.add_argument("--mesh-samples", type=whole_number(0, MAX_MESH_SAMPLES), default=DEFAULT_MESH_SAMPLES)
     add_measure_options(w, auto_default=False)
     w.set_defaults(run=run_sweep)
 
     d = sub.add_parser("demo", help="measure the bundled synthetic observatory scene")
     d.add_argument("-o", "--outdir", type=folder, default=Path("out/demo"))
-    d.add_argument("--points", type=whole(1000, MAX_DEMO_POINTS), default=300_000, help="points in the scene")
-    d.add_argument("--seed", type=whole(0), default=0, help="the scene's random seed, 0 or more")
+    d.add_argument("--points", type=whole_number(1000, MAX_DEMO_POINTS), default=300_000, help="points in the scene")
+    d.add_argument("--seed", type=whole_number(0), default=0, help="the scene's random seed, 0 or more")
     d.add_argument(
         "--report",
         action=argparse.BooleanOptionalAction,
@@ -173,43 +171,9 @@ def run_measure(args) -> int:
                              workers=args.workers, spill_dir=args.spill_dir, mesh_samples=args.mesh_samples or None,
                              truth=truth, truth_path=args.truth, report=args.report, inputs=[*paths, args.truth],
                              progress=progress, on_choice=choice_teller(args))  # fmt: skip
-    print_run(run, args, time.perf_counter() - t)
+    if not args.quiet:
+        print_run(run, time.perf_counter() - t, unit=args.unit)
     return 0
-
-
-def print_run(run, args, took: float) -> None:
-    """What a measure says when done: what it left, the planes, sets, kinematics and
-    evaluation (unless ``-q``), and what it took and wrote."""
-    result, outcrop = run.result, run.outcrop
-    cloud = result.cloud
-    say_what_was_left(len(result), result.params.detector, cloud.crs is not None or cloud.enu_origin is not None,
-                      args.min_points, result.counts)  # fmt: skip
-    if args.quiet:
-        return
-    unit = getattr(args, "unit", None)
-    if outcrop is None:  # streamed
-        print_planes(result, metres_per_unit=recorded_unit({"crs": cloud.crs, **run.record})["metres"])
-        if run.evaluation is not None:
-            print_evaluation(run.evaluation)
-        print(f"{counted(len(result), 'plane')} from {result.counts['input']:,} points ({run.engine} engine) in "
-              f"{took:.1f} s; wrote {', '.join(str(p) for p in run.paths.values())}")  # fmt: skip
-        return
-    sets, rock = outcrop.sets, outcrop.rock
-    print_planes(result, planes=None if sets is None else outcrop.planes,  # as written
-                 metres_per_unit=cloud_unit(cloud.crs, unit)["metres"])  # fmt: skip
-    if sets is not None:
-        print_sets(sets, rock=rock)
-    if outcrop.kinematic_options is not None:
-        print_kinematics(outcrop.kinematics)
-    if run.evaluation is not None:
-        print_evaluation(run.evaluation)
-    thinned = run.record.get("thinned") or {}
-    of_survey = f" of the survey's {thinned['survey_points']:,}" if thinned.get("cell") else ""
-    joints = f" ({len(rock.joints)} joints)" if rock is not None and rock.joints is not None else ""
-    print(
-        f"{counted(len(result), 'plane')}{joints} from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
-        f"wrote {', '.join(str(p) for p in run.paths.values())}"
-    )
 
 
 def run_evaluate(args) -> int:

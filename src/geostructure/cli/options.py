@@ -47,7 +47,7 @@ def declination(text: str) -> float:
     return value
 
 
-def whole(minimum: int, maximum: int | None = None):
+def whole_number(minimum: int, maximum: int | None = None):
     """An argparse type: a whole number of at least ``minimum`` (and at most ``maximum``)."""
 
     def parse(text: str) -> int:
@@ -76,7 +76,7 @@ MAX_DEMO_POINTS = 10_000_000
 
 def workers() -> object:
     """An argparse type: a count of parallel workers, from 1 to :data:`WORKERS_PER_CORE` per core."""
-    return whole(1, WORKERS_PER_CORE * max(1, os.cpu_count() or 1))
+    return whole_number(1, WORKERS_PER_CORE * max(1, os.cpu_count() or 1))
 
 
 def folder(text: str) -> Path:
@@ -138,7 +138,7 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
     a.add_argument("--zeta", type=finite_float, help=f"voxel edge / largest extent (fixed default {defaults.zeta})")
     a.add_argument("--theta", type=finite_float, help=f"angle threshold, degrees (fixed default {defaults.theta})")
     a.add_argument("--psi", type=finite_float, help=f"offset threshold, voxel edges (fixed default {defaults.psi})")
-    a.add_argument("--k", type=whole(1, MAX_K), help=f"neighbours per seed (fixed default {defaults.k})")
+    a.add_argument("--k", type=whole_number(1, MAX_K), help=f"neighbours per seed (fixed default {defaults.k})")
     a.add_argument(
         "--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)"
     )

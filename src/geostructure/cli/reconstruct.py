@@ -6,7 +6,6 @@ import argparse
 import time
 from pathlib import Path
 
-from geostructure.cli.measure import print_run
 from geostructure.cli.options import (
     add_measure_options,
     base_params,
@@ -18,7 +17,7 @@ from geostructure.cli.options import (
     given_factors,
     non_negative_float,
     positive_float,
-    whole,
+    whole_number,
 )
 from geostructure.cli.progress import StageProgress
 from geostructure.core.orientation import Frame
@@ -28,6 +27,7 @@ from geostructure.reconstruct.frames import FrameOptions, extract_frames
 from geostructure.reconstruct.sfm import SfmOptions
 from geostructure.reconstruct.stages import ReconstructOptions
 from geostructure.reconstruct.surface import SurfaceOptions
+from geostructure.report.terminal import print_run
 from geostructure.workflows.video import check_reconstruction, reconstruct_and_measure, require_reconstruction_extra
 
 
@@ -52,7 +52,10 @@ def add_reconstruct_commands(sub) -> None:
         help="SfM matching: sequential for video, exhaustive for photo sets (auto: by count)",
     )
     g.add_argument(
-        "--max-image-size", type=whole(64, MAX_IMAGE_SIZE), default=1600, help="SfM features on images this large (px)"
+        "--max-image-size",
+        type=whole_number(64, MAX_IMAGE_SIZE),
+        default=1600,
+        help="SfM features on images this large (px)",
     )
     g.add_argument(
         "--dense",
@@ -62,11 +65,13 @@ def add_reconstruct_commands(sub) -> None:
         "sweep, for walks along the view), none (measure sparse points); auto: colmap with CUDA, "
         "else sgbm, or sweep when most images have no sideways partner",
     )
-    g.add_argument("--dense-neighbours", type=whole(1), default=2, help="stereo partners per image (sgbm, sweep)")
+    g.add_argument(
+        "--dense-neighbours", type=whole_number(1), default=2, help="stereo partners per image (sgbm, sweep)"
+    )
     g.add_argument("--no-mesh", action="store_true", help="skip the Poisson surface: measure the dense cloud directly")
     g.add_argument(
         "--poisson-depth",
-        type=whole(4, MAX_POISSON_DEPTH),
+        type=whole_number(4, MAX_POISSON_DEPTH),
         default=9,
         help="Poisson octree depth (default %(default)s)",
     )
@@ -106,7 +111,7 @@ def add_frame_options(parser, defaults) -> None:
         default=defaults.min_motion,
         help="keep a frame once the view moved this fraction of the width (default %(default)s)",
     )
-    parser.add_argument("--max-frames", type=whole(1), default=None, help="stop after this many kept frames")
+    parser.add_argument("--max-frames", type=whole_number(1), default=None, help="stop after this many kept frames")
 
 
 def frame_options(args):
@@ -153,7 +158,8 @@ def run_run(args) -> int:
                                       crs=crs_from(args), unit=args.unit, grid_north=args.grid_north, truth=truth,
                                       truth_path=args.truth, report=args.report, inputs=[args.truth, args.gcp],
                                       progress=progress, log=log, on_choice=choice_teller(args))  # fmt: skip
-    print_run(run, args, time.perf_counter() - t)
+    if not args.quiet:
+        print_run(run, time.perf_counter() - t, unit=args.unit)
     return 0
 
 

@@ -8,7 +8,7 @@ import argparse
 import math
 from pathlib import Path
 
-from geostructure.cli.options import whole
+from geostructure.cli.options import whole_number
 from geostructure.cli.progress import StageProgress
 from geostructure.errors import ParameterError
 from geostructure.kinematics.modes import LATERAL_LIMIT, UNIT_WEIGHT, Slope, check_friction, check_strength
@@ -57,7 +57,7 @@ def add_set_options(parser, choose_flag: str) -> None:
     the number of joint sets, given or chosen."""
     group = parser.add_mutually_exclusive_group()
     group.add_argument(
-        "--n-sets", type=whole(1), default=None, help="cluster the planes' poles into this many joint sets"
+        "--n-sets", type=whole_number(1), default=None, help="cluster the planes' poles into this many joint sets"
     )
     group.add_argument(
         choose_flag,

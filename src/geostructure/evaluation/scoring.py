@@ -78,7 +78,7 @@ def add_evaluation(outdir, truth_path, *, fit_frame: bool = False) -> tuple[Eval
             planes, truth, extra = refit_frame(planes, truth, frame, truth_path)
             matched = extra["frame_fit"]["matched_regions"]
         evaluation = evaluate(planes, truth, matched=matched)
-        paths = stage_evaluation(outputs, evaluation, extra)
+        paths = write_evaluation_into(outputs, evaluation, extra)
     return evaluation, extra, paths
 
 
@@ -113,7 +113,7 @@ def refit_frame(planes: Planes, truth: GroundTruth, frame: Frame, truth_path):
     return planes, truth, {"frame_fit": record}
 
 
-def stage_evaluation(outputs: OutputSet, evaluation: Evaluation, extra: dict | None) -> dict[str, Path]:
+def write_evaluation_into(outputs: OutputSet, evaluation: Evaluation, extra: dict | None) -> dict[str, Path]:
     write_evaluation_files(evaluation, outputs.staging, extra)
     return {"evaluation_csv": outputs.final("evaluation.csv"), "evaluation_json": outputs.final("evaluation.json")}
 

@@ -53,20 +53,20 @@ def atomic_path(path):
             os.unlink(tmp)
 
 
-def plain(value):
+def json_ready(value):
     """``value`` as plain JSON types: numpy scalars and arrays unwrapped, non-finite floats None.
 
     Examples
     --------
-    >>> plain({"a": np.float64("nan"), "b": np.arange(2), "c": (1.5, float("inf"))})
+    >>> json_ready({"a": np.float64("nan"), "b": np.arange(2), "c": (1.5, float("inf"))})
     {'a': None, 'b': [0, 1], 'c': [1.5, None]}
     """
     if isinstance(value, dict):
-        return {str(k): plain(v) for k, v in value.items()}
+        return {str(k): json_ready(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [plain(v) for v in value]
+        return [json_ready(v) for v in value]
     if isinstance(value, np.ndarray):
-        return plain(value.tolist())
+        return json_ready(value.tolist())
     if isinstance(value, np.generic):
         value = value.item()
     if isinstance(value, float) and not math.isfinite(value):
@@ -77,8 +77,8 @@ def plain(value):
 
 
 def json_text(data, indent: int | None = 2) -> str:
-    """Strict JSON text of ``data`` (see :func:`plain`); never ``NaN`` or ``Infinity``."""
-    return json.dumps(plain(data), indent=indent, allow_nan=False)
+    """Strict JSON text of ``data`` (see :func:`json_ready`); never ``NaN`` or ``Infinity``."""
+    return json.dumps(json_ready(data), indent=indent, allow_nan=False)
 
 
 def write_json(data: dict, path) -> Path:

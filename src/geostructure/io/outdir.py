@@ -32,7 +32,7 @@ from pathlib import Path
 
 from geostructure.core.threads import signals_deferred
 from geostructure.errors import OutputError
-from geostructure.io.atomic import TEMP_PATTERN, plain, write_json
+from geostructure.io.atomic import TEMP_PATTERN, json_ready, write_json
 from geostructure.io.runrecord import check_run_record
 
 STAGING = ".geostructure-staging"
@@ -205,7 +205,7 @@ SEAL = "record_sha256"
 def record_digest(record: dict) -> str:
     """SHA-256 of a record without its seal, in one canonical JSON text."""
     body = {k: v for k, v in record.items() if k != SEAL}
-    text = json.dumps(plain(body), sort_keys=True, separators=(",", ":"), allow_nan=False)
+    text = json.dumps(json_ready(body), sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 

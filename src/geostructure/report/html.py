@@ -25,7 +25,7 @@ from geostructure.core.projection import (
     rose_title_lines,
     small_circle_xy,
 )
-from geostructure.io.atomic import atomic_path, plain
+from geostructure.io.atomic import atomic_path, json_ready
 from geostructure.io.survey_files import describe
 from geostructure.reconstruct.georef import describe_georeference
 from geostructure.report.kinematic_tables import kinematic_table, set_swatch
@@ -136,7 +136,7 @@ def render(scene: ReportScene, title: str) -> str:
             "georeference": _georeference_note(scene.georeference),
         },
     }
-    data = script_json(plain(payload))
+    data = script_json(json_ready(payload))
     assets = resources.files("geostructure.report") / "assets"
     page = (assets / "report.html").read_text(encoding="utf-8")
     return fill_template(

@@ -8,6 +8,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from geostructure.io.crs import cloud_unit, recorded_unit
 from geostructure.io.results import in_square_metres
 from geostructure.report.words import (
     FAILURE_MODES,
@@ -17,12 +18,12 @@ from geostructure.report.words import (
     azimuth,
     counted,
     failure_mode_cells,
+    figure_or_dash,
     kinematic_verdicts,
     left_out_phrase,
     section_cells,
     set_kinematic_cells,
     set_mean_wedge_lines,
-    shown,
     slope_text,
     traces_per_set,
 )
@@ -143,9 +144,9 @@ def print_sets(sets, console: Console | None = None, rock=None) -> None:
     for row, more in zip(sets.rows(), rock_rows):
         extra = (
             [
-                shown(more["spacing_m"]),
-                shown(more["p32_per_m"]),
-                trace_cell(more) or shown(more["joint_trace_mean_m"], 1),
+                figure_or_dash(more["spacing_m"]),
+                figure_or_dash(more["p32_per_m"]),
+                trace_cell(more) or figure_or_dash(more["joint_trace_mean_m"], 1),
                 more["persistence"] or "—",
             ]
             if more
@@ -353,3 +354,34 @@ def validation_lines(summary: dict) -> str:
         lines.append(f"Set {label} ({source}): " + (f"{error:.1f} degrees from the nearest measured set."
                      if error == error else "no measured set."))  # fmt: skip
     return "\n".join(lines)
+
+
+def print_run(run, took: float, unit: str | None = None) -> None:
+    """What a measure prints when done (a :class:`~geostructure.workflows.survey.SurveyRun`):
+    the planes, sets, kinematics and evaluation, and what it took (``took``, seconds) and
+    wrote; ``unit``: the length unit given for a cloud without a CRS."""
+    result, outcrop = run.result, run.outcrop
+    cloud = result.cloud
+    if outcrop is None:  # streamed
+        print_planes(result, metres_per_unit=recorded_unit({"crs": cloud.crs, **run.record})["metres"])
+        if run.evaluation is not None:
+            print_evaluation(run.evaluation)
+        print(f"{counted(len(result), 'plane')} from {result.counts['input']:,} points ({run.engine} engine) in "
+              f"{took:.1f} s; wrote {', '.join(str(p) for p in run.paths.values())}")  # fmt: skip
+        return
+    sets, rock = outcrop.sets, outcrop.rock
+    print_planes(result, planes=None if sets is None else outcrop.planes,  # as written
+                 metres_per_unit=cloud_unit(cloud.crs, unit)["metres"])  # fmt: skip
+    if sets is not None:
+        print_sets(sets, rock=rock)
+    if outcrop.kinematic_options is not None:
+        print_kinematics(outcrop.kinematics)
+    if run.evaluation is not None:
+        print_evaluation(run.evaluation)
+    thinned = run.record.get("thinned") or {}
+    of_survey = f" of the survey's {thinned['survey_points']:,}" if thinned.get("cell") else ""
+    joints = f" ({len(rock.joints)} joints)" if rock is not None and rock.joints is not None else ""
+    print(
+        f"{counted(len(result), 'plane')}{joints} from {len(cloud):,} points{of_survey} in {took:{'.2f' if took < 1 else '.1f'}} s; "
+        f"wrote {', '.join(str(p) for p in run.paths.values())}"
+    )

@@ -39,13 +39,13 @@ def counted(n: int, noun: str) -> str:
     return f"{n:,} {noun}" + ("" if n == 1 else "s")
 
 
-def shown(value, digits: int = 2) -> str:
+def figure_or_dash(value, digits: int = 2) -> str:
     """A table's figure to ``digits`` decimals, or a dash where it was not measured (NaN, or
     None as ``run.json`` and ``kinematics.json`` write NaN).
 
     Examples
     --------
-    >>> shown(0.456), shown(float("nan")), shown(None, 1), shown(12.0, 0)
+    >>> figure_or_dash(0.456), figure_or_dash(float("nan")), figure_or_dash(None, 1), figure_or_dash(12.0, 0)
     ('0.46', '—', '—', '12')
     """
     return f"{value:.{digits}f}" if value is not None and np.isfinite(value) else "—"
@@ -100,7 +100,7 @@ def section_cells(section: dict) -> list[str]:
     """
 
     def share(mode: dict) -> str:
-        return f"{mode['planes']:,} ({shown(mode['percent_by_count'], 0)}%)"
+        return f"{mode['planes']:,} ({figure_or_dash(mode['percent_by_count'], 0)}%)"
 
     return [
         str(section["section"]),
@@ -127,9 +127,14 @@ def failure_mode_cells(summary: dict, key: str) -> list[str]:
     '—'
     """
     mode = summary[key]
-    share = shown(mode.get("percent_of_joints"), 0)
+    share = figure_or_dash(mode.get("percent_of_joints"), 0)
     joints = f"{mode['joints']:,} ({share}%)" if share != "—" else "—"
-    return [f"{mode['planes']:,}", shown(mode["percent_by_count"], 1), shown(mode["percent_by_area"], 1), joints]
+    return [
+        f"{mode['planes']:,}",
+        figure_or_dash(mode["percent_by_count"], 1),
+        figure_or_dash(mode["percent_by_area"], 1),
+        joints,
+    ]
 
 
 def set_kinematic_cells(row: dict) -> list[str]:
@@ -153,11 +158,11 @@ def set_kinematic_cells(row: dict) -> list[str]:
         str(row["set"]),
         f"{row['mean_dip']:.0f}/{whole_azimuth(row['mean_dip_direction'])}",
         critical(row["mean_planar_sliding"]),
-        shown(row["planar_percent_by_count"], 0),
+        figure_or_dash(row["planar_percent_by_count"], 0),
         critical(row["mean_flexural_toppling"]),
-        shown(row["toppling_percent_by_count"], 0),
+        figure_or_dash(row["toppling_percent_by_count"], 0),
         with_sets(row["mean_wedges_with_sets"]),
-        shown(row["wedge_percent_by_count"], 0),
+        figure_or_dash(row["wedge_percent_by_count"], 0),
     ]
 
 
@@ -186,7 +191,7 @@ def set_mean_wedge_line(wedge: dict) -> str:
     where = f" in section {wedge['section']}" if "section" in wedge else ""
     return (
         f"The means of sets {a} and {b} form a critical wedge{where}: its line plunges {wedge['plunge']:.0f}° "
-        f"toward {whole_azimuth(wedge['trend'])}, factor of safety {shown(wedge['wedge_fs'])}."
+        f"toward {whole_azimuth(wedge['trend'])}, factor of safety {figure_or_dash(wedge['wedge_fs'])}."
     )
 
 

@@ -49,3 +49,11 @@ def no_plane_advice(detector: str, min_points: int | None = None) -> str:
     if min_points is not None:
         return f"no plane found of {min_points:,} points or more (--min-points): a smaller --min-points reports smaller planes."
     return detector_spec(detector).no_plane_advice
+
+
+def say_after(result) -> None:
+    """:func:`say_what_was_left` of a measure's result (in memory or streamed): its
+    detector, whether its cloud has a place on the map, the user's ``min_points``."""
+    cloud = result.cloud
+    has_place = cloud.crs is not None or getattr(cloud, "enu_origin", None) is not None
+    say_what_was_left(len(result), result.params.detector, has_place, result.params.min_points, result.counts)

@@ -27,7 +27,7 @@ from geostructure.stream.thin import read_measured
 
 def add_kinematics(outdir, friction: float, **options):
     """Run the kinematic tests on a measured folder and add their files (see the module).
-    ``options``: :func:`stage_kinematics`'s keywords, listed here.
+    ``options``: :func:`write_kinematics_into`'s keywords, listed here.
 
     Parameters
     ----------
@@ -81,13 +81,13 @@ def add_kinematics(outdir, friction: float, **options):
 
     with output_set(outdir, replace=False, rewrites=KINEMATICS_FILES + REPORT_FILES) as outputs:
         had_report = (outputs.outdir / "report.html").is_file()
-        summary, paths = stage_kinematics(outputs, outputs.outdir, friction, **options)
+        summary, paths = write_kinematics_into(outputs, outputs.outdir, friction, **options)
         if had_report:  # the report's stereonet shows the envelopes: draw it again
             paths.update(redraw_report(outputs))
     return summary, paths
 
 
-def stage_kinematics(
+def write_kinematics_into(
     outputs,
     source,
     friction: float,

@@ -13,7 +13,7 @@ and prints; a notebook gets the same result from the same two calls. The stages,
    the notes on what the face hides;
 5. with ``kinematics``: the slope fitted to the face (:func:`~geostructure.kinematics.slope.fit_face`)
    unless given; the tests themselves run as the files are written
-   (:func:`~geostructure.workflows.kinematics.stage_kinematics`), since they read the written folder.
+   (:func:`~geostructure.workflows.kinematics.write_kinematics_into`), since they read the written folder.
 
 Examples
 --------
@@ -50,7 +50,7 @@ from geostructure.rockmass.face import FACE
 from geostructure.rockmass.mass import RockMass, with_rock_mass
 from geostructure.rockmass.notes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
 from geostructure.rockmass.sets import JointSets
-from geostructure.workflows.kinematics import stage_kinematics
+from geostructure.workflows.kinematics import write_kinematics_into
 from geostructure.workflows.saving import save_measurement
 from geostructure.workflows.sets_and_mass import detected_spacing, sets_and_rock_mass
 
@@ -118,10 +118,10 @@ class OutcropRun:
         report_stage = progress or (lambda stage, done, total: None)
         options, result = self.kinematic_options, self.result
 
-        def stage_kinematics_too(outputs):
+        def kinematics_into_set(outputs):
             """The kinematics, in the measure's own set: one command, one commit."""
             held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # the folder's points
-            summary, kinematic_paths = stage_kinematics(outputs, outputs.staging, **options, progress=progress,
+            summary, kinematic_paths = write_kinematics_into(outputs, outputs.staging, **options, progress=progress,
                                                         points=(held, result.labels, result.filtered.vegetation))  # fmt: skip
             self.kinematics.update(summary)
             return kinematic_paths
@@ -139,7 +139,7 @@ class OutcropRun:
             sets=self.sets,
             rock=self.rock,
             point_files=point_files,
-            then=stage_kinematics_too if options is not None else None,
+            then=kinematics_into_set if options is not None else None,
         )
         return self.paths
 
@@ -200,7 +200,7 @@ def measure_outcrop(
     n_sets : int, optional
         How many sets; chosen by BIC when not given.
     kinematics : dict, optional
-        The kinematic tests' settings, as :func:`~geostructure.workflows.kinematics.stage_kinematics` takes
+        The kinematic tests' settings, as :func:`~geostructure.workflows.kinematics.write_kinematics_into` takes
         them (``friction`` at least; ``slope`` None: fitted to the face). Needs ``sets``.
     progress : callable, optional
         ``progress(stage, done, total)``.

@@ -16,7 +16,7 @@ from pathlib import Path
 from geostructure.core.orientation import Frame
 from geostructure.core.planes import plane_rows
 from geostructure.errors import GeoStructureWarning
-from geostructure.evaluation.scoring import Evaluation, stage_evaluation
+from geostructure.evaluation.scoring import Evaluation, write_evaluation_into
 from geostructure.io.crs import note_unstated_unit, recorded_unit
 from geostructure.io.exports import write_table
 from geostructure.io.laz import add_point_sets
@@ -94,13 +94,13 @@ def save_measurement(
     with output_set(outdir, inputs=inputs) as outputs:
         paths = write_result(result, outputs, extra, point_files=point_files, **written_sets(result, extra, sets, rock))
         if evaluation is not None:
-            paths.update(stage_evaluation(outputs, evaluation, evaluation_extra))
+            paths.update(write_evaluation_into(outputs, evaluation, evaluation_extra))
         if then is not None:
             outputs.write_record()  # the staged set's readers read its record too
             paths.update(then(outputs))
         if report:
             outputs.write_record()
-            paths.update(stage_report(outputs, outputs.staging, max_points))
+            paths.update(write_report_into(outputs, outputs.staging, max_points))
     return paths
 
 
@@ -216,7 +216,7 @@ def redraw_report(outputs: OutputSet) -> dict[str, Path]:
     from the staged files and the folder's kept ones together."""
     _link_kept(outputs)
     outputs.write_record()
-    return stage_report(outputs, outputs.staging, None)
+    return write_report_into(outputs, outputs.staging, None)
 
 
 def _link_kept(outputs: OutputSet) -> None:
@@ -259,11 +259,11 @@ def add_report(outdir, *, max_points: int | None = None) -> dict[str, Path]:
     ['report.html', 'rose.png', 'stereonet.png', 'stereonet.svg']
     """
     with output_set(outdir, replace=False, rewrites=REPORT_FILES) as outputs:
-        paths = stage_report(outputs, outputs.outdir, max_points)
+        paths = write_report_into(outputs, outputs.outdir, max_points)
     return paths
 
 
-def stage_report(outputs: OutputSet, source: Path, max_points: int | None) -> dict[str, Path]:
+def write_report_into(outputs: OutputSet, source: Path, max_points: int | None) -> dict[str, Path]:
     """Draw the report from the files in ``source`` (the staged set, or a verified folder)."""
     # Lazy on purpose: plotly and matplotlib (0.4 to 0.5 s to import here) load only when a report is asked for.
     from geostructure.report.html import build_report

@@ -26,7 +26,7 @@ from geostructure.core.params import Params
 from geostructure.detect.registry import STREAMED_DETECTOR, detector_spec
 from geostructure.errors import GeoStructureNote
 from geostructure.evaluation.groundtruth import evaluate
-from geostructure.evaluation.scoring import stage_evaluation
+from geostructure.evaluation.scoring import write_evaluation_into
 from geostructure.io.crs import cloud_unit, describe_north
 from geostructure.io.outdir import output_set
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES
@@ -35,9 +35,10 @@ from geostructure.io.truth import read_truth
 from geostructure.io.writers import write_result
 from geostructure.stream import DaskExecutor, SerialExecutor, measure_stream
 from geostructure.stream.output import RegionsLaz, RegionsPly
+from geostructure.workflows.advice import say_after
 from geostructure.workflows.engine_choice import check_engine_options, choose_engine, chunk_points, measures_in_memory
 from geostructure.workflows.outcrop import OutcropRun, measure_outcrop
-from geostructure.workflows.saving import stage_report
+from geostructure.workflows.saving import write_report_into
 from geostructure.workflows.thinned import thinned_survey
 
 
@@ -199,6 +200,7 @@ def measure_survey(
         cloud = read_tiles(paths, mesh_samples=mesh_samples, progress=progress if len(paths) > 1 else None)
         run = measure_outcrop(cloud, progress=progress, seconds={"read": time.perf_counter() - t}, **outcrop)
         evaluation = save_outcrop(run, outdir, extra=extra, **saving)
+        say_after(run.result)
         return SurveyRun("memory", run.result, run, evaluation, paths=run.paths)
     if measures_in_memory(sets=sets, kinematics=kinematics is not None, detector=detector or STREAMED_DETECTOR):
         t = time.perf_counter()
@@ -211,6 +213,7 @@ def measure_survey(
             run = measure_outcrop(survey.cloud(), progress=progress, seconds={"read": time.perf_counter() - t},
                                   facets=survey.full_resolution_facets if full else None, **outcrop)  # fmt: skip
             evaluation = save_outcrop(run, outdir, extra=record, point_files=survey.write_points, **saving)
+        say_after(run.result)
         return SurveyRun(chosen, run.result, run, evaluation, record={"thinned": record["thinned"]}, paths=run.paths)
     if engine == "auto":
         warnings.warn(
@@ -219,10 +222,12 @@ def measure_survey(
             GeoStructureNote,
             stacklevel=2,
         )
-    return _measure_streamed(paths, outdir, frame=frame, params=params, auto=auto, given=given, engine=chosen,
+    streamed = _measure_streamed(paths, outdir, frame=frame, params=params, auto=auto, given=given, engine=chosen,
                              chunk_points=chunk_points(max_memory), scheduler=scheduler, workers=workers,
                              spill_dir=spill_dir, mesh_samples=mesh_samples, crs=crs, unit=unit,
                              grid_north=grid_north, extra=extra, **saving)  # fmt: skip
+    say_after(streamed.result)
+    return streamed
 
 
 def _measure_streamed(
@@ -265,9 +270,9 @@ def _measure_streamed(
             record = {"engine": engine, **(extra or {}), **({"auto": result.auto} if result.auto else {}), **run.record}
             run.paths = write_result(result, outputs, record, point_files=False)
             if run.evaluation is not None:
-                run.paths.update(stage_evaluation(outputs, run.evaluation, None))
+                run.paths.update(write_evaluation_into(outputs, run.evaluation, None))
             if report:
-                run.paths.update(stage_report(outputs, outputs.staging, None))
+                run.paths.update(write_report_into(outputs, outputs.staging, None))
     finally:
         executor.close()
     return run

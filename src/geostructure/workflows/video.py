@@ -17,6 +17,7 @@ from geostructure.errors import GeoStructureError, InputError
 from geostructure.reconstruct.georef import check_control_layout, read_gcp, read_gcp_csv
 from geostructure.reconstruct.sfm import list_images
 from geostructure.reconstruct.stages import ReconstructOptions, reconstruct
+from geostructure.workflows.advice import say_after
 from geostructure.workflows.outcrop import measure_outcrop
 from geostructure.workflows.survey import SurveyRun, save_outcrop
 
@@ -132,6 +133,7 @@ def reconstruct_and_measure(
                           seconds={"reconstruct": time.perf_counter() - t})  # fmt: skip
     evaluation = save_outcrop(run, outdir, truth=truth, truth_path=truth_path, report=report, extra=record,
                               inputs=inputs, progress=progress)  # fmt: skip
+    say_after(run.result)
     return SurveyRun("memory", run.result, run, evaluation, record=record, paths=run.paths)
 
 
