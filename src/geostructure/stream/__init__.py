@@ -38,6 +38,25 @@ def measure_stream(
     declare); with ``true_north``, a projected survey's azimuths are read against true north
     (:func:`~geostructure.io.crs.true_north_frame`, recorded in the result's ``north``).
 
+    Parameters
+    ----------
+    paths : sequence of paths
+        The survey's files.
+    params, frame, auto, chunk_points, executor, progress, writers
+        As :func:`~geostructure.stream.engine.measure_spill` takes them.
+    spill_dir : path, optional
+        Where the points are spilled (the temporary folder by default).
+    mesh_samples : int or None
+        Points sampled on a PLY mesh's faces.
+    crs : str, optional
+        The survey's CRS, over any its files declare.
+    true_north : bool
+        Read a projected survey's azimuths against true north.
+
+    Returns
+    -------
+    StreamResult
+
     Examples
     --------
     >>> import tempfile, pathlib

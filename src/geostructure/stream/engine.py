@@ -50,7 +50,44 @@ DEFAULT_CHUNK_POINTS = 2_000_000
 @dataclass
 class StreamResult:
     """What a streamed run found: :class:`~geostructure.detect.pipeline.Result` less its per-point
-    arrays (the point outputs hold them). ``cloud`` holds no points: its offset, CRS and grid."""
+    arrays (the point outputs hold them). ``cloud`` holds no points: its offset, CRS and grid.
+
+    Parameters
+    ----------
+    cloud : Cloud
+        No points: the survey's offset, CRS and LAS grid.
+    params : Params
+        The parameters used (the voxel detector's, the automatic choice's factors).
+    frame : Frame
+        The frame the orientations are read in.
+    voxels : VoxelPlanes
+        The voxel planes kept.
+    voxel_labels : ndarray
+        Each voxel plane's plane (-1: none).
+    planes : Planes
+        The plane table.
+    auto : dict, optional
+        The automatic choice's record.
+    seconds, counts, detection : dict
+        Each pass's seconds, the points and planes counted, the detector's record.
+    engine : str
+        ``stream`` or ``dask``.
+    north : dict, optional
+        How the azimuths were turned to true north.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from geostructure.synthetic import observatory_scene
+    >>> from geostructure.io.laz import write_laz
+    >>> from geostructure.stream import measure_stream
+    >>> cloud = observatory_scene(40_000, seed=1).cloud
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
+    >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+    >>> result = measure_stream([path], chunk_points=10_000)
+    >>> len(result) == len(result.planes), result.params.detector
+    (True, 'voxel')
+    """
 
     cloud: object
     params: Params
@@ -104,6 +141,24 @@ def measure_spill(
     writers : sequence
         Point outputs, each with ``begin(n_points, lower, upper, cloud)``, ``write(points,
         labels)`` for each chunk's kept points (absolute) in order, and ``end()``.
+
+    Returns
+    -------
+    StreamResult
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from geostructure.synthetic import observatory_scene
+    >>> from geostructure.io.laz import write_laz
+    >>> from geostructure.stream import spill_inputs
+    >>> cloud = observatory_scene(40_000, seed=1).cloud
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
+    >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+    >>> spill = spill_inputs([path], rows=10_000)
+    >>> len(measure_spill(spill, chunk_points=10_000)) >= 5
+    True
+    >>> spill.close()
     """
     if not detector_spec(params.detector).streams:
         with warnings.catch_warnings():  # the user has been told of a zeta outside the paper's range

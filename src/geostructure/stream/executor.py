@@ -17,7 +17,13 @@ MAX_SCATTERS = 3
 
 
 class SerialExecutor:
-    """Each chunk in turn, here."""
+    """Each chunk in turn, here: the stream engine's executor by default.
+
+    Examples
+    --------
+    >>> list(SerialExecutor().map(lambda chunk, context: chunk * context, [1, 2, 3], 10))
+    [10, 20, 30]
+    """
 
     name = "stream"
 
@@ -37,7 +43,26 @@ class DaskExecutor:
     A worker that dies (out of memory, its machine lost) has its tasks run again by Dask on
     the others or on the one its nanny starts again (up to Dask's
     ``distributed.scheduler.allowed-failures`` times a task), and the run says so in a note;
-    a task that kills every worker it is given ends the run with an error that says so."""
+    a task that kills every worker it is given ends the run with an error that says so.
+
+    Parameters
+    ----------
+    address : str, optional
+        A running scheduler (``tcp://HOST:PORT``), asked at once; None: a local cluster.
+    workers : int, optional
+        The local cluster's worker processes (default 2).
+    background : bool
+        Start the local cluster in a thread (some 3 s) while the caller reads the survey.
+
+    Examples
+    --------
+    >>> executor = DaskExecutor(workers=1)  # doctest: +SKIP
+    >>> list(executor.map(lambda chunk, context: chunk + context, [1, 2], 1))  # doctest: +SKIP
+    [2, 3]
+    >>> executor.close()  # doctest: +SKIP
+    >>> DaskExecutor.name
+    'dask'
+    """
 
     name = "dask"
 

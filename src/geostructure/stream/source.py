@@ -60,7 +60,42 @@ def _read_rows(path: str, start: int, stop: int) -> np.ndarray:
 @dataclass
 class Spill:
     """The survey spilled to disk: its point count, bounds, offset (the bounding box's rounded
-    centre, as :meth:`~geostructure.core.cloud.Cloud.from_points` takes it) and what its files declared."""
+    centre, as :meth:`~geostructure.core.cloud.Cloud.from_points` takes it) and what its files declared.
+
+    Parameters
+    ----------
+    folder : Path
+        The spill's folder: ``points.f8`` (absolute float64 coordinates, 24 bytes a point)
+        and, where the files have them, normals, vegetation marks and grey levels.
+    n_points : int
+        The points spilled.
+    lower, upper : ndarray
+        The survey's bounds.
+    source : str
+        The files, in words.
+    crs : str, optional
+        The CRS the files declare.
+    las_grid : tuple, optional
+        The LAS scales and offsets the tiles share.
+    has_normals, has_vegetation, has_grey : bool
+        Whether every file had normals, some point is classified as vegetation, every point
+        has a colour.
+    left_out : dict, optional
+        The points the files marked withheld or noise, left out.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from geostructure.synthetic import observatory_scene
+    >>> from geostructure.io.laz import write_laz
+    >>> cloud = observatory_scene(20_000, seed=1).cloud
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
+    >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+    >>> spill = spill_inputs([path], rows=5_000)
+    >>> spill.n_points, [(c.start, c.stop) for c in spill.chunks(8_000)]
+    (20000, [(0, 8000), (8000, 16000), (16000, 20000)])
+    >>> spill.close()
+    """
 
     folder: Path
     n_points: int
@@ -160,7 +195,36 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
     vertices) into a :class:`Spill` in ``folder`` (a new temporary folder by default).
 
     Every file is checked as the in-memory readers check it (:func:`~.io.checks.check_points`);
-    tiles must share a CRS (checked from the LAS headers before any is read)."""
+    tiles must share a CRS (checked from the LAS headers before any is read).
+
+    Parameters
+    ----------
+    paths : sequence of paths
+        The survey's files.
+    rows : int
+        The most points read at a time.
+    mesh_samples : int or None
+        Points sampled on a PLY mesh's faces.
+    progress : callable, optional
+        ``progress("spill", done, total)``.
+    folder : path, optional
+        Where the spill's own folder is made (``--spill-dir``).
+
+    Returns
+    -------
+    Spill
+        Closed by :meth:`Spill.close`, which removes its folder.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> import numpy as np
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "grid.xyz"
+    >>> np.savetxt(path, np.c_[np.mgrid[0:10, 0:10].reshape(2, -1).T * 0.1, np.zeros(100)])
+    >>> spill = spill_inputs([path], rows=40)
+    >>> spill.n_points, spill.upper.round(2).tolist()
+    (100, [0.9, 0.9, 0.0])
+    >>> spill.close()"""
     paths = [Path(p) for p in paths]
     check_headers(paths)
     report = progress or (lambda stage, done, total: None)

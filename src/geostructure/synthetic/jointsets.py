@@ -13,6 +13,22 @@ import numpy as np
 def fisher_directions(mean, kappa: float, n: int, rng) -> np.ndarray:
     """``n`` unit vectors from a Fisher distribution about ``mean`` (Wood 1994's method).
 
+    Parameters
+    ----------
+    mean : (3,) array_like
+        The mean direction (need not be unit).
+    kappa : float
+        Fisher's concentration: the larger, the tighter.
+    n : int
+        How many directions.
+    rng : numpy.random.Generator
+        The seeded generator drawing them.
+
+    Returns
+    -------
+    ndarray
+        (n, 3) unit vectors.
+
     Examples
     --------
     >>> rng = np.random.default_rng(0)

@@ -32,13 +32,44 @@ PAPER_TABLE = np.array([[87, 89, 177], [4, 89, 94], [339, 87, 69], [102, 86, 192
 
 
 def paper_to_enu(vectors: np.ndarray) -> np.ndarray:
-    """Vectors in the paper's frame (x=N, y=W, z=Up) written in ENU."""
+    """Vectors in the paper's frame (x=N, y=W, z=Up) written in ENU.
+
+    Parameters
+    ----------
+    vectors : (N, 3) array_like
+        In the paper's frame.
+
+    Returns
+    -------
+    ndarray
+        (N, 3), east-north-up.
+
+    Examples
+    --------
+    >>> paper_to_enu(np.array([[1.0, 0.0, 0.0]])).round(6).tolist()  # north
+    [[0.0, 1.0, 0.0]]
+    """
     return Frame.named("paper").to_enu(vectors)
 
 
 @dataclass
 class Surface:
-    """One ground-truth face: a rectangle with a centre, unit normal (ENU) and size (m)."""
+    """One ground-truth face: a rectangle with a centre, unit normal (ENU) and size (m).
+
+    Parameters
+    ----------
+    name : str
+        Its name (``surface 1``).
+    center, normal : (3,) ndarray
+        Its centre and unit normal, east-north-up.
+    width, height : float
+        Its size (m).
+
+    Examples
+    --------
+    >>> paper_surfaces()[0].name, len(paper_surfaces())
+    ('surface 1', 6)
+    """
 
     name: str
     center: np.ndarray
@@ -50,7 +81,22 @@ class Surface:
 @dataclass
 class Scene:
     """A synthetic cloud with its ground truth. ``truth_index`` marks each point's surface
-    (0..5 the paper's six, -1 anything else); ``offset`` was added to every coordinate."""
+    (0..5 the paper's six, -1 anything else); ``offset`` was added to every coordinate.
+
+    Parameters
+    ----------
+    cloud : Cloud
+        The points.
+    surfaces : list of Surface
+        The six faces.
+    truth_index : ndarray
+        Each point's face (-1: none).
+
+    Examples
+    --------
+    >>> scene = observatory_scene(20_000, seed=1)
+    >>> len(scene.surfaces), len(scene.truth_index) == len(scene.cloud)
+    (6, True)"""
 
     cloud: Cloud
     surfaces: list[Surface]
@@ -83,6 +129,18 @@ _LAYOUT = [
 
 
 def paper_surfaces() -> list[Surface]:
+    """The paper's six surfaces: their centres and sizes as the scene lays them out, their
+    normals the paper's (:data:`PAPER_NORMALS`), in east-north-up.
+
+    Returns
+    -------
+    list of Surface
+
+    Examples
+    --------
+    >>> all(abs(float(np.linalg.norm(s.normal)) - 1.0) < 1e-9 for s in paper_surfaces())
+    True
+    """
     normals = paper_to_enu(PAPER_NORMALS)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     return [
@@ -91,7 +149,31 @@ def paper_surfaces() -> list[Surface]:
 
 
 def sample_rectangle(surface: Surface, n: int, rng, noise: float) -> np.ndarray:
-    """``n`` points on a rectangle, with Gaussian noise along its normal and a rough texture."""
+    """``n`` points on a rectangle, with Gaussian noise along its normal and a rough texture.
+
+    Parameters
+    ----------
+    surface : Surface
+        The rectangle.
+    n : int
+        How many points.
+    rng : numpy.random.Generator
+        The seeded generator drawing them.
+    noise : float
+        Standard deviation (m) along the normal.
+
+    Returns
+    -------
+    ndarray
+        (n, 3) points.
+
+    Examples
+    --------
+    >>> surface = Surface("s", np.zeros(3), np.array([0.0, 0.0, 1.0]), 2.0, 1.0)
+    >>> points = sample_rectangle(surface, 1000, np.random.default_rng(0), 0.0)
+    >>> points.shape, bool(np.abs(points[:, 0]).max() <= 1.0)
+    ((1000, 3), True)
+    """
     normal = surface.normal
     helper = np.array([0.0, 0.0, 1.0]) if abs(normal[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
     u = np.cross(helper, normal)
@@ -129,6 +211,16 @@ def observatory_scene(
         Multiplies every coordinate (a model in other units, or an SfM model's arbitrary scale).
     offset : (3,) float
         Added to every coordinate (e.g. UTM-sized, to test precision).
+
+    Returns
+    -------
+    Scene
+
+    Examples
+    --------
+    >>> scene = observatory_scene(20_000, seed=1)
+    >>> len(scene.cloud), sorted(set(scene.truth_index.tolist()))[:3]
+    (20000, [-1, 0, 1])
     """
     rng = np.random.default_rng(seed)
     surfaces = paper_surfaces()

@@ -54,7 +54,27 @@ class JointSet:
     """One set of the generator: mean orientation (degrees), Fisher ``kappa``, mean normal
     spacing (m), the relative share of the face's facets it takes, and its ``persistence``:
     None for planes through the whole rock mass, or the mean diameter (m) of its joints as
-    discs (Baecher et al. 1977; lognormal diameters), so that a joint's trace ends on the face."""
+    discs (Baecher et al. 1977; lognormal diameters), so that a joint's trace ends on the face.
+
+    Parameters
+    ----------
+    name : str
+        The set's name (``J1``).
+    dip, dip_direction : float
+        The mean plane's orientation (degrees).
+    kappa : float
+        Fisher's concentration of the normals.
+    spacing : float
+        Mean normal spacing (m).
+    share : float
+        The relative share of the face's facets it takes.
+    persistence : float, optional
+        The joints' mean diameter (m) as discs; None: planes through the rock mass.
+
+    Examples
+    --------
+    >>> JointSet("J1", 45.0, 180.0, kappa=80.0, spacing=0.6).persistence is None
+    True"""
 
     name: str
     dip: float
@@ -100,6 +120,33 @@ class OutcropScene:
     each, a disc's centre; relative to ``offset``) and ``set_plane_radii`` (inf for planes
     through the rock mass), all along :meth:`scanlines`. The mean face runs through ``offset`` along
     ``face_axes`` (strike, up-dip) over ``face_size`` (m).
+
+    Parameters
+    ----------
+    cloud : Cloud
+        The points.
+    sets : tuple of JointSet
+        The sets drawn.
+    face_normal : ndarray
+        The mean face's unit normal.
+    facet_set, facet_plane, facet_center, facet_normal, facet_area, facet_censored : ndarray
+        Per facet, as above.
+    facet_index, clean : ndarray
+        Per point, as above.
+    set_spacing, set_p32, exposed_set_spacing, exposed_set_p32 : ndarray
+        Per set, as above.
+    point_spacing : float
+        The points' spacing on the face (m).
+    set_plane_normals, set_plane_points, set_plane_radii : tuple of ndarray
+        Per set, every plane it has.
+    face_axes, face_size, offset
+        The mean face's axes, size and origin.
+
+    Examples
+    --------
+    >>> scene = outcrop_scene(width=4.0, height=3.0, seed=1)
+    >>> len(scene.facet_set) == len(scene.facet_normal), scene.face_size
+    (True, (4.0, 3.0))
     """
 
     cloud: Cloud
@@ -219,6 +266,10 @@ def outcrop_scene(
         Added to every coordinate (UTM-sized, to test precision).
     seed : int
         The scene is a pure function of its arguments.
+
+    Returns
+    -------
+    OutcropScene
 
     Examples
     --------

@@ -16,6 +16,22 @@ def road_before(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.n
     face, at its point spacing on average (drawn at random) and ``noise`` m of white noise:
     the road a rock cut is scanned from, noisier than the rock.
 
+    Parameters
+    ----------
+    scene : OutcropScene
+        The scene (:func:`outcrop_scene`).
+    depth : float
+        How far (m) the road runs out from the face's foot.
+    noise : float
+        White noise (m) about the level.
+    seed : int
+        The road is a pure function of its arguments.
+
+    Returns
+    -------
+    ndarray
+        (M, 3) points, absolute.
+
     Examples
     --------
     >>> from geostructure.synthetic import outcrop_scene
@@ -36,6 +52,22 @@ def road_before(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.n
 def crest_above(scene, depth: float, noise: float = 0.01, seed: int = 0) -> np.ndarray:
     """Level ground ``depth`` m deep behind the crest of an outcrop scene's face (its top
     edge), as :func:`road_before` lays the road along its foot.
+
+    Parameters
+    ----------
+    scene : OutcropScene
+        The scene (:func:`outcrop_scene`).
+    depth : float
+        How far (m) the ground runs back from the crest.
+    noise : float
+        White noise (m) about the level.
+    seed : int
+        The ground is a pure function of its arguments.
+
+    Returns
+    -------
+    ndarray
+        (M, 3) points, absolute.
 
     Examples
     --------
@@ -62,6 +94,22 @@ def bushes_on(scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     the face's mean plane. Returns the bushes' points and which of the scene's points they
     hide (within a radius of a centre, seen along the face's normal), for the rock behind a
     bush is not seen: measure ``np.vstack([scene.cloud.points[~hidden], bushes])``.
+
+    Parameters
+    ----------
+    scene : OutcropScene
+        The scene (:func:`outcrop_scene`).
+    n : int
+        How many bushes.
+    seed : int
+        The bushes are a pure function of their arguments.
+
+    Returns
+    -------
+    bushes : ndarray
+        (M, 3) points, absolute.
+    hidden : ndarray of bool
+        Per point of the scene, whether a bush hides it.
 
     Examples
     --------
