@@ -23,9 +23,10 @@ from pathlib import Path
 
 from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
+from geostructure.detect.pipeline import Result
 from geostructure.detect.registry import STREAMED_DETECTOR, detector_spec
 from geostructure.errors import GeoStructureNote
-from geostructure.evaluation.groundtruth import evaluate
+from geostructure.evaluation.groundtruth import Evaluation, evaluate
 from geostructure.evaluation.scoring import write_evaluation_into
 from geostructure.io.crs import cloud_unit, describe_north
 from geostructure.io.outdir import output_set
@@ -34,6 +35,7 @@ from geostructure.io.survey_files import describe, read_tiles
 from geostructure.io.truth import read_truth
 from geostructure.io.writers import write_result
 from geostructure.stream import DaskExecutor, SerialExecutor, measure_stream
+from geostructure.stream.engine import StreamResult
 from geostructure.stream.output import RegionsLaz, RegionsPly
 from geostructure.workflows.advice import say_after
 from geostructure.workflows.engine_choice import check_engine_options, choose_engine, chunk_points, measures_in_memory
@@ -65,9 +67,9 @@ class SurveyRun:
     """
 
     engine: str
-    result: object = None
+    result: Result | StreamResult | None = None
     outcrop: OutcropRun | None = None
-    evaluation: object = None
+    evaluation: Evaluation | None = None
     record: dict = field(default_factory=dict)
     paths: dict = field(default_factory=dict)
 
