@@ -26,6 +26,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
+from geostructure.core.threads import run_tasks
+
 #: Pixels per point spacing: two, so that a line one spacing wide spans a pixel or two.
 PIXELS_PER_SPACING = 2.0
 #: The Hessian's scale (spacings): a trace on a 3 cm cloud is one or two points wide.
@@ -207,9 +209,22 @@ def pixel_chains(mask: np.ndarray, min_pixels: float) -> list[np.ndarray]:
             return chains
         for path in found:
             chains.append(where[path])
-            # the path and the pixels touching it (the graph is symmetric: a row is a pixel's neighbours)
+            # the path and the pixels touching it: its 8 neighbours in the mask (those dead
+            # already stay so), read from the lookup, not the sparse graph's rows
             alive[path] = False
-            alive[graph[path].indices] = False
+            alive[_touching(where[path], lookup)] = False
+
+
+#: A pixel's 8 neighbours.
+_NEIGHBOURS = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc])
+
+
+def _touching(pixels: np.ndarray, lookup: np.ndarray) -> np.ndarray:
+    """The mask's pixels (indices in ``lookup``, -1 off the mask) 8-connected to ``pixels``."""
+    near = (pixels[:, None, :] + _NEIGHBOURS).reshape(-1, 2)
+    inside = (near[:, 0] >= 0) & (near[:, 0] < lookup.shape[0]) & (near[:, 1] >= 0) & (near[:, 1] < lookup.shape[1])
+    index = lookup[near[inside, 0], near[inside, 1]]
+    return index[index >= 0]
 
 
 def _longest_path_per_group(graph, alive: np.ndarray, min_pixels: float) -> list[np.ndarray]:
@@ -436,10 +451,9 @@ def noise_contrast(grid: PatchGrid, values: np.ndarray, min_chord: float) -> flo
     the contrasts of the lines found on the patch's values shuffled among its points
     (:data:`NULL_PERMUTATIONS` seeded permutations); 0 where the shuffles draw no line."""
     rng = np.random.default_rng(0)
-    contrasts = []
-    for _ in range(NULL_PERMUTATIONS):
-        shuffled = values[rng.permutation(len(values))]
-        contrasts += _lines(grid.image(shuffled), min_chord)[1]
+    orders = [rng.permutation(len(values)) for _ in range(NULL_PERMUTATIONS)]  # drawn in turn: seeded as one
+    found = run_tasks([lambda order=order: _lines(grid.image(values[order]), min_chord)[1] for order in orders])
+    contrasts = [contrast for lines in found for contrast in lines]
     return float(np.quantile(contrasts, NULL_QUANTILE)) if contrasts else 0.0
 
 
