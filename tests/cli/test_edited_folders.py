@@ -43,6 +43,14 @@ def edited_planes(folder, column: str, value: str) -> None:
     resealed(folder, lambda r: r["outputs"].update({"planes.csv": file_entry(path)}))
 
 
+def many_planes(folder) -> None:
+    """planes.csv grown to more rows than the folder's 20,000 points can make (a plane holds 3)."""
+    path = folder / "planes.csv"
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0]] + [lines[1]] * 6_700) + "\n")
+    resealed(folder, lambda r: r["outputs"].update({"planes.csv": file_entry(path)}))
+
+
 CASES = {
     "offset of text": lambda f: resealed(f, lambda r: r.update(offset=["a", 0, 0])),
     "huge offset": lambda f: resealed(f, lambda r: r.update(offset=[1e300, 0, 0])),
@@ -51,6 +59,7 @@ CASES = {
     "frame unreadable": lambda f: resealed(f, lambda r: r.update(frame={"rotation": "north"})),
     "seal deleted": lambda f: resealed(f, lambda r: None) or _unsealed(f),
     "dip of 200": lambda f: edited_planes(f, "dip", "200"),
+    "more planes than points": many_planes,
 }
 
 

@@ -11,10 +11,11 @@ from pathlib import Path
 import numpy as np
 
 from geostructure.core.planes import Planes
-from geostructure.errors import OutputError
+from geostructure.errors import InputError, OutputError
 from geostructure.io.crs import recorded_unit
 from geostructure.io.outdir import read_record
 from geostructure.io.planetable import read_planes_csv
+from geostructure.io.ply import ply_point_count
 
 #: The prefix of a PLY property that CloudCompare's command line loads as a scalar field.
 SCALAR = "scalar_"
@@ -71,11 +72,48 @@ def in_square_metres(planes: Planes, metres_per_unit: float) -> Planes:
     return planes if metres_per_unit == 1.0 else replace(planes, area=planes.area * metres_per_unit**2)
 
 
+#: A plane holds three points at least, and a ``planes.csv`` row takes at most this many
+#: bytes (its 40-odd numbers and the sets' columns, some 1,000 at the most): so a folder's
+#: points bound its plane table, read from ``regions.ply``'s header before the table is.
+MIN_PLANE_POINTS = 3
+MAX_PLANE_ROW_BYTES = 4096
+
+
+def most_planes(folder) -> tuple[int, int] | None:
+    """The most planes a folder's points can make, and its points (``regions.ply``'s
+    header); None without the file."""
+    regions = Path(folder) / "regions.ply"
+    if not regions.is_file():
+        return None
+    points = ply_point_count(regions, None)
+    return max(points // MIN_PLANE_POINTS, 1), points
+
+
+def _check_plane_count(path: Path, n_rows: int | None, bound: tuple[int, int] | None) -> None:
+    """Refuse a ``planes.csv`` larger (in bytes, or once read in rows) than its folder's
+    points can make: a table edited by hand, which ``sets``, ``kinematics`` and ``report``
+    took minutes over."""
+    if bound is None:
+        return
+    limit, points = bound
+    too_big = path.stat().st_size > (limit + 1) * MAX_PLANE_ROW_BYTES if n_rows is None else n_rows > limit
+    if too_big:
+        raise InputError(
+            f"{path}: holds more planes than the {points:,} points of its folder's regions.ply can make "
+            f"({limit:,} at the most, {MIN_PLANE_POINTS} points a plane); the table was edited: measure again."
+        )
+
+
 def read_planes(folder, offset=None) -> Planes:
     """The plane table in ``planes.csv`` of a measured folder, positions relative to
     ``offset``, its ``area`` back in the cloud's unit squared (as the measure's own table
-    holds it) when ``run.json`` says the file holds square metres (:data:`PLANE_AREA`)."""
-    planes = read_planes_csv(Path(folder) / "planes.csv", offset)
+    holds it) when ``run.json`` says the file holds square metres (:data:`PLANE_AREA`). A
+    table longer than the folder's points can make is refused before it is read."""
+    path, bound = Path(folder) / "planes.csv", most_planes(folder)
+    if path.is_file():
+        _check_plane_count(path, None, bound)
+    planes = read_planes_csv(path, offset)
+    _check_plane_count(path, len(planes), bound)
     record = read_record(Path(folder) / "run.json") or {}
     if record.get("plane_area") != PLANE_AREA["plane_area"]:
         return planes
