@@ -27,6 +27,7 @@ from geostructure.io.failures import translated_read_errors
 from geostructure.io.las import merged_left_out
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES, file_chunks
 from geostructure.io.survey_files import check_headers, check_same_crs, describe
+from geostructure.stream.spillstrays import without_spill_strays
 
 #: Bytes of one point in the spill file (x, y, z as float64).
 POINT_BYTES = 24
@@ -292,6 +293,7 @@ def spill_inputs(paths, rows: int, *, mesh_samples: int | None = DEFAULT_MESH_SA
             os.unlink(spill.folder / "normals.f8")
         if not spill.has_vegetation:
             os.unlink(spill.folder / "vegetation.u1")
+        without_spill_strays(spill, rows)  # before anything reads the survey's extent
     except OSError as exc:
         spill.close()
         if exc.errno not in SPILL_FULL:
