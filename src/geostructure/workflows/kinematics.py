@@ -106,24 +106,47 @@ def write_kinematics_into(
     which commits them with the rest of its files: one command, one commit (a refusal or an
     interrupt here leaves the folder as it was). The keywords are described under
     :func:`add_kinematics`; returns the summary and output kind -> final path."""
+    source = Path(source)
+    planes = read_planes(source)
+    record = outputs.record
+    tested = kinematic_tests(
+        planes, read_sets(source), friction, frame=Frame.from_dict(record.get("frame") or {}),
+        detection=record.get("detection"), metres_per_unit=recorded_unit(record)["metres"],
+        points=points or (lambda: read_measured(source, record, planes.offset)[:3]), slope=slope,
+        lateral_limit=lateral_limit, cohesion=cohesion, unit_weight=unit_weight, height=height,
+        upper_slope=upper_slope, progress=progress,
+    )  # fmt: skip
+    return tested.summary, write_kinematic_files(outputs, tested, progress)
+
+
+def kinematic_tests(
+    planes, sets: list, friction: float, *, frame: Frame, detection: dict | None, metres_per_unit: float,
+    points, slope: Slope | None = None, lateral_limit: float = LATERAL_LIMIT, cohesion: float = 0.0,
+    unit_weight: float = UNIT_WEIGHT, height: float | None = None, upper_slope: tuple[float, float] | None = None,
+    progress=None,
+):  # fmt: skip
+    """The kinematic tests of ``planes`` and the ``sets``' rows (as ``sets.csv`` holds them),
+    in memory: the slope fitted to the face where it is not given, the strength settled, each
+    plane tested against its own section's slope. ``points``: the measured points (positions
+    relative to the planes' offset, region ids, vegetation marks), or a function giving them,
+    read only where the slope or the height is to be fitted; ``detection`` and
+    ``metres_per_unit``: the run's detector record and unit. The other keywords are
+    described under :func:`add_kinematics`. Returns the
+    :class:`~geostructure.kinematics.summary.KinematicResult`."""
     from geostructure.workflows.sets_and_mass import detected_spacing  # lazy, as above
 
     report = progress or (lambda stage, done, total: None)
-    source = Path(source)
-    frame = Frame.from_dict(outputs.record.get("frame") or {})
-    planes = read_planes(source)
     strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
     if slope is None or (cohesion and height is None):
         report("slope", 0, None)
-        points, region, vegetation = points or read_measured(source, outputs.record, planes.offset)[:3]
+        held, region, vegetation = points() if callable(points) else points
         if slope is None:
-            spacing = detected_spacing(outputs.record.get("detection"))
             labels = plane_rows(region, planes.region_id)
-            slope = fit_face(points, frame, face_members(points, labels, planes.normal, frame.matrix[2],
-                                                         spacing=spacing, vegetation=vegetation),
+            slope = fit_face(held, frame, face_members(held, labels, planes.normal, frame.matrix[2],
+                                                       spacing=detected_spacing(detection), vegetation=vegetation),
                              offset=planes.offset)  # fmt: skip
         if cohesion and height is None:  # the face's height: the cloud's, along up, in metres
-            height = float(np.ptp(frame.to_enu(points)[:, 2])) * recorded_unit(outputs.record)["metres"]
+            height = float(np.ptp(frame.to_enu(held)[:, 2])) * metres_per_unit
             strength["height_source"] = "the cloud's height"
     if cohesion:
         strength["height_m"] = float(height)
@@ -140,13 +163,19 @@ def write_kinematics_into(
     report("kinematics", 0, None)
     # each plane tested against the slope of the section it lies in
     sections = (face.plane_sections(planes), face.slopes) if len(face.slopes) > 1 else None
-    tested = kinematics_of(planes, read_sets(source), face.slope, friction, lateral_limit, strength, sections)
+    return kinematics_of(planes, sets, face.slope, friction, lateral_limit, strength, sections)
+
+
+def write_kinematic_files(outputs, tested, progress=None) -> dict:
+    """The kinematic tests' files (``kinematics.csv``, ``wedges.csv``, ``kinematics.json``,
+    ``kinematics.png``) written into the open set ``outputs``, what the slope tells said, and
+    ``run.json``'s ``kinematics`` set; returns output kind -> final path."""
     summary, rows, wedge_columns = tested.summary, tested.rows, tested.wedge_columns
     where = outputs.outdir
     warn_of(bent_slope(summary["slope"]), where)
     warn_of(gentle_slope(summary), where)
     note_of(sectioned_slope(summary), where)
-    report("write", 0, None)
+    (progress or (lambda stage, done, total: None))("write", 0, None)
     write_table_csv(rows, outputs.path("kinematics.csv"), columns=KINEMATICS_COLUMNS)
     write_columns_csv({name: wedge_columns[name] for name in WEDGE_COLUMNS}, outputs.path("wedges.csv"))
     write_json(summary, outputs.path("kinematics.json"))
@@ -165,7 +194,7 @@ def write_kinematics_into(
         "kinematics_json": "kinematics.json",
         "kinematics_png": "kinematics.png",
     }
-    return summary, {key: outputs.final(name) for key, name in names.items()}
+    return {key: outputs.final(name) for key, name in names.items()}
 
 
 KINEMATICS_COLUMNS = (
