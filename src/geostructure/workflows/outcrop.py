@@ -12,8 +12,9 @@ and prints; a notebook gets the same result from the same two calls. The stages,
 4. with ``sets``: the joint sets and the rock mass (:func:`~geostructure.workflows.sets_and_mass.sets_and_rock_mass`), and
    the notes on what the face hides;
 5. with ``kinematics``: the slope fitted to the face (:func:`~geostructure.kinematics.slope.fit_face`)
-   unless given; the tests themselves run as the files are written
-   (:func:`~geostructure.workflows.kinematics.write_kinematics_into`), since they read the written folder.
+   unless given, and the tests on the planes and sets held
+   (:func:`~geostructure.workflows.kinematics.kinematic_tests`); :meth:`OutcropRun.save` writes
+   their files with the rest.
 
 Examples
 --------
@@ -46,11 +47,12 @@ from geostructure.errors import GeoStructureNote, GeoStructureWarning
 from geostructure.io.crs import cloud_unit, describe_north, given_crs, note_unstated_unit, true_north_frame
 from geostructure.io.survey_files import read_tiles
 from geostructure.kinematics.slope import fit_face
+from geostructure.kinematics.summary import KinematicResult
 from geostructure.rockmass.face import FACE
 from geostructure.rockmass.mass import RockMass, with_rock_mass
 from geostructure.rockmass.notes import note_bent_face, note_tilt_unread, note_vegetation, note_voxel_planes
 from geostructure.rockmass.sets import JointSets
-from geostructure.workflows.kinematics import write_kinematics_into
+from geostructure.workflows.kinematics import kinematic_tests, write_kinematic_files
 from geostructure.workflows.saving import save_measurement
 from geostructure.workflows.sets_and_mass import detected_spacing, sets_and_rock_mass
 
@@ -63,8 +65,9 @@ class OutcropRun:
     """What :func:`measure_outcrop` found: the measure (``result``: planes, labels, the
     parameters and frame used), the joint sets and rock mass when asked, the kinematic
     settings (the fitted slope in them), and what ``run.json`` records of the run beyond the
-    measure (``record``: the automatic choice, the unit, north). After :meth:`save`,
-    ``kinematics`` holds the kinematic tests' summary and ``paths`` the files written.
+    measure (``record``: the automatic choice, the unit, north). With the kinematics,
+    ``tested`` holds the tests' results and ``kinematics`` their summary; after
+    :meth:`save`, ``paths`` holds the files written.
 
     Parameters
     ----------
@@ -79,7 +82,9 @@ class OutcropRun:
     record : dict
         What ``run.json`` says of the run beyond the measure.
     kinematics : dict
-        The kinematic tests' summary, after :meth:`save`.
+        The kinematic tests' summary (what ``kinematics.json`` holds).
+    tested : KinematicResult, optional
+        The kinematic tests' results, which :meth:`save` writes.
     paths : dict
         Output kind -> path of each file written, after :meth:`save`.
 
@@ -89,9 +94,11 @@ class OutcropRun:
     >>> from geostructure.synthetic import outcrop_scene
     >>> run = measure_outcrop(outcrop_scene(width=6.0, height=4.0, seed=1).cloud, sets=True,
     ...                       kinematics={"friction": 30.0})
+    >>> "planar_sliding" in run.kinematics  # tested before anything is written
+    True
     >>> paths = run.save(tempfile.mkdtemp())
-    >>> sorted(k for k in paths if k.startswith("kin")), "planar_sliding" in run.kinematics
-    (['kinematics', 'kinematics_json', 'kinematics_png'], True)
+    >>> sorted(k for k in paths if k.startswith("kin"))
+    ['kinematics', 'kinematics_json', 'kinematics_png']
     """
 
     result: Result
@@ -101,6 +108,7 @@ class OutcropRun:
     record: dict = field(default_factory=dict)
     kinematics: dict = field(default_factory=dict)
     paths: dict = field(default_factory=dict)
+    tested: KinematicResult | None = None
 
     @property
     def planes(self):
@@ -116,15 +124,11 @@ class OutcropRun:
         kind -> path. ``extra``: more entries for ``run.json``; ``point_files`` as
         :func:`~geostructure.workflows.saving.save_measurement` takes it."""
         report_stage = progress or (lambda stage, done, total: None)
-        options, result = self.kinematic_options, self.result
+        result = self.result
 
         def kinematics_into_set(outputs):
-            """The kinematics, in the measure's own set: one command, one commit."""
-            held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # the folder's points
-            summary, kinematic_paths = write_kinematics_into(outputs, outputs.staging, **options, progress=progress,
-                                                        points=(held, result.labels, result.filtered.vegetation))  # fmt: skip
-            self.kinematics.update(summary)
-            return kinematic_paths
+            """The kinematic tests' files, in the measure's own set: one command, one commit."""
+            return write_kinematic_files(outputs, self.tested, progress)
 
         report_stage("write", 0, None)
         if callable(point_files) and progress is not None:  # a thinned survey's: its own bar
@@ -139,7 +143,7 @@ class OutcropRun:
             sets=self.sets,
             rock=self.rock,
             point_files=point_files,
-            then=kinematics_into_set if options is not None else None,
+            then=kinematics_into_set if self.tested is not None else None,
         )
         return self.paths
 
@@ -280,6 +284,13 @@ def measure_outcrop(
             kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=run.rock.face_bend,
                                            offset=result.filtered.offset, sections=run.rock.sections)  # fmt: skip
         run.kinematic_options = kinematics
+        held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # as the folder holds them
+        run.tested = kinematic_tests(
+            run.planes, [] if run.sets is None else run.sets.rows(), frame=result.frame, detection=result.detection,
+            metres_per_unit=cloud_unit(crs, unit)["metres"], points=(held, result.labels, result.filtered.vegetation),
+            progress=progress, **kinematics,
+        )  # fmt: skip
+        run.kinematics = run.tested.summary
     return run
 
 
