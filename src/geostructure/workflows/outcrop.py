@@ -1,8 +1,8 @@
 """One call for what ``geostructure measure --sets --kinematics`` does, in memory.
 
 The command line parses its options, calls :func:`measure_outcrop` and :meth:`OutcropRun.save`,
-and prints; a notebook gets the same result from the same two calls. The stages, in order
-(each the library's own function):
+and prints; a notebook gets the same result from the same two calls. The stages, in order,
+as :data:`STAGES` runs them (each calls the library's own functions):
 
 1. the coordinate system and north: a CRS given over the file's own, azimuths turned to
    true north by the grid convergence unless ``grid_north`` (:func:`~.io.crs.true_north_frame`);
@@ -30,6 +30,7 @@ import dataclasses
 import functools
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -232,66 +233,129 @@ def measure_outcrop(
     >>> sorted(run.record["auto"])[:3], len(run.planes) > 50
     (['k', 'normal_noise_deg', 'offset_noise_voxel_edges'], True)
     """
-    report = progress or (lambda stage, done, total: None)
     if not isinstance(cloud, Cloud):
         paths = [Path(p) for p in ([cloud] if isinstance(cloud, (str, Path)) else cloud)]
         t = time.perf_counter()
         cloud = read_tiles(paths)
         seconds = {"read": time.perf_counter() - t, **(seconds or {})}
-    params = params or Params()
-    cloud = without_strays(cloud)  # before anything reads the cloud's extent
-    crs = given_crs(crs, cloud.crs, cloud.source)
-    if crs != cloud.crs:
-        cloud = dataclasses.replace(cloud, crs=crs)
-    record, north = {}, None
-    if cloud.crs is not None and not grid_north and len(cloud):
-        frame, north = true_north_frame(frame, cloud.crs, cloud.offset + column_min(cloud.local),
-                                        cloud.offset + column_max(cloud.local))  # fmt: skip
-    if crs is not None or unit is not None:
-        record["unit"] = cloud_unit(crs, unit)
+    measuring = _Measuring(cloud, frame, params or Params(), crs, unit, dict(seconds or {}), progress,
+                           dict(auto=auto, given=dict(given or {}), grid_north=grid_north, sets=sets, n_sets=n_sets,
+                                kinematics=kinematics, on_choice=on_choice, facets=facets))  # fmt: skip
+    for _, stage in STAGES:
+        stage(measuring)
+    return measuring.measured
+
+
+@dataclass
+class _Measuring:
+    """What each stage of :func:`measure_outcrop` hands on to the next: the cloud and frame as
+    placed, the CRS and unit, the times so far, the options, and the run once measured."""
+
+    cloud: Cloud
+    frame: Frame
+    params: Params
+    crs: str | None
+    unit: str | None
+    seconds: dict
+    progress: Callable | None
+    options: dict
+    record: dict = field(default_factory=dict)
+    run: OutcropRun | None = None
+
+    @property
+    def measured(self) -> OutcropRun:
+        """The run, once the planes' stage made it."""
+        if self.run is None:
+            raise RuntimeError("a stage after the planes ran before them")  # STAGES' order
+        return self.run
+
+    def report(self, stage: str) -> None:
+        if self.progress is not None:
+            self.progress(stage, 0, None)
+
+
+def _place(m: _Measuring) -> None:
+    """The cloud without its strays, its CRS (a given one over the file's), its azimuths
+    turned to true north by the grid convergence unless ``grid_north``, its unit."""
+    m.cloud = without_strays(m.cloud)  # before anything reads the cloud's extent
+    m.crs = given_crs(m.crs, m.cloud.crs, m.cloud.source)
+    if m.crs != m.cloud.crs:
+        m.cloud = dataclasses.replace(m.cloud, crs=m.crs)
+    cloud, north = m.cloud, None
+    if cloud.crs is not None and not m.options["grid_north"] and len(cloud):
+        m.frame, north = true_north_frame(m.frame, cloud.crs, cloud.offset + column_min(cloud.local),
+                                          cloud.offset + column_max(cloud.local))  # fmt: skip
+    if m.crs is not None or m.unit is not None:
+        m.record["unit"] = cloud_unit(m.crs, m.unit)
     if north:
-        record["north"] = north
+        m.record["north"] = north
         warnings.warn(describe_north(north), GeoStructureNote, stacklevel=2)
+
+
+def _planes(m: _Measuring) -> None:
+    """The parameters, chosen from the cloud unless ``auto`` is off or every factor is
+    given, and the planes."""
     t = time.perf_counter()
-    report("auto", 0, None)
-    params, choice, moments = chosen_params(cloud, params, auto, dict(given or {}), on_choice)
+    m.report("auto")
+    params, choice, moments = chosen_params(m.cloud, m.params, m.options["auto"], m.options["given"],
+                                            m.options["on_choice"])  # fmt: skip
     auto_seconds = time.perf_counter() - t
-    result = measure(cloud, params, frame, progress, moments=moments, facets=facets)
+    result = measure(m.cloud, params, m.frame, m.progress, moments=moments, facets=m.options["facets"])
     del moments
-    result.seconds = {**(seconds or {}), "auto": auto_seconds, **result.seconds}
-    run = OutcropRun(result, record={"auto": choice, **record})
-    if sets:
-        if crs is None and unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
-            note_unstated_unit(detected_spacing(result.detection), cloud.source)
-        run.sets, run.rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
-                                                n_sets, lambda stage: report(stage, 0, None),
-                                                errors=result.planes.standard_errors(),  # as measured: no tilt yet
-                                                spacing=detected_spacing(result.detection),
-                                                metres_per_unit=cloud_unit(crs, unit)["metres"],
-                                                vegetation=result.filtered.vegetation,
-                                                grey=result.filtered.grey)  # fmt: skip
-        rock = run.rock
-        note_vegetation(result.filtered.vegetation, rock, cloud.source)
-        note_voxel_planes(params.detector, cloud.source)
-        note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
-        note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
-    if kinematics is not None:
-        kinematics = dict(kinematics)
-        if kinematics.get("slope") is None and run.rock is not None:
-            # The face the sets' rock mass was read on, fitted here, where its points are:
-            # the folder's would be read back and told from their ground and clutter again.
-            members = None if run.rock.point_part is None else run.rock.point_part == FACE
-            kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=run.rock.face_bend,
-                                           offset=result.filtered.offset, sections=run.rock.sections)  # fmt: skip
-        run.kinematic_options = kinematics
-        held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # as the folder holds them
-        run.tested = kinematic_tests(
-            run.planes, [] if run.sets is None else run.sets.rows(), frame=result.frame, detection=result.detection,
-            metres_per_unit=cloud_unit(crs, unit)["metres"], points=(held, result.labels, result.filtered.vegetation),
-            progress=progress, **kinematics,
-        )  # fmt: skip
-        run.kinematics = run.tested.summary
-    return run
+    result.seconds = {**m.seconds, "auto": auto_seconds, **result.seconds}
+    m.params, m.run = params, OutcropRun(result, record={"auto": choice, **m.record})
+
+
+def _sets(m: _Measuring) -> None:
+    """With ``sets``: the joint sets and the rock mass (the fracture traces drawn with it),
+    and the notes on what the face hides."""
+    if not m.options["sets"]:
+        return
+    run, cloud = m.measured, m.cloud
+    result = run.result
+    if m.crs is None and m.unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
+        note_unstated_unit(detected_spacing(result.detection), cloud.source)
+    run.sets, run.rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
+                                            m.options["n_sets"], m.report,
+                                            errors=result.planes.standard_errors(),  # as measured: no tilt yet
+                                            spacing=detected_spacing(result.detection),
+                                            metres_per_unit=cloud_unit(m.crs, m.unit)["metres"],
+                                            vegetation=result.filtered.vegetation,
+                                            grey=result.filtered.grey)  # fmt: skip
+    rock = run.rock
+    note_vegetation(result.filtered.vegetation, rock, cloud.source)
+    note_voxel_planes(m.params.detector, cloud.source)
+    note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
+    note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
+
+
+def _kinematics(m: _Measuring) -> None:
+    """With ``kinematics``: the slope fitted to the face unless given, and the tests on the
+    planes and sets held."""
+    if m.options["kinematics"] is None:
+        return
+    run = m.measured
+    result = run.result
+    kinematics = dict(m.options["kinematics"])
+    if kinematics.get("slope") is None and run.rock is not None:
+        # The face the sets' rock mass was read on, fitted here, where its points are:
+        # the folder's would be read back and told from their ground and clutter again.
+        members = None if run.rock.point_part is None else run.rock.point_part == FACE
+        kinematics["slope"] = fit_face(result.filtered.local, result.frame, members, bend=run.rock.face_bend,
+                                       offset=result.filtered.offset, sections=run.rock.sections)  # fmt: skip
+    run.kinematic_options = kinematics
+    held = result.filtered.local + (result.filtered.offset - result.planes.offset)  # as the folder holds them
+    run.tested = kinematic_tests(
+        run.planes, [] if run.sets is None else run.sets.rows(), frame=result.frame, detection=result.detection,
+        metres_per_unit=cloud_unit(m.crs, m.unit)["metres"], points=(held, result.labels, result.filtered.vegetation),
+        progress=m.progress, **kinematics,
+    )  # fmt: skip
+    run.kinematics = run.tested.summary
+
+
+#: The stages of :func:`measure_outcrop`, in order (as MintPy keeps its ``STEP_LIST``): each
+#: takes what the ones before it handed on. A new stage goes here.
+STAGES = (("place", _place), ("planes", _planes), ("sets", _sets), ("kinematics", _kinematics))
 
 
 def without_strays(cloud: Cloud) -> Cloud:
