@@ -35,7 +35,6 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from geostructure.core import params
 from geostructure.core.bounds import column_min
 from geostructure.core.density import point_spacing
 from geostructure.core.gridkeys import binned_sums
@@ -45,8 +44,6 @@ from geostructure.detect.cells import CellGrid, CellPlanes, grid_planes, neighbo
 from geostructure.detect.gridscatter import far_scatter, sampled_far_scatter
 from geostructure.detect.roughfacets import RoughFacets, detect_rough_facets
 
-#: How regions are found: the paper's voxel-plane growing, or facets grown on the points.
-DETECTORS = params.DETECTORS
 #: The grid's edge in point spacings (:func:`point_spacing`), so that a block of 3 x 3 x 3
 #: cells holds some 16 to 30 points of a surface, as DSE's 30 neighbours. On outcrop seeds 4,
 #: 5 and 7 and the 1 cm face, 1.35 found 91 to 95% of the facets; 1.6, 84 to 92%; 2.25, 78
