@@ -45,7 +45,6 @@ from geostructure.report.terminal import (
     validation_lines,
 )
 from geostructure.synthetic import observatory_scene
-from geostructure.workflows.engine_choice import check_engine_options
 from geostructure.workflows.experiments import run_demo as run_demo_scene
 from geostructure.workflows.experiments import sweep_and_save
 from geostructure.workflows.saving import add_report
@@ -158,9 +157,6 @@ def run_measure(args) -> int:
     paths = expand_inputs(args.input)
     check_before_work(args, [*paths, args.truth])
     check_unit_given(args, paths)
-    check_engine_options(args.engine, scheduler=args.scheduler, workers=args.workers, thin=args.thin,
-                         spill_dir=args.spill_dir)  # fmt: skip
-    truth = read_truth(args.truth, frame) if args.truth else None
     t = time.perf_counter()
     with StageProgress(enabled=not args.quiet) as progress:
         run = measure_survey(paths, args.outdir, engine=args.engine, max_memory=args.max_memory, thin=args.thin,
@@ -169,7 +165,7 @@ def run_measure(args) -> int:
                              crs=crs_from(args), unit=args.unit, grid_north=args.grid_north, sets=wants_sets(args),
                              n_sets=args.n_sets, kinematics=kinematics, scheduler=args.scheduler,
                              workers=args.workers, spill_dir=args.spill_dir, mesh_samples=args.mesh_samples or None,
-                             truth=truth, truth_path=args.truth, report=args.report, inputs=[*paths, args.truth],
+                             truth_path=args.truth, report=args.report, inputs=[*paths, args.truth],
                              progress=progress, on_choice=choice_teller(args))  # fmt: skip
     if not args.quiet:
         print_run(run, time.perf_counter() - t, unit=args.unit)

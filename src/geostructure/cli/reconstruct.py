@@ -20,15 +20,13 @@ from geostructure.cli.options import (
     whole_number,
 )
 from geostructure.cli.progress import StageProgress
-from geostructure.core.orientation import Frame
-from geostructure.io.truth import read_truth
 from geostructure.reconstruct.dense import DenseOptions
 from geostructure.reconstruct.frames import FrameOptions, extract_frames
 from geostructure.reconstruct.sfm import SfmOptions
 from geostructure.reconstruct.stages import ReconstructOptions
 from geostructure.reconstruct.surface import SurfaceOptions
 from geostructure.report.terminal import print_run
-from geostructure.workflows.video import check_reconstruction, reconstruct_and_measure, require_reconstruction_extra
+from geostructure.workflows.video import reconstruct_and_measure, require_reconstruction_extra
 
 
 def add_reconstruct_commands(sub) -> None:
@@ -132,7 +130,6 @@ def run_frames(args) -> int:
 def run_run(args) -> int:
     frame_from(args)  # refuse a half-given --up/--north before hours of reconstruction
     crs_from(args)
-    frame = Frame.named("enu", args.declination)  # the georeferenced cloud is east-north-up: the truth is read in it
     base_params(args)
     options = ReconstructOptions(
         frames=frame_options(args),
@@ -148,14 +145,12 @@ def run_run(args) -> int:
         assume_level=args.assume_level,
     )
     check_before_work(args, [args.truth, args.gcp])
-    check_reconstruction(args.source, options)
-    truth = read_truth(args.truth, frame) if args.truth else None
     t = time.perf_counter()
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     with StageProgress(enabled=not args.quiet) as progress:
         run = reconstruct_and_measure(args.source, args.outdir, options, declination=args.declination,
                                       params=base_params(args), auto=args.auto, given=given_factors(args),
-                                      crs=crs_from(args), unit=args.unit, grid_north=args.grid_north, truth=truth,
+                                      crs=crs_from(args), unit=args.unit, grid_north=args.grid_north,
                                       truth_path=args.truth, report=args.report, inputs=[args.truth, args.gcp],
                                       progress=progress, log=log, on_choice=choice_teller(args))  # fmt: skip
     if not args.quiet:

@@ -151,8 +151,9 @@ def measure_survey(
     mesh_samples : int or None
         Points sampled on a PLY mesh's faces.
     truth, truth_path
-        A ground truth already read (:func:`~geostructure.io.truth.read_truth`) and its
-        file, read again in the frame turned to true north when the CRS turns it.
+        A ground truth already read (:func:`~geostructure.io.truth.read_truth`), or its
+        file alone (read here, once the engine's options are checked); read again in the
+        frame turned to true north when the CRS turns it.
     report : bool
         Also write the report.
     extra : dict, optional
@@ -193,6 +194,8 @@ def measure_survey(
         params = params.with_(detector=detector)
     rock = bool(sets or kinematics)
     chosen = choose_engine(engine, paths, max_memory=max_memory, rock=rock, mesh_samples=mesh_samples)
+    if truth is None and truth_path is not None:
+        truth = read_truth(truth_path, frame)
     outcrop = dict(frame=frame, params=params, auto=auto, given=given, crs=crs, unit=unit, grid_north=grid_north,
                    sets=sets, n_sets=n_sets, kinematics=kinematics, on_choice=on_choice)  # fmt: skip
     saving = dict(truth=truth, truth_path=truth_path, report=report, inputs=inputs, progress=progress)

@@ -14,6 +14,7 @@ from geostructure.core.cloud import Cloud
 from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
 from geostructure.errors import GeoStructureError, InputError
+from geostructure.io.truth import read_truth
 from geostructure.reconstruct.georef import check_control_layout, read_gcp, read_gcp_csv
 from geostructure.reconstruct.sfm import list_images
 from geostructure.reconstruct.stages import ReconstructOptions, reconstruct
@@ -100,7 +101,8 @@ def reconstruct_and_measure(
     params, auto, given, crs, unit, grid_north, on_choice
         As :func:`~geostructure.workflows.outcrop.measure_outcrop` takes them.
     truth, truth_path, report, inputs
-        As :func:`~geostructure.workflows.survey.measure_survey` takes them.
+        As :func:`~geostructure.workflows.survey.measure_survey` takes them; the truth's file
+        is read once the source and the options are checked, before any stage.
     progress : callable, optional
         ``progress(stage, done, total)``.
     log : callable
@@ -121,7 +123,9 @@ def reconstruct_and_measure(
     >>> len(run.outcrop.planes)  # doctest: +SKIP
     212
     """
-    check_reconstruct_options(options)
+    check_reconstruction(source, options)
+    if truth is None and truth_path is not None:  # a bad truth is refused before hours of reconstruction
+        truth = read_truth(truth_path, Frame.named("enu", declination))
     outdir = Path(outdir)
     t = time.perf_counter()
     made = _resumable(lambda: reconstruct(source, outdir, options, progress, log), outdir)
