@@ -42,7 +42,7 @@ _PUBLIC = {
     "orientation_from_normals": "core.orientation",
     "Params": "core.params",
     "Planes": "core.planes",
-    "Result": "detect.pipeline",
+    "Measurement": "detect.pipeline",
     "measure": "detect.pipeline",
     "save_measurement": "workflows.saving",
     "add_report": "workflows.saving",

@@ -18,7 +18,7 @@ from geostructure.core.params import Params
 from geostructure.detect import auto
 from geostructure.detect.auto import choose_params
 from geostructure.io.survey_files import read_tiles
-from geostructure.stream import DaskExecutor, measure_stream
+from geostructure.stream import DaskExecutor, stream_planes
 from geostructure.synthetic import observatory_scene
 
 VOXEL = Params(detector="voxel")
@@ -54,7 +54,7 @@ def tiled(tmp_path_factory):
 def test_sixteen_tiles_streamed_give_the_planes_of_the_whole_cloud(tiled):
     paths, memory, params = tiled
     assert len(paths) == 16
-    streamed = measure_stream(paths, VOXEL, auto={}, chunk_points=9_000)  # about 14 chunks
+    streamed = stream_planes(paths, VOXEL, auto={}, chunk_points=9_000)  # about 14 chunks
     assert streamed.params == params  # the automatic choice made from chunks is the same
     assert_same_planes(memory, streamed.planes)
 
@@ -63,7 +63,7 @@ def test_sixteen_tiles_on_a_dask_local_cluster_give_the_same_planes(tiled):
     paths, memory, params = tiled
     executor = DaskExecutor(workers=2)
     try:
-        streamed = measure_stream(paths, params, chunk_points=20_000, executor=executor)
+        streamed = stream_planes(paths, params, chunk_points=20_000, executor=executor)
     finally:
         executor.close()
     assert streamed.engine == "dask"
@@ -81,7 +81,7 @@ def test_a_plane_across_four_tiles_is_one_region(tmp_path):
     for t in range(4):
         paths.append(tmp_path / f"quarter_{t}.laz")
         write_laz(paths[-1], points[tile == t])
-    result = measure_stream(paths, VOXEL.with_(zeta=0.02), chunk_points=10_000)
+    result = stream_planes(paths, VOXEL.with_(zeta=0.02), chunk_points=10_000)
     assert len(result) == 1
     assert angles(result.planes.normal, normal[None])[0] < 0.05
     assert result.planes.n_points[0] == measure(read_tiles(paths), VOXEL.with_(zeta=0.02)).planes.n_points[0]
@@ -160,7 +160,7 @@ def test_a_binary_ply_with_normals_streams_as_it_measures_in_memory(tmp_path):
     path = tmp_path / "scene.ply"
     PlyData([PlyElement.describe(vertex, "vertex")]).write(str(path))
     memory = measure(read_cloud(path), VOXEL.with_(zeta=0.02)).planes
-    streamed = measure_stream([path], VOXEL.with_(zeta=0.02), chunk_points=7_000).planes
+    streamed = stream_planes([path], VOXEL.with_(zeta=0.02), chunk_points=7_000).planes
     assert_same_planes(memory, streamed)
     assert np.allclose(memory.facing, streamed.facing, atol=1e-6)  # the sums of normals, added in another order
 
@@ -213,7 +213,7 @@ def test_the_noise_read_on_drawn_voxels_is_the_same_streamed(tiled, monkeypatch)
     paths, _, every_voxel = tiled
     monkeypatch.setattr(auto, "NOISE_SAMPLE_POINTS", 10_000)  # the 120k-point cloud draws
     drawn = choose_params(read_tiles(paths).local, VOXEL).params
-    streamed = measure_stream(paths, VOXEL, auto={}, chunk_points=9_000)
+    streamed = stream_planes(paths, VOXEL, auto={}, chunk_points=9_000)
     assert streamed.params == drawn
     assert drawn.zeta == pytest.approx(every_voxel.zeta, rel=0.05)
 

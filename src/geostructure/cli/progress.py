@@ -30,6 +30,9 @@ LABELS = {
     "keep": "The filter on every point",
     "route": "Cutting into tiles",
     "tiles": "Facets in tiles",
+    "sets": "Joint sets",
+    "spacing and persistence": "Spacing and persistence",
+    "traces": "Fracture traces",
 }
 
 

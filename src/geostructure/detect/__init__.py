@@ -9,7 +9,7 @@ from geostructure.core.lazy import lazy_names
 #: Public name -> the module of this package that defines it.
 _PUBLIC = {
     "measure": "pipeline",
-    "Result": "pipeline",
+    "Measurement": "pipeline",
     "choose_params": "auto",
     "detect_facets": "facets",
 }

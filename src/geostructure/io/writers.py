@@ -290,7 +290,7 @@ def write_outputs(result, outdir, extra: dict | None = None, *, inputs=()) -> di
 
     Parameters
     ----------
-    result : Result
+    result : Measurement
     outdir : str or Path
     extra : dict, optional
         More entries for ``run.json``.

@@ -8,14 +8,22 @@ from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
 from geostructure.io.crs import given_crs, true_north_frame
 from geostructure.io.readers import DEFAULT_MESH_SAMPLES
-from geostructure.stream.engine import DEFAULT_CHUNK_POINTS, StreamResult, measure_spill
+from geostructure.stream.engine import DEFAULT_CHUNK_POINTS, StreamedMeasurement, spill_planes
 from geostructure.stream.executor import DaskExecutor, SerialExecutor
 from geostructure.stream.source import Spill, spill_inputs
 
-__all__ = ["DaskExecutor", "SerialExecutor", "Spill", "StreamResult", "measure_spill", "measure_stream", "spill_inputs"]
+__all__ = [
+    "DaskExecutor",
+    "SerialExecutor",
+    "Spill",
+    "StreamedMeasurement",
+    "spill_planes",
+    "stream_planes",
+    "spill_inputs",
+]
 
 
-def measure_stream(
+def stream_planes(
     paths,
     params: Params = Params(detector="voxel"),
     frame: Frame = Frame(),
@@ -29,11 +37,11 @@ def measure_stream(
     mesh_samples: int | None = DEFAULT_MESH_SAMPLES,
     crs: str | None = None,
     true_north: bool = False,
-) -> StreamResult:
+) -> StreamedMeasurement:
     """Measure the files ``paths`` (tiles of one survey) without holding their points.
 
     The files are read chunk by chunk into a spill file in ``spill_dir`` (a temporary
-    folder by default, removed afterwards), then measured by :func:`.engine.measure_spill`,
+    folder by default, removed afterwards), then measured by :func:`.engine.spill_planes`,
     whose parameters these are. ``crs``, when given, is the survey's (over any its files
     declare); with ``true_north``, a projected survey's azimuths are read against true north
     (:func:`~geostructure.io.crs.true_north_frame`, recorded in the result's ``north``).
@@ -43,7 +51,7 @@ def measure_stream(
     paths : sequence of paths
         The survey's files.
     params, frame, auto, chunk_points, executor, progress, writers
-        As :func:`~geostructure.stream.engine.measure_spill` takes them.
+        As :func:`~geostructure.stream.engine.spill_planes` takes them.
     spill_dir : path, optional
         Where the points are spilled (the temporary folder by default).
     mesh_samples : int or None
@@ -55,7 +63,7 @@ def measure_stream(
 
     Returns
     -------
-    StreamResult
+    StreamedMeasurement
 
     Examples
     --------
@@ -65,7 +73,7 @@ def measure_stream(
     >>> cloud = observatory_scene(40_000, seed=1).cloud
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
     >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
-    >>> result = measure_stream([path], chunk_points=10_000)
+    >>> result = stream_planes([path], chunk_points=10_000)
     >>> len(result) >= 5, result.engine
     (True, 'stream')
     """
@@ -76,7 +84,7 @@ def measure_stream(
     if true_north:
         frame, north = true_north_frame(frame, spill.crs, spill.lower, spill.upper)
     try:
-        result = measure_spill(
+        result = spill_planes(
             spill,
             params,
             frame,

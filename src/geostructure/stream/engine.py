@@ -48,8 +48,8 @@ DEFAULT_CHUNK_POINTS = 2_000_000
 
 
 @dataclass
-class StreamResult:
-    """What a streamed run found: :class:`~geostructure.detect.pipeline.Result` less its per-point
+class StreamedMeasurement:
+    """What a streamed run found: :class:`~geostructure.detect.pipeline.Measurement` less its per-point
     arrays (the point outputs hold them). ``cloud`` holds no points: its offset, CRS and grid.
 
     Parameters
@@ -80,11 +80,11 @@ class StreamResult:
     >>> import tempfile, pathlib
     >>> from geostructure.synthetic import observatory_scene
     >>> from geostructure.io.laz import write_laz
-    >>> from geostructure.stream import measure_stream
+    >>> from geostructure.stream import stream_planes
     >>> cloud = observatory_scene(40_000, seed=1).cloud
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
     >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
-    >>> result = measure_stream([path], chunk_points=10_000)
+    >>> result = stream_planes([path], chunk_points=10_000)
     >>> len(result) == len(result.planes), result.params.detector
     (True, 'voxel')
     """
@@ -110,7 +110,7 @@ class StreamResult:
         return len(self.planes)
 
 
-def measure_spill(
+def spill_planes(
     spill: Spill,
     params: Params = Params(detector="voxel"),
     frame: Frame = Frame(),
@@ -120,7 +120,7 @@ def measure_spill(
     executor=None,
     progress=None,
     writers=(),
-) -> StreamResult:
+) -> StreamedMeasurement:
     """Measure a spilled survey (:func:`~.source.spill_inputs`) in passes over its chunks.
 
     Parameters
@@ -144,7 +144,7 @@ def measure_spill(
 
     Returns
     -------
-    StreamResult
+    StreamedMeasurement
 
     Examples
     --------
@@ -156,7 +156,7 @@ def measure_spill(
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
     >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
     >>> spill = spill_inputs([path], rows=10_000)
-    >>> len(measure_spill(spill, chunk_points=10_000)) >= 5
+    >>> len(spill_planes(spill, chunk_points=10_000)) >= 5
     True
     >>> spill.close()
     """
@@ -226,7 +226,7 @@ def measure_spill(
 
     planes = plane_table(regions, frame, normal_sums, (voxels.normal, plane_of_voxel), spill.offset, standard_errors)
     seconds["orientation"] = time.perf_counter() - t
-    return StreamResult(
+    return StreamedMeasurement(
         cloud=spill.cloud(),
         params=params,
         frame=frame,

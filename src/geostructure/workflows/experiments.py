@@ -11,7 +11,7 @@ from pathlib import Path
 
 from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
-from geostructure.detect.pipeline import Result, measure
+from geostructure.detect.pipeline import Measurement, measure
 from geostructure.evaluation.groundtruth import Evaluation, match_scene
 from geostructure.evaluation.sweep import plot_sweep, rows_as_dicts
 from geostructure.evaluation.sweep import run_sweep as sweep
@@ -26,7 +26,7 @@ from geostructure.workflows.saving import save_measurement
 class DemoRun:
     """What :func:`run_demo` measured, how it matched the scene's surfaces, and the files."""
 
-    result: Result
+    result: Measurement
     match: Evaluation
     paths: dict = field(default_factory=dict)
 

@@ -11,7 +11,8 @@ as :data:`STAGES` runs them (each calls the library's own functions):
 3. the planes (:func:`~geostructure.detect.pipeline.measure`);
 4. with ``sets``: the joint sets and the rock mass (:func:`~geostructure.workflows.sets_and_mass.sets_and_rock_mass`), and
    the notes on what the face hides;
-5. with ``kinematics``: the slope fitted to the face (:func:`~geostructure.kinematics.slope.fit_face`)
+5. with ``sets``: the fracture traces (:func:`~geostructure.workflows.sets_and_mass.rock_traces`);
+6. with ``kinematics``: the slope fitted to the face (:func:`~geostructure.kinematics.slope.fit_face`)
    unless given, and the tests on the planes and sets held
    (:func:`~geostructure.workflows.kinematics.kinematic_tests`); :meth:`OutcropRun.save` writes
    their files with the rest.
@@ -43,7 +44,7 @@ from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
 from geostructure.core.strays import MIN_NEIGHBOURS, STRAY_RADIUS_SPACINGS, stray_points
 from geostructure.detect.auto import choose_params
-from geostructure.detect.pipeline import Result, check_measurable, measure
+from geostructure.detect.pipeline import Measurement, check_measurable, measure
 from geostructure.errors import GeoStructureNote, GeoStructureWarning
 from geostructure.io.crs import cloud_unit, describe_north, given_crs, note_unstated_unit, true_north_frame
 from geostructure.io.survey_files import read_tiles
@@ -55,7 +56,7 @@ from geostructure.rockmass.notes import note_bent_face, note_tilt_unread, note_v
 from geostructure.rockmass.sets import JointSets
 from geostructure.workflows.kinematics import kinematic_tests, write_kinematic_files
 from geostructure.workflows.saving import save_measurement
-from geostructure.workflows.sets_and_mass import detected_spacing, sets_and_rock_mass
+from geostructure.workflows.sets_and_mass import detected_spacing, rock_traces, sets_and_rock_mass
 
 #: The factors the automatic choice sets, unless given.
 FACTORS = ("zeta", "theta", "psi", "k")
@@ -72,7 +73,7 @@ class OutcropRun:
 
     Parameters
     ----------
-    result : Result
+    result : Measurement
         The measure.
     sets : JointSets, optional
         The joint sets.
@@ -102,7 +103,7 @@ class OutcropRun:
     ['kinematics', 'kinematics_json', 'kinematics_png']
     """
 
-    result: Result
+    result: Measurement
     sets: JointSets | None = None
     rock: RockMass | None = None
     kinematic_options: dict | None = None
@@ -307,26 +308,38 @@ def _planes(m: _Measuring) -> None:
 
 
 def _sets(m: _Measuring) -> None:
-    """With ``sets``: the joint sets and the rock mass (the fracture traces drawn with it),
-    and the notes on what the face hides."""
+    """With ``sets``: the joint sets and the rock mass, and the notes on what the face hides."""
     if not m.options["sets"]:
         return
     run, cloud = m.measured, m.cloud
     result = run.result
     if m.crs is None and m.unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
         note_unstated_unit(detected_spacing(result.detection), cloud.source)
+    # The traces are the next stage's (_traces).
     run.sets, run.rock = sets_and_rock_mass(result.filtered.local, result.labels, result.planes, result.frame,
                                             m.options["n_sets"], m.report,
                                             errors=result.planes.standard_errors(),  # as measured: no tilt yet
                                             spacing=detected_spacing(result.detection),
                                             metres_per_unit=cloud_unit(m.crs, m.unit)["metres"],
                                             vegetation=result.filtered.vegetation,
-                                            grey=result.filtered.grey)  # fmt: skip
+                                            traces=False)  # fmt: skip
     rock = run.rock
     note_vegetation(result.filtered.vegetation, rock, cloud.source)
     note_voxel_planes(m.params.detector, cloud.source)
     note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
     note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
+
+
+def _traces(m: _Measuring) -> None:
+    """With ``sets``: the face's fracture traces (the planes' and the dark lines), each in
+    its set, which the rock mass's trace columns read."""
+    run = m.measured
+    if run.sets is None or run.rock is None:  # without sets, no traces
+        return
+    result = run.result
+    m.report("traces")
+    run.rock.traces = rock_traces(result.filtered.local, result.labels, result.planes, run.sets, run.rock,
+                                  result.filtered.grey)  # fmt: skip
 
 
 def _kinematics(m: _Measuring) -> None:
@@ -355,7 +368,7 @@ def _kinematics(m: _Measuring) -> None:
 
 #: The stages of :func:`measure_outcrop`, in order (as MintPy keeps its ``STEP_LIST``): each
 #: takes what the ones before it handed on. A new stage goes here.
-STAGES = (("place", _place), ("planes", _planes), ("sets", _sets), ("kinematics", _kinematics))
+STAGES = (("place", _place), ("planes", _planes), ("sets", _sets), ("traces", _traces), ("kinematics", _kinematics))
 
 
 def without_strays(cloud: Cloud) -> Cloud:

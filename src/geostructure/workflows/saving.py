@@ -52,7 +52,7 @@ def save_measurement(
 
     Parameters
     ----------
-    result : Result
+    result : Measurement
         What :func:`~geostructure.measure` found.
     outdir : str or Path
         The output folder; its previous GeoStructure set is replaced as a whole.

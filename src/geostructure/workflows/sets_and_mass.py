@@ -70,6 +70,7 @@ def plane_rock_mass(
     metres_per_unit: float = 1.0,
     metric=None,
     grey=None,
+    traces: bool = True,
 ) -> RockMass:
     """Spacing, persistence and intensity of the sets of a plane table (:func:`~geostructure.rockmass.mass.rock_mass`).
 
@@ -102,6 +103,9 @@ def plane_rock_mass(
         The points' brightness (:attr:`~geostructure.core.cloud.Cloud.grey`): the dark lines
         among the traces (:func:`~geostructure.rockmass.tracemaps.face_traces`); the planes'
         traces alone without it.
+    traces : bool
+        Draw the fracture traces too (:func:`rock_traces`); without, ``rock.traces`` is None
+        until a later stage draws them.
     """
     up = frame.matrix[2]
     if errors is None:
@@ -111,9 +115,18 @@ def plane_rock_mass(
                      parts=parts)  # fmt: skip
     rock.plane_errors = with_correlated_tilt(errors, rock.correlated_tilt, planes.normal, up)
     rock.metres_per_unit = float(metres_per_unit)
-    tested = ~(sets_left_out(planes, rock))
-    rock.traces = face_traces(points, labels, planes, sets, rock.point_part, grey, tested)
+    if traces:
+        rock.traces = rock_traces(points, labels, planes, sets, rock, grey)
     return rock
+
+
+def rock_traces(points, labels, planes: Planes, sets: JointSets, rock: RockMass, grey=None):
+    """The face's fracture traces (:func:`~geostructure.rockmass.tracemaps.face_traces`) of
+    the discontinuities alone (no ground, clutter or face surface, :func:`sets_left_out`),
+    the dark lines on the face's own points, each in a set of ``sets``; ``points``,
+    ``labels`` and ``grey`` as :func:`plane_rock_mass` takes them."""
+    tested = ~sets_left_out(planes, rock)
+    return face_traces(points, labels, planes, sets, rock.point_part, grey, tested)
 
 
 def sets_left_out(planes: Planes, rock: RockMass) -> np.ndarray:
@@ -139,6 +152,7 @@ def sets_and_rock_mass(
     metres_per_unit: float = 1.0,
     vegetation=None,
     grey=None,
+    traces: bool = True,
 ) -> tuple[JointSets, RockMass]:
     """:func:`plane_sets`, then :func:`plane_rock_mass` (``errors`` as it takes them); the
     exposure's grid, which needs the points alone, is made in a thread meanwhile (its
@@ -148,7 +162,7 @@ def sets_and_rock_mass(
     spares the exposure reading it again. ``metres_per_unit``: as :func:`plane_rock_mass`
     takes it. ``vegetation``: the points the input classifies so, clutter
     (:func:`~geostructure.rockmass.face.face_parts`). ``grey``: the points' brightness, for
-    the traces' dark lines.
+    the traces' dark lines; ``traces``: as :func:`plane_rock_mass` takes it.
 
     Examples
     --------
@@ -172,7 +186,7 @@ def sets_and_rock_mass(
         sets = plane_sets(planes, frame, n_sets, metres_per_unit=f, leave_out=leave_out)
         report("spacing and persistence")
         rock = plane_rock_mass(points, labels, planes, sets, frame, face=face.result(), parts=parts, errors=errors,
-                               metres_per_unit=f, metric=metric, grey=grey)  # fmt: skip
+                               metres_per_unit=f, metric=metric, grey=grey, traces=traces)  # fmt: skip
     return sets, rock
 
 

@@ -11,7 +11,7 @@ The engines, in the order :func:`measure_survey` tries them:
    for memory: the survey thinned to what fits (:mod:`geostructure.workflows.thinned`),
    measured in memory, every point labelled;
 3. ``stream`` or ``dask``: the voxel detector chunk by chunk
-   (:func:`~geostructure.stream.measure_stream`), the point files written as the chunks go.
+   (:func:`~geostructure.stream.stream_planes`), the point files written as the chunks go.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 
 from geostructure.core.orientation import Frame
 from geostructure.core.params import Params
-from geostructure.detect.pipeline import Result
+from geostructure.detect.pipeline import Measurement
 from geostructure.detect.registry import STREAMED_DETECTOR, detector_spec
 from geostructure.errors import GeoStructureNote
 from geostructure.evaluation.groundtruth import Evaluation, evaluate
@@ -34,8 +34,8 @@ from geostructure.io.readers import DEFAULT_MESH_SAMPLES
 from geostructure.io.survey_files import describe, read_tiles
 from geostructure.io.truth import read_truth
 from geostructure.io.writers import write_result
-from geostructure.stream import DaskExecutor, SerialExecutor, measure_stream
-from geostructure.stream.engine import StreamResult
+from geostructure.stream import DaskExecutor, SerialExecutor, stream_planes
+from geostructure.stream.engine import StreamedMeasurement
 from geostructure.stream.output import RegionsLaz, RegionsPly
 from geostructure.workflows.advice import say_after
 from geostructure.workflows.engine_choice import check_engine_options, choose_engine, chunk_points, measures_in_memory
@@ -52,7 +52,7 @@ class SurveyRun:
     ----------
     engine : str
         The engine that measured it: ``memory``, ``stream`` or ``dask``.
-    result : Result or StreamResult
+    result : Measurement or StreamedMeasurement
         The planes, counts and the frame used.
     outcrop : OutcropRun, optional
         In memory (and on a thinned survey): the measure with its sets, rock mass and
@@ -67,7 +67,7 @@ class SurveyRun:
     """
 
     engine: str
-    result: Result | StreamResult | None = None
+    result: Measurement | StreamedMeasurement | None = None
     outcrop: OutcropRun | None = None
     evaluation: Evaluation | None = None
     record: dict = field(default_factory=dict)
@@ -249,7 +249,7 @@ def _measure_streamed(
     try:
         with output_set(outdir, inputs=inputs) as outputs:
             writers = [RegionsPly(outputs.path("regions.ply")), RegionsLaz(outputs.path("regions.laz"))]
-            result = measure_stream(
+            result = stream_planes(
                 paths,
                 params,
                 frame,
