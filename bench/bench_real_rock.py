@@ -14,8 +14,8 @@ Each is scored by the data's rule (``geostructure.evaluation.mapcheck``): mapped
 (a plane's centroid within 0.6 m, its normal within 10 degrees), precision (the share of
 the planes that match one), and each published set's angle to the nearest set found; and
 GeoStructure's traces by the data's trace rule, the null model's score beside them, with the
-seconds the dark lines take. It prints seconds, points per second, peak memory and the ratio
-of the peer's time to ours.
+seconds the traces' stage takes beside the planes' stages (``run.json``'s). It prints
+seconds, points per second, peak memory and the ratio of the peer's time to ours.
 
     python bench/bench_real_rock.py
 """
@@ -49,30 +49,30 @@ def scores(found: dict) -> dict:
             "set_errors_deg": {k: round(e, 1) for k, e in errors.items()}}  # fmt: skip
 
 
+#: The measure's stages that find the planes, as ``run.json``'s ``seconds`` names them.
+PLANE_STAGES = ("auto", "filter", "voxel", "regions", "planes", "orientation")
+
+
 def trace_scores(outdir: Path) -> dict:
     """``evaluate --fractures`` on the run's traces (the data's trace rule, its null model beside),
-    and the seconds the traces take on the folder's points against the whole measure's."""
-    import time
+    and what the traces' stage took against the planes' stages, as the run timed them."""
+    import json
 
-    from geostructure.detect.traces import find_traces
     from geostructure.evaluation.scoring import add_validation
-    from geostructure.io.results import read_grey, read_regions
 
     summary, _ = add_validation(outdir, DATA / "fit_planes.csv", set_means=DATA / "set_means.csv",
                                 fracture_sets=DATA / "set_labels.csv")  # fmt: skip
     t = summary["traces"]
-    points, _, _ = read_regions(outdir)
-    points -= points.mean(axis=0)
-    grey = read_grey(outdir)
-    start = time.perf_counter()
-    find_traces(points, grey=grey)  # the dark lines, the traces' costly part
-    dark_seconds = time.perf_counter() - start
+    seconds = json.loads((outdir / "run.json").read_text())["seconds"]
+    planes = sum(seconds.get(stage, 0.0) for stage in PLANE_STAGES)
     sets = {k: f"{v['found_chord_sum']:.1f}/{v['mapped_chord_sum']:.1f} m, median {v['found_chord_median']:.2f}/"
                f"{v['mapped_chord_median']:.2f} m" for k, v in t.get("sets", {}).items()}  # fmt: skip
     return {"traces": t["found"], "traced": f"{t['traced']}/432", "trace_precision": round(t["trace_precision"], 3),
             "null": f"{t['null_traced']} at {t['null_precision']:.3f}", "found_by_plane_or_trace":
             t["found_by_plane_or_trace"], "chords_found_over_map": sets,
-            "dark_line_seconds": round(dark_seconds, 2)}  # fmt: skip
+            "planes_seconds": round(planes, 2), "sets_seconds": round(seconds.get("sets", 0.0), 2),
+            "traces_seconds": round(seconds.get("traces", 0.0), 2),
+            "traces_over_planes": round(seconds.get("traces", 0.0) / planes, 2) if planes else None}  # fmt: skip
 
 
 def main() -> None:

@@ -191,9 +191,10 @@ def _measured(tmp_path, name, points, rgb, fractures, means):
 def test_one_outcrop_one_answer_turned_or_inside_a_survey(lastoni, tmp_path):
     """The SW half turned 37 degrees about the vertical (its map turned with it), and inside a
     survey of four copies of itself 1 m apart, against the half alone. Measured: matched
-    125 alone, 126 turned, 116 among copies; traced 42, 50 and 48. The planes hold within 8%;
-    the traces' count moves more, with the planes and sets upstream of them (the dark lines
-    themselves are the same to the bit when the same points are turned: test_fracture_traces.py)."""
+    125 alone, 128 turned, 124 among copies (116 while the regions' size was a share of the
+    survey's points); traced 42, 50 and 48. The planes hold within 5%; the traces' count
+    moves more, with the planes and sets upstream of them (the dark lines themselves are the
+    same to the bit when the same points are turned: test_fracture_traces.py)."""
     _, alone = lastoni
     table = np.loadtxt(shared_file(f"{SW}/Lastoni_SW_3cm.txt"))
     xyz, rgb = table[:, :3], table[:, 3:]
@@ -215,7 +216,7 @@ def test_one_outcrop_one_answer_turned_or_inside_a_survey(lastoni, tmp_path):
     survey = _measured(tmp_path, "survey", copies, np.tile(rgb, (4, 1)), shared_file(f"{SW}/fit_planes.csv"),
                        shared_file(f"{SW}/set_means.csv"))  # fmt: skip
     for other in (turned, survey):
-        assert abs(other["matched"] - alone["matched"]) <= 0.08 * alone["matched"], (other["matched"], alone)
+        assert abs(other["matched"] - alone["matched"]) <= 0.05 * alone["matched"], (other["matched"], alone)
         assert abs(other["traces"]["traced"] - alone["traces"]["traced"]) <= 0.3 * alone["traces"]["traced"]
         assert max(other["set_errors_deg"].values()) <= 12.0, other["set_errors_deg"]
 

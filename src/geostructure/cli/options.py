@@ -140,7 +140,10 @@ def add_measure_options(p: argparse.ArgumentParser, auto_default: bool = True) -
     a.add_argument("--psi", type=finite_float, help=f"offset threshold, voxel edges (fixed default {defaults.psi})")
     a.add_argument("--k", type=whole_number(1, MAX_K), help=f"neighbours per seed (fixed default {defaults.k})")
     a.add_argument(
-        "--min-points", type=int, default=None, help="smallest region reported (default: 0.1%% of points, >= 30)"
+        "--min-points",
+        type=int,
+        default=None,
+        help="smallest region reported (default: 30; with --detector voxel 0.1%% of points, >= 30)",
     )
     a.add_argument(
         "--filter",

@@ -26,8 +26,10 @@ from geostructure.errors import ParameterError
 
 
 def facet_min_points(n_points: int) -> int:
-    """Facets grown on the points: 30 whatever the cloud's size (a facet some 6 point
-    spacings across, so joints down to 10 spacings are found)."""
+    """Facets grown on the points, and the regions the facet detector grows over voxel
+    planes beside them: 30 whatever the cloud's size (a facet some 6 point spacings across,
+    so joints down to 10 spacings are found), so that an outcrop measures the same alone or
+    inside a larger survey."""
     return 30
 
 

@@ -313,6 +313,7 @@ def _sets(m: _Measuring) -> None:
         return
     run, cloud = m.measured, m.cloud
     result = run.result
+    t = time.perf_counter()
     if m.crs is None and m.unit is None and cloud.enu_origin is None:  # a reconstruction knows its scale
         note_unstated_unit(detected_spacing(result.detection), cloud.source)
     # The traces are the next stage's (_traces).
@@ -328,6 +329,7 @@ def _sets(m: _Measuring) -> None:
     note_voxel_planes(m.params.detector, cloud.source)
     note_bent_face(rock.face_bend, cloud.source, rock.face_sections)
     note_tilt_unread(rock.tilt_facets_short, cloud.source, rock.tilt_facets_along)
+    result.seconds["sets"] = time.perf_counter() - t
 
 
 def _traces(m: _Measuring) -> None:
@@ -338,8 +340,10 @@ def _traces(m: _Measuring) -> None:
         return
     result = run.result
     m.report("traces")
+    t = time.perf_counter()
     run.rock.traces = rock_traces(result.filtered.local, result.labels, result.planes, run.sets, run.rock,
                                   result.filtered.grey)  # fmt: skip
+    result.seconds["traces"] = time.perf_counter() - t
 
 
 def _kinematics(m: _Measuring) -> None:
