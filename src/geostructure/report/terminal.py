@@ -262,10 +262,14 @@ def print_evaluation(evaluation, console: Console | None = None) -> None:
             f"{s.normal_error_deg:.2f} deg" if s.found else "-",
         )
     console.print(table)
+    errors = (
+        f"normal error mean {evaluation.mean_error:.2f} deg, max {evaluation.max_error:.2f} deg; "
+        if evaluation.n_found
+        else ""  # no surface found: no error to average
+    )
     console.print(
         f"z(R) = {evaluation.z:.4f} as printed in the paper, {evaluation.z_wrapped:.4f} wrap-aware; "
-        f"normal error mean {evaluation.mean_error:.2f} deg, max {evaluation.max_error:.2f} deg; "
-        f"{evaluation.n_found} of {len(evaluation.surfaces)} surfaces found"
+        f"{errors}{evaluation.n_found} of {len(evaluation.surfaces)} surfaces found"
     )
 
 
