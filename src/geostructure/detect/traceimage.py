@@ -157,11 +157,14 @@ def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray]:
     return np.where(image.inside, strength * sigma**2, 0.0), across
 
 
-def line_pixels(strength: np.ndarray, across: np.ndarray, inside: np.ndarray) -> np.ndarray:
-    """The thinned, hysteresis-kept pixels of the lines (see the module)."""
+def line_pixels(
+    strength: np.ndarray, across: np.ndarray, inside: np.ndarray, z: np.ndarray | None = None
+) -> np.ndarray:
+    """The thinned, hysteresis-kept pixels of the lines (see the module); ``z``, the
+    strength's :func:`robust_z`, when the caller holds it."""
     if np.count_nonzero(inside) < 16:
         return np.zeros_like(inside)
-    z = robust_z(strength, inside)
+    z = robust_z(strength, inside) if z is None else z
     rows, cols = np.meshgrid(np.arange(strength.shape[0]), np.arange(strength.shape[1]), indexing="ij")
     dr, dc = np.cos(across), np.sin(across)
     ahead = ndimage.map_coordinates(strength, [rows + dr, cols + dc], order=1, mode="nearest")
@@ -336,8 +339,8 @@ def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord
 def _lines(image: PatchImage, min_chord: float) -> tuple[list, list]:
     """Every line piece of an image, with its contrast (the module's steps)."""
     strength, across = ridge_strength(image)
-    mask = line_pixels(strength, across, image.inside)
     z = robust_z(strength, image.inside)
+    mask = line_pixels(strength, across, image.inside, z)
     pieces, mean_z = [], []
     for chain in pixel_chains(mask, JOIN_GAP * PIXELS_PER_SPACING):
         for piece in straight_pieces(chain, STRAIGHT_TOLERANCE * PIXELS_PER_SPACING):

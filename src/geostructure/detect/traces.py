@@ -150,13 +150,14 @@ def plane_traces(points, tree, labels, plane_normals, tested, spacing: float) ->
     out = []
     order = np.argsort(labels, kind="stable")
     sorted_labels = labels[order]
-    for plane in np.flatnonzero(tested):
-        a, b = np.searchsorted(sorted_labels, [plane, plane + 1])
+    planes = np.flatnonzero(tested)
+    bounds = np.searchsorted(sorted_labels, np.column_stack([planes, planes + 1]))
+    big = bounds[:, 1] - bounds[:, 0] >= 3  # three points or more make a centre worth a trace
+    planes, bounds = planes[big], bounds[big]
+    centres = np.array([points[order[a:b]].mean(axis=0) for a, b in bounds]).reshape(-1, 3)
+    surfaces = surface_normals(points, tree, centres)  # one query for every plane's centre
+    for plane, (a, b), centre, surface in zip(planes, bounds, centres, surfaces):
         mine = points[order[a:b]]
-        if len(mine) < 3:
-            continue
-        centre = mine.mean(axis=0)
-        surface = surface_normals(points, tree, centre[None])[0]
         line = np.cross(plane_normals[plane], surface)
         if np.linalg.norm(line) < np.sin(np.radians(MIN_CUT_DEG)):
             continue  # the plane lies along the surface: no trace line
