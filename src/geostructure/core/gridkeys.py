@@ -13,7 +13,9 @@ from functools import partial
 
 import numpy as np
 
+from geostructure.core.bounds import column_max
 from geostructure.core.threads import MIN_ROWS_PER_THREAD, run_blocks, run_tasks, task_workers
+from geostructure.errors import ParameterError
 
 #: Index pairs of the 6 distinct entries of a symmetric 3x3 matrix.
 _I, _J = np.triu_indices(3)
@@ -178,3 +180,24 @@ def binned_sums(rel: np.ndarray, inverse: np.ndarray, n: int) -> tuple[np.ndarra
 
     run_tasks([partial(sum_columns, columns[k::workers]) for k in range(workers)], workers=workers)
     return sums, products
+
+
+#: Voxels along one axis at most: three such indices pack into one int64 code (unique_keys).
+MAX_CELLS_PER_AXIS = 2**20
+
+
+def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarray:
+    """Integer voxel index (i, j, k) of every point."""
+    check_voxel_count(points, edge, origin)
+    return np.floor((points - origin) / edge).astype(np.int64)
+
+
+def check_voxel_count(points: np.ndarray, edge: float, origin: np.ndarray) -> None:
+    """Refuse an edge that makes more than :data:`MAX_CELLS_PER_AXIS` voxels along an axis."""
+    if len(points):
+        cells = float(np.max(column_max(points) - np.asarray(origin, float))) / edge if edge > 0 else np.inf
+        if not cells <= MAX_CELLS_PER_AXIS:
+            raise ParameterError(
+                f"a voxel edge of {edge:.3g} is too small for a cloud this size (more than "
+                f"{MAX_CELLS_PER_AXIS:,} voxels along an axis); take a larger zeta."
+            )

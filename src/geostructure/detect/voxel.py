@@ -12,8 +12,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from geostructure.core.bounds import column_max, column_min
-from geostructure.core.gridkeys import binned_sums, floor_index, unique_key_rows, unique_keys
-from geostructure.errors import ParameterError
+from geostructure.core.gridkeys import (
+    binned_sums,
+    check_voxel_count,
+    floor_index,
+    unique_key_rows,
+    unique_keys,
+)
 
 #: Index pairs of the 6 distinct entries of a symmetric 3x3 matrix.
 _I, _J = np.triu_indices(3)
@@ -77,27 +82,6 @@ def voxel_edge(points: np.ndarray, zeta: float) -> float:
     """The voxel edge: ``zeta`` times the largest extent of the cloud (the paper's point space)."""
     extent = float(np.max(column_max(points) - column_min(points)))
     return zeta * extent
-
-
-#: Voxels along one axis at most: three such indices pack into one int64 code (unique_keys).
-MAX_CELLS_PER_AXIS = 2**20
-
-
-def voxel_keys(points: np.ndarray, edge: float, origin: np.ndarray) -> np.ndarray:
-    """Integer voxel index (i, j, k) of every point."""
-    check_voxel_count(points, edge, origin)
-    return np.floor((points - origin) / edge).astype(np.int64)
-
-
-def check_voxel_count(points: np.ndarray, edge: float, origin: np.ndarray) -> None:
-    """Refuse an edge that makes more than :data:`MAX_CELLS_PER_AXIS` voxels along an axis."""
-    if len(points):
-        cells = float(np.max(column_max(points) - np.asarray(origin, float))) / edge if edge > 0 else np.inf
-        if not cells <= MAX_CELLS_PER_AXIS:
-            raise ParameterError(
-                f"a voxel edge of {edge:.3g} is too small for a cloud this size (more than "
-                f"{MAX_CELLS_PER_AXIS:,} voxels along an axis); take a larger zeta."
-            )
 
 
 def voxel_counts(points: np.ndarray, edge: float, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -29,6 +29,7 @@ import numpy as np
 from geostructure.core.orientation import Frame
 from geostructure.core.params import ParameterWarning, Params
 from geostructure.core.planes import Planes
+from geostructure.core.voxeltable import VoxelTable
 from geostructure.detect.auto import SAMPLE_POINTS, Occupancy, choose_from, samples_noise
 from geostructure.detect.filter import neighbourhoods
 from geostructure.detect.merge import merge_coplanar
@@ -199,7 +200,7 @@ def spill_planes(
     label_context = passes.LabelContext(
         spill.offset,
         keep,
-        passes.VoxelTable.of(voxels.keys, edge, kept_lower),
+        VoxelTable.of(voxels.keys, edge, kept_lower),
         plane_of_voxel,
         np.array([f[0] for f in fits]).reshape(-1, 3),
         np.array([f[2] for f in fits]).reshape(-1, 2, 3),
@@ -321,7 +322,7 @@ class _Run:
                 moments = self.moments(edge, self.lower)
             context.blocks = neighbourhoods(moments)
             context.typical = context.blocks.typical_support()
-            context.table = passes.VoxelTable.of(moments.keys, edge, self.lower)
+            context.table = VoxelTable.of(moments.keys, edge, self.lower)
         elif method == "global":
             n, s, ss = 0, np.zeros(3), np.zeros((3, 3))
             for part in self.map(passes.chunk_sums, self.offset):

@@ -15,6 +15,7 @@ from geostructure.io.atomic import write_columns_csv, write_figure, write_json, 
 from geostructure.io.crs import recorded_unit
 from geostructure.io.outdir import KINEMATICS_FILES, REPORT_FILES, output_set
 from geostructure.io.results import read_planes, read_sets
+from geostructure.io.thinned_folder import read_measured
 from geostructure.kinematics.catalog import PLANE_TEST_COLUMNS
 from geostructure.kinematics.modes import LATERAL_LIMIT, UNIT_WEIGHT, Slope
 from geostructure.kinematics.slope import FittedFace, fit_face
@@ -22,7 +23,6 @@ from geostructure.kinematics.summary import kinematics_of
 from geostructure.report.kinematics_plot import kinematics_result_figure
 from geostructure.rockmass.face import face_members
 from geostructure.rockmass.notes import bent_slope, gentle_slope, note_of, sectioned_slope, warn_of
-from geostructure.stream.thin import read_measured
 
 
 def add_kinematics(outdir, friction: float, **options):

@@ -22,6 +22,7 @@ from geostructure.io.exports import write_table
 from geostructure.io.laz import add_point_sets
 from geostructure.io.outdir import REPORT_FILES, SETS_FILES, OutputSet, output_set
 from geostructure.io.results import read_grey, read_planes, read_sets
+from geostructure.io.thinned_folder import FOLDER_ROWS, cell_point_sets, point_set_values, read_measured
 from geostructure.io.writers import rewrite_regions_ply, write_plane_tables, write_result
 from geostructure.reconstruct.georef import unscaled
 from geostructure.rockmass.mass import RockMass, with_rock_mass
@@ -29,7 +30,6 @@ from geostructure.rockmass.notes import note_bent_face, note_tilt_unread, note_v
 from geostructure.rockmass.sets import JointSets
 from geostructure.rockmass.tables import rock_mass_tables, sets_record
 from geostructure.stream.output import rewrite_regions_laz
-from geostructure.stream.thin import FOLDER_ROWS, cell_point_sets, point_set_values, read_measured
 from geostructure.workflows.sets_and_mass import detected_spacing, sets_and_rock_mass
 
 
