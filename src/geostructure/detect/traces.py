@@ -62,7 +62,9 @@ class Traces:
     """Traces as polylines: ``vertices`` (V, 3) in the cloud's local coordinates, trace ``k``
     from ``start[k]`` to ``start[k + 1]``; per trace its ``source`` (:data:`PLANE` or
     :data:`DARK_LINE`), the plane's ``region_id`` (-1 for a dark line), its ``set`` (-1: none)
-    and its fitted plane's unit ``normal`` (NaN where none was fitted)."""
+    and its fitted plane's unit ``normal`` (NaN where none was fitted); ``censored_ends``,
+    how many of its two ends lie at the exposure's edge, where it may run on out of sight
+    (:func:`~geostructure.rockmass.tracemaps.censored_ends`; 0 until the rock mass reads it)."""
 
     vertices: np.ndarray
     start: np.ndarray
@@ -72,6 +74,7 @@ class Traces:
     normal: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     n_points: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     contrast: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    censored_ends: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __post_init__(self):
         n = len(self.start) - 1
@@ -83,6 +86,8 @@ class Traces:
             self.n_points = np.zeros(n, dtype=np.int64)
         if len(self.contrast) != n:
             self.contrast = np.full(n, np.nan)
+        if len(self.censored_ends) != n:
+            self.censored_ends = np.zeros(n, dtype=np.int64)
 
     def __len__(self) -> int:
         return len(self.start) - 1
@@ -120,7 +125,7 @@ class Traces:
         lines = self.polylines()
         out = Traces.from_polylines([lines[k] for k in keep], list(self.source[keep]), list(self.region_id[keep]))
         out.set, out.normal, out.n_points = self.set[keep], self.normal[keep], self.n_points[keep]
-        out.contrast = self.contrast[keep]
+        out.contrast, out.censored_ends = self.contrast[keep], self.censored_ends[keep]
         return out
 
 

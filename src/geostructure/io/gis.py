@@ -127,7 +127,7 @@ def write_gpkg(planes, path, crs: str | None = None, enu_origin=None, traces=Non
     """``planes.gpkg``: layers ``planes`` (rectangles) and ``centroids`` (points), and with
     ``traces`` (:class:`~geostructure.detect.traces.Traces`, in the planes' local
     coordinates) a layer ``traces`` of 3-D lines (``trace_id``, ``set``, ``source``,
-    ``length``, ``chord`` in the cloud's unit), in the cloud's CRS (WGS84 for a frame about a
+    ``length``, ``chord`` in the cloud's unit, ``censored_ends``), in the cloud's CRS (WGS84 for a frame about a
     GPS origin)."""
     import shapely
     from pyogrio.raw import write as write_layer
@@ -157,7 +157,7 @@ def write_gpkg(planes, path, crs: str | None = None, enu_origin=None, traces=Non
             geometry = shapely.to_wkb(np.array([shapely.LineString(line) for line in lines]), output_dimension=3)
             columns = {"trace_id": np.arange(len(traces)), "set": traces.set.astype(np.int64),
                        "source": np.asarray(traces.source, dtype=str), "length": traces.length,
-                       "chord": traces.chord}  # fmt: skip
+                       "chord": traces.chord, "censored_ends": traces.censored_ends.astype(np.int64)}  # fmt: skip
             write_layer(tmp, geometry, list(columns.values()), list(columns), layer="traces", driver="GPKG",
                         geometry_type="LineString Z", crs=wkt)  # fmt: skip
     return Path(path)

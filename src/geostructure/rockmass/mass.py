@@ -63,6 +63,7 @@ FEW_WHOLE_TRACES_FLAG = "few_whole_traces"
 TRACE_BEYOND_EXPOSURE = "trace_longer_than_exposure"
 SPACING_FEW_GAPS = "spacing_few_gaps"
 TRACES_MOSTLY_CENSORED = "traces_mostly_censored"
+FRACTURE_TRACES_MOSTLY_CENSORED = "fracture_traces_mostly_censored"
 #: Gaps between a set's planes along the scanlines below which its spacing is a guess: an
 #: exponential mean from n gaps has a standard error of mean / sqrt(n), 45% at 5.
 MIN_SPACING_GAPS = 5
@@ -77,7 +78,8 @@ def set_flags(row: dict) -> list[str]:
     sight (the mean not measured, the length seen a lower bound), a mean resting on
     :data:`FEW_WHOLE_TRACES` or fewer whole traces, a mean longer than the exposure spans, a
     spacing from fewer than :data:`MIN_SPACING_GAPS` gaps, a mean trace from traces more than
-    :data:`MOSTLY_CENSORED` of which run out of sight.
+    :data:`MOSTLY_CENSORED` of which run out of sight, and the same of the fracture traces
+    drawn (``trace_censored`` of ``traces``: their mean with censoring leans on its model).
 
     Examples
     --------
@@ -104,6 +106,9 @@ def set_flags(row: dict) -> list[str]:
         flags.append(FEW_WHOLE_TRACES_FLAG)
     elif traces and hidden > MOSTLY_CENSORED * traces:
         flags.append(TRACES_MOSTLY_CENSORED)
+    drawn, cut = int(row.get("traces", 0) or 0), int(row.get("trace_censored", 0) or 0)
+    if drawn and cut > MOSTLY_CENSORED * drawn:
+        flags.append(FRACTURE_TRACES_MOSTLY_CENSORED)
     return flags
 
 
@@ -378,10 +383,10 @@ class RockMass:
                 # measurement, but a bound: the traces are longer than the exposure spans.
                 row["joint_trace_mean_m"] = row["joint_trace_std_error_m"] = float("nan")
                 row["persistence"] = persistence_class(self.exposure_span, at_least=True)
-            row["flags"] = ";".join(set_flags(row))
             row["spacing_class"] = spacing_class(line.spacing)
             row["n_joints"] = int(n_joints[s])
             row.update(trace_rows[s])
+            row["flags"] = ";".join(set_flags(row))  # after the traces' columns: it reads them too
             rows.append(row)
         return rows
 

@@ -23,6 +23,7 @@ from geostructure.rockmass.face import CLUTTER
 from geostructure.rockmass.mass import (
     BLOCK_SETS,
     FEW_WHOLE_TRACES,
+    FRACTURE_TRACES_MOSTLY_CENSORED,
     MIN_SPACING_GAPS,
     SPACING_FEW_GAPS,
     TRACE_BEYOND_EXPOSURE,
@@ -48,6 +49,7 @@ def set_notes(set_id: int, row: dict) -> list[str]:
         trace_beyond_exposure_note(set_id, row),
         few_gaps_note(set_id, row),
         mostly_censored_note(set_id, row),
+        censored_fracture_traces_note(set_id, row),
     )
     return [note for note in notes if note]
 
@@ -99,6 +101,30 @@ def mostly_censored_note(set_id: int, row: dict) -> str | None:
             f"({persistence_class(window)} persistence)."
         )
     return sentence
+
+
+def censored_fracture_traces_note(set_id: int, row: dict) -> str | None:
+    """A sentence when most of set ``set_id``'s fracture traces reach the exposure's edge
+    (``fracture_traces_mostly_censored``): their mean length with censoring leans on its model.
+
+    Examples
+    --------
+    >>> censored_fracture_traces_note(0, {"flags": "fracture_traces_mostly_censored", "traces": 80,
+    ...                                   "trace_censored": 50, "trace_censored_mean_m": 1.4})
+    "50 of set 0's 80 fracture traces (62%) reach the face's edge or a hole: their mean length with censoring, 1.40 m, leans on its model more than on the traces seen whole."
+    """
+    if not _flagged(row, FRACTURE_TRACES_MOSTLY_CENSORED):
+        return None
+    drawn, cut = int(float(row["traces"])), int(float(row["trace_censored"]))
+    mean = float(row.get("trace_censored_mean_m", float("nan")) or float("nan"))
+    tail = (
+        f"their mean length with censoring, {mean:.2f} m, leans on its model more than on the traces seen whole"
+        if mean == mean
+        else "none is seen end to end, so their mean length is not measured"
+    )
+    return (
+        f"{cut} of set {set_id}'s {drawn} fracture traces ({cut / drawn:.0%}) reach the face's edge or a hole: {tail}."
+    )
 
 
 def unmeasured_spacing(set_id: int, row: dict) -> str | None:

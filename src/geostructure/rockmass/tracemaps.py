@@ -15,19 +15,30 @@ from scipy.spatial import cKDTree
 from geostructure.core.orientation import orientation_from_normals
 from geostructure.detect.traces import DARK_LINE, Traces, find_traces
 from geostructure.rockmass.face import FACE
+from geostructure.rockmass.tracelengths import TraceLengths
 from geostructure.rockmass.windows import set_trace_p10, set_window_estimates
 
 #: The columns ``sets.csv`` adds per set from the traces.
-TRACE_SET_COLUMNS = ("traces", "trace_length_sum_m", "trace_chord_median_m", "trace_p21_per_m", "trace_window_radius_m",
-                     "trace_windows", "trace_window_crossings", "trace_window_ends", "trace_window_mean_m",
-                     "trace_window_p21_per_m", "trace_p10_per_m", "trace_scanline_m")  # fmt: skip
+TRACE_SET_COLUMNS = ("traces", "trace_length_sum_m", "trace_chord_median_m", "trace_p21_per_m", "trace_censored",
+                     "trace_censored_mean_m", "trace_window_radius_m", "trace_windows", "trace_window_crossings",
+                     "trace_window_ends", "trace_window_mean_m", "trace_window_p21_per_m", "trace_p10_per_m",
+                     "trace_scanline_m")  # fmt: skip
 #: The columns of ``traces.csv`` (one row a trace) and ``trace_vertices.csv`` (one row a vertex).
 TRACE_COLUMNS = ("trace_id", "set", "source", "region_id", "length_m", "chord_m", "n_vertices", "n_points",
-                 "contrast", "dip", "dip_direction", "strike", "centre_x", "centre_y", "centre_z")  # fmt: skip
+                 "censored_ends", "contrast", "dip", "dip_direction", "strike", "centre_x", "centre_y",
+                 "centre_z")  # fmt: skip
 VERTEX_COLUMNS = ("trace_id", "vertex", "x", "y", "z")
 #: A dark line over the ground or the clutter for more than this share of its length is theirs,
 #: not the rock's.
 OFF_FACE_SHARE = 0.5
+#: A trace's end within this many occupancy cells (each a few point spacings) of the
+#: exposure's edge, the cloud's border or a hole, may run on where the cloud shows nothing:
+#: that end is censored (ISRM 1978; Priest & Hudson 1981), as a joint's is. One cell, not
+#: the edge cell alone: a dark line stops two ridge scales short of its patch's border (the
+#: image's margin), which is a cell or less inside it.
+CENSOR_CELLS = 1
+#: An end this many occupancy cells or more off every section's plane lies on none of them.
+SECTION_REACH_CELLS = 16
 
 
 def face_traces(points, labels, planes, sets, point_part=None, grey=None, tested=None) -> Traces:
@@ -61,6 +72,44 @@ def face_traces(points, labels, planes, sets, point_part=None, grey=None, tested
     return traces if keep.all() else traces.subset(keep)
 
 
+def censored_ends(traces: Traces | None, exposures, metres: float = 1.0) -> np.ndarray:
+    """Per trace, how many of its two ends lie within :data:`CENSOR_CELLS` of the exposure's
+    edge (:meth:`~geostructure.rockmass.exposure.Exposure.edge`: its border and its holes),
+    or off it: 0 (seen end to end), 1 or 2. ``exposures``: the face's sections, in metres;
+    ``metres``, in one unit of the traces. Each end is read on the section whose plane lies
+    nearest it among those whose grid holds it.
+
+    Examples
+    --------
+    >>> from geostructure.rockmass.exposure import exposure
+    >>> g = np.mgrid[0:4:0.02, 0:0.03:0.01, 0:3:0.02].reshape(3, -1).T  # a wall 4 m long, 3 m high
+    >>> face = exposure(g, spacing=0.02)
+    >>> t = Traces.from_polylines([np.array([[1.0, 0, 1], [2.0, 0, 1.5]]), np.array([[3.0, 0, 1], [4.0, 0, 1.5]]),
+    ...                            np.array([[-0.01, 0, 0.5], [4.0, 0, 2.0]])], ["dark line"] * 3, [-1] * 3)
+    >>> censored_ends(t, [face]).tolist()
+    [0, 1, 2]
+    """
+    from scipy import ndimage  # imported with the exposure's edge: only with sets
+
+    if traces is None:
+        return np.zeros(0, dtype=np.int64)
+    n = len(traces)
+    if not n or not len(exposures):
+        return np.zeros(n, dtype=np.int64)
+    ends = np.concatenate([traces.vertices[traces.start[:-1]], traces.vertices[traces.start[1:] - 1]]) * metres
+    best = np.full(len(ends), np.inf)
+    at_edge = np.ones(len(ends), dtype=bool)  # on no section's grid: off the exposure
+    for face in exposures:
+        ij = np.floor((face.project(ends) - face.lower) / face.cell).astype(np.int64)
+        on_grid = ((ij >= 0) & (ij < face.occupied.shape)).all(axis=1)
+        off_plane = np.abs((ends - face.origin) @ face.normal)
+        nearer = on_grid & (off_plane < SECTION_REACH_CELLS * face.cell) & (off_plane < best)
+        near_edge = ndimage.binary_dilation(face.edge(), iterations=CENSOR_CELLS) | ~face.occupied
+        best[nearer] = off_plane[nearer]
+        at_edge[nearer] = near_edge[ij[nearer, 0], ij[nearer, 1]]
+    return at_edge[:n].astype(np.int64) + at_edge[n:].astype(np.int64)
+
+
 def trace_set_rows(
     traces: Traces | None, n_sets: int, exposure_area_m2: float, metres: float = 1.0, exposures=()
 ) -> list[dict]:
@@ -85,11 +134,15 @@ def trace_set_rows(
         mine = np.zeros(0, dtype=bool) if traces is None else traces.set == s
         length = traces.length[mine] * metres if traces is not None else np.zeros(0)
         chord = traces.chord[mine] * metres if traces is not None else np.zeros(0)
+        cut = traces.censored_ends[mine] > 0 if traces is not None else np.zeros(0, dtype=bool)
         rows.append({
             "traces": int(mine.sum()),
             "trace_length_sum_m": float(length.sum()),
             "trace_chord_median_m": float(np.median(chord)) if len(chord) else float("nan"),
             "trace_p21_per_m": float(length.sum() / exposure_area_m2) if exposure_area_m2 > 0 else float("nan"),
+            "trace_censored": int(np.count_nonzero(cut)),
+            # the exponential's mean with censoring, as the joints' (blank where every trace is cut)
+            "trace_censored_mean_m": TraceLengths(length, cut).mean,
             **window_columns(windows[s]),
             "trace_p10_per_m": p10[s][0],
             "trace_scanline_m": p10[s][1],
@@ -144,6 +197,7 @@ def trace_rows(traces: Traces, frame, offset, metres: float = 1.0) -> list[dict]
             "chord_m": float(chord[k]),
             "n_vertices": int(traces.start[k + 1] - traces.start[k]),
             "n_points": int(traces.n_points[k]),
+            "censored_ends": int(traces.censored_ends[k]),
             "contrast": float(traces.contrast[k]) if np.isfinite(traces.contrast[k]) else "",
             **({"dip": float(orientation.dip[k]), "dip_direction": float(orientation.dip_direction[k]),
                 "strike": float(orientation.strike[k])} if fitted[k] else {"dip": "", "dip_direction": "",

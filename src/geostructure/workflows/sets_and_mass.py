@@ -20,7 +20,7 @@ from geostructure.rockmass.exposure import exposure
 from geostructure.rockmass.face import face_parts
 from geostructure.rockmass.mass import RockMass, rock_mass
 from geostructure.rockmass.sets import JointSets, find_sets
-from geostructure.rockmass.tracemaps import face_traces
+from geostructure.rockmass.tracemaps import censored_ends, face_traces
 
 
 def plane_sets(
@@ -123,10 +123,13 @@ def plane_rock_mass(
 def rock_traces(points, labels, planes: Planes, sets: JointSets, rock: RockMass, grey=None):
     """The face's fracture traces (:func:`~geostructure.rockmass.tracemaps.face_traces`) of
     the discontinuities alone (no ground, clutter or face surface, :func:`sets_left_out`),
-    the dark lines on the face's own points, each in a set of ``sets``; ``points``,
-    ``labels`` and ``grey`` as :func:`plane_rock_mass` takes them."""
+    the dark lines on the face's own points, each in a set of ``sets``, with the ends that
+    reach the exposure's edge (:func:`~geostructure.rockmass.tracemaps.censored_ends`);
+    ``points``, ``labels`` and ``grey`` as :func:`plane_rock_mass` takes them."""
     tested = ~sets_left_out(planes, rock)
-    return face_traces(points, labels, planes, sets, rock.point_part, grey, tested)
+    traces = face_traces(points, labels, planes, sets, rock.point_part, grey, tested)
+    traces.censored_ends = censored_ends(traces, rock.exposures, rock.metres_per_unit)
+    return traces
 
 
 def sets_left_out(planes: Planes, rock: RockMass) -> np.ndarray:
