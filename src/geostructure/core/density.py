@@ -50,8 +50,8 @@ def point_spacing(points: np.ndarray, sample: int = SPACING_SAMPLE, seed: int = 
     if (spacing > 0 and copied <= MAX_COPIED_SHARE) or len(points) < 2 or not distinct:
         return spacing
     # A sort of the rows: paid only by a cloud with copies in it.
-    distinct = np.unique(points, axis=0)
-    return _spacing_of(distinct, sample, seed)[0] if len(distinct) < len(points) else spacing
+    unique = np.unique(points, axis=0)
+    return _spacing_of(unique, sample, seed)[0] if len(unique) < len(points) else spacing
 
 
 #: The share of probes with a copy of themselves (another point at distance 0) above which

@@ -42,11 +42,11 @@ def smallest_eigenpair(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     # Rows of cov - lambda_0 I and their three cross products, component by component.
     ax, by, cz = xx - smallest, yy - smallest, zz - smallest
     rows = ((ax, xy, xz), (xy, by, yz), (xz, yz, cz))
-    crosses = []
+    pairs = []
     for i, j in ((0, 1), (0, 2), (1, 2)):
         (u0, u1, u2), (v0, v1, v2) = rows[i], rows[j]
-        crosses.append(np.stack([u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0], axis=1))
-    crosses = np.stack(crosses, axis=1)
+        pairs.append(np.stack([u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0], axis=1))
+    crosses = np.stack(pairs, axis=1)
     norms = np.einsum("nij,nij->ni", crosses, crosses)
     best = norms.argmax(axis=1)
     index = np.arange(len(a))

@@ -114,8 +114,8 @@ def segment_hulls(uv: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.nd
         h, n_vertices[rows], closed[rows] = _wrap(pts, valid)
         hulls[rows, : h.shape[1]] = h
         hulls[rows, h.shape[1] :] = h[:, :1]
-    h = int(n_vertices.max(initial=1))
-    return hulls[:, :h], n_vertices, closed
+    widest = int(n_vertices.max(initial=1))
+    return hulls[:, :widest], n_vertices, closed
 
 
 def _wrap(pts: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -136,7 +136,7 @@ class Occupancy:
 
 
 def choose_zeta(
-    points: np.ndarray, target: float = TARGET_POINTS, probe: Occupancy | None = None
+    points: np.ndarray | None, target: float = TARGET_POINTS, probe: Occupancy | None = None
 ) -> tuple[float, float]:
     """Smallest zeta on a geometric grid whose typical voxel holds ``target`` points.
 
@@ -145,7 +145,11 @@ def choose_zeta(
     the edge, to at most :data:`ZETA_FLOOR`: the subsample is too sparse to count smaller
     voxels directly."""
     grid = np.geomspace(*ZETA_RANGE, 40)
-    occupancy, probe = 0.0, probe or Occupancy(points, SAMPLE_POINTS, 0)
+    if probe is None:
+        if points is None:
+            raise ValueError("choose_zeta needs the points or their probe")
+        probe = Occupancy(points, SAMPLE_POINTS, 0)
+    occupancy = 0.0
     for zeta in grid:
         occupancy = probe.at(zeta)
         if occupancy >= target:
@@ -156,10 +160,12 @@ def choose_zeta(
     return float(grid[-1]), occupancy
 
 
-def surface_noise(points: np.ndarray, zeta: float, neighbours: int = 6, voxels=None) -> tuple[float, float]:
+def surface_noise(points: np.ndarray | None, zeta: float, neighbours: int = 6, voxels=None) -> tuple[float, float]:
     """Median angle (deg) between neighbouring voxel normals and median neighbour offset (voxel
     edges); ``voxels`` (fitted at ``zeta`` with any planarity) saves fitting them again."""
     if voxels is None:
+        if points is None:
+            raise ValueError("surface_noise needs the points or their voxels")
         voxels = fit_voxels(points, zeta, max_curvature=1 / 3)
     if len(voxels) < neighbours + 1:
         return 5.0, 0.1
@@ -194,7 +200,7 @@ def choose_params(points: np.ndarray, base: Params = Params()) -> AutoChoice:
     8
     """
     probe = Occupancy(points, SAMPLE_POINTS, 0)
-    last = []
+    last: list = []
 
     def fit(zeta: float):  # fit_voxels' grid, its moments kept for the filter
         moments, inverse = accumulate_moments(points, zeta * probe.extent, probe.lower)

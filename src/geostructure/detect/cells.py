@@ -230,7 +230,7 @@ def grid_planes(grid: CellGrid) -> CellPlanes:
         neighbour[found, o] = at[found]
         neighbour[at[found], 26 - o] = found
 
-    run_tasks([partial(search, o) for o in FORWARD], workers=task_workers(n_cells))
+    run_tasks([partial(search, int(o)) for o in FORWARD], workers=task_workers(n_cells))
     # A block's moments are the sum of its 27 cells' (-1, "no neighbour", picks the last
     # row, of zeros), the table itself the gather's index.
     block = neighbour_sums(grid.moments, neighbour)

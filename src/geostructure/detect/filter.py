@@ -216,5 +216,6 @@ def filter_outliers(
     if method == "global":
         return global_filter(points, threshold)
     if method == "local":
+        assert edge is not None, "the local filter needs its grid's edge"  # the pipeline always gives it
         return local_filter(points, edge, threshold, moments=moments)
     return FilterResult(np.ones(len(points), bool), np.zeros(len(points)), "none", threshold)

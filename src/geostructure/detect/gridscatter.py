@@ -83,13 +83,13 @@ def sampled_far_scatter(grid: CellGrid, n_sample: int, seed: int = 0, among=None
     pool = np.arange(len(grid)) if among is None else np.asarray(among)
     cells = np.sort(pool[rng.choice(len(pool), min(n_sample, len(pool)), replace=False)])  # sorted: faster finds
     steps = grid.steps()
-    pairs = []
+    along = []
     for axis_offset in (CENTRE + 9, CENTRE + 3, CENTRE + 1):  # +x, +y, +z
         one = grid.find(grid.codes[cells] + steps[axis_offset])
         two = grid.find(grid.codes[cells] + 2 * steps[axis_offset])
         ok = (one >= 0) & (two >= 0)  # as far_scatter: two steps through an occupied cell
-        pairs.append(np.stack([cells[ok], two[ok]], axis=1))
-    pairs = np.concatenate(pairs)
+        along.append(np.stack([cells[ok], two[ok]], axis=1))
+    pairs = np.concatenate(along)
     wanted, where = np.unique(pairs, return_inverse=True)
     values, normal, _, defined = block_fit(block_moments(grid, wanted))
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -12,7 +12,7 @@ import numpy as np
 
 from geostructure.core.cloud import Cloud
 from geostructure.core.params import Params
-from geostructure.detect.facets import detect_facets, voxel_majority
+from geostructure.detect.facets import FacetDetection, detect_facets, voxel_majority
 from geostructure.detect.merge import MERGE_MIN_POINTS, merge_coplanar
 from geostructure.detect.regions import grow_regions
 from geostructure.detect.roughfacets import MIN_FACET_POINTS, numbered_by_size
@@ -34,7 +34,7 @@ class Growth:
     facet_record: dict = field(default_factory=dict)
     facet_region: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     envelope: np.ndarray | None = None
-    found: object = None
+    found: FacetDetection | None = None
 
 
 def grow_voxel_regions(

@@ -389,7 +389,7 @@ def _far_pairs(cells: CellPlanes, core: np.ndarray) -> tuple[np.ndarray, np.ndar
     axis (:func:`~geostructure.detect.gridscatter.far_scatter`'s pairs), among the defined
     cells and among the thin ones: which of the two counts is the whole cloud's choice."""
     thin = cells.defined & (cells.variation <= SURFACE_VARIATION)
-    found = ([], [])
+    found: tuple[list, list] = ([], [])
     for axis_offset in (CENTRE + 9, CENTRE + 3, CENTRE + 1):  # +x, +y, +z
         one = cells.neighbour[:, axis_offset]
         two = np.where(one >= 0, cells.neighbour[np.maximum(one, 0), axis_offset], -1)

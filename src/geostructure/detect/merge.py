@@ -43,7 +43,7 @@ def summarise_regions(voxels: VoxelPlanes, labels: np.ndarray, n_regions: int) -
     lab, w = labels[mask], voxels.count[mask].astype(float)
     c, n, r = voxels.centroid[mask], voxels.normal[mask], voxels.residual[mask]
     total = np.bincount(lab, w, n_regions)
-    centroid = np.stack([np.bincount(lab, w * c[:, a], n_regions) for a in range(3)], axis=1)
+    centroid: np.ndarray = np.stack([np.bincount(lab, w * c[:, a], n_regions) for a in range(3)], axis=1)
     centroid /= np.maximum(total, 1e-300)[:, None]
     d = c - centroid[lab]
     scatter = np.empty((n_regions, 3, 3))

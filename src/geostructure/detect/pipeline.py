@@ -164,7 +164,8 @@ def measure(
     True
     """
     report = progress or (lambda stage, done, total: None)
-    seconds, counts = {}, {"input": len(cloud)}
+    seconds: dict[str, float] = {}
+    counts = {"input": len(cloud)}
     check_measurable(cloud)
 
     with _stage(seconds, "filter", report):
@@ -200,7 +201,7 @@ def measure(
         region_rule = params.min_points or detector_spec(params.detector).default_min_points(len(filtered))
         min_points = np.where(is_facet, facet_rule, region_rule)
         survey = None if found is None else found.survey  # a thinned survey's facets, on all its points
-        if survey is not None:
+        if found is not None and survey is not None:
             min_points = survey_min_points(min_points, whole_facets(point_region, found.labels, n_regions), survey,
                                            facet_rule)  # fmt: skip
         regions, kept = region_planes(
@@ -244,7 +245,9 @@ def measure(
         counts["labelled_points"] = int((labels >= 0).sum())
 
     with _stage(seconds, "orientation", report):
-        if survey is not None:  # a plane that is one whole facet: on all the survey's points of it
+        if (
+            found is not None and survey is not None
+        ):  # a plane that is one whole facet: on all the survey's points of it
             regions = on_survey_planes(regions, whole_facets(labels, found.labels, len(regions)), survey)
         outward = _outward(filtered, labels, len(regions))
         planes = plane_table(
@@ -309,7 +312,8 @@ def plane_table(regions, frame: Frame, outward, voxels, offset, standard_errors)
     ``standard_errors(normals)`` (:func:`~geostructure.detect.uncertainty.normal_standard_errors`'s dict)."""
     raw = np.array([r.normal for r in regions]).reshape(-1, 3)
     normals = upward(frame.to_enu(raw), None if outward is None else frame.to_enu(outward)) @ frame.matrix
-    n_voxels, scatter = normal_spread(*voxels, normals)
+    voxel_normals, voxel_planes = voxels
+    n_voxels, scatter = normal_spread(voxel_normals, voxel_planes, normals)
     return Planes.from_regions(
         regions,
         normals,

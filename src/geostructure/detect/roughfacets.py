@@ -205,7 +205,7 @@ def numbered_by_size(labels: np.ndarray, kept: np.ndarray, size: np.ndarray) -> 
     return renumber[labels]
 
 
-def component_planes(points, component, envelope, which) -> tuple[np.ndarray, np.ndarray]:
+def component_planes(points, component, envelope, which) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The least-squares plane's normal of each component in ``which`` (W, 3), the mean face
     normal over its points (W, 3), whether it is thin (its surface variation at most
     :data:`~geostructure.detect.cells.SURFACE_VARIATION`) and its points' RMS distance to its plane (W,), from

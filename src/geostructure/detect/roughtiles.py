@@ -211,6 +211,7 @@ def rough_facets_in_tiles(points: np.ndarray, spacing: float, edge: float, tile_
     for held, own, box, _ in boxes:
         part = read_rough_tile(points[held], own, box)
         reading = part if reading is None else reading + part
+    assert reading is not None, "a cloud has at least one tile"
     angle, residual = rough_medians(reading)
     pieces = [grow_rough_tile(points[held], held, own, box, envelope[held], spacing, angle, core_box)
               for held, own, box, core_box in boxes]  # fmt: skip

@@ -19,6 +19,7 @@ ridge strengths. Nothing reads the patch's extent or where it lies.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy import ndimage
@@ -194,19 +195,21 @@ def pixel_chains(mask: np.ndarray, min_pixels: float) -> list[np.ndarray]:
         return []
     lookup = -np.ones(mask.shape, dtype=np.int64)
     lookup[where[:, 0], where[:, 1]] = np.arange(n)
-    rows, cols, weights = [], [], []
+    row_parts: list[np.ndarray] = []
+    col_parts: list[np.ndarray] = []
+    weight_parts: list[np.ndarray] = []
     for dr, dc in ((1, 0), (0, 1), (1, 1), (1, -1)):
         step = where + (dr, dc)
         ok = (step[:, 0] < mask.shape[0]) & (step[:, 1] >= 0) & (step[:, 1] < mask.shape[1])
         other = np.full(n, -1)
         other[ok] = lookup[step[ok, 0], step[ok, 1]]
         linked = other >= 0
-        rows.append(np.flatnonzero(linked))
-        cols.append(other[linked])
-        weights.append(np.full(int(linked.sum()), np.hypot(dr, dc)))
-    rows, cols, weights = np.concatenate(rows), np.concatenate(cols), np.concatenate(weights)
+        row_parts.append(np.flatnonzero(linked))
+        col_parts.append(other[linked])
+        weight_parts.append(np.full(int(linked.sum()), np.hypot(dr, dc)))
+    rows, cols, weights = np.concatenate(row_parts), np.concatenate(col_parts), np.concatenate(weight_parts)
     alive = np.ones(n, dtype=bool)
-    chains = []
+    chains: list[np.ndarray] = []
     while True:
         keep = alive[rows] & alive[cols]
         graph = coo_matrix((weights[keep], (rows[keep], cols[keep])), shape=(n, n)).tocsr()
@@ -413,8 +416,8 @@ def joined_collinear(pieces: list, mean_z: list, gap: float) -> tuple[list, list
         lines_z = _follow(start, partner, pieces, mean_z, length, used)
         lines.append(lines_z[0])
         z.append(lines_z[1])
-    for start in np.flatnonzero(~used):  # closed loops of pieces: none on a line, but kept whole
-        lines_z = _follow(int(start), partner, pieces, mean_z, length, used)
+    for loop_start in np.flatnonzero(~used):  # closed loops of pieces: none on a line, but kept whole
+        lines_z = _follow(int(loop_start), partner, pieces, mean_z, length, used)
         lines.append(lines_z[0])
         z.append(lines_z[1])
     return lines, z
@@ -459,7 +462,11 @@ def noise_contrast(grid: PatchGrid, values: np.ndarray, min_chord: float) -> flo
     (:data:`NULL_PERMUTATIONS` seeded permutations); 0 where the shuffles draw no line."""
     rng = np.random.default_rng(0)
     orders = [rng.permutation(len(values)) for _ in range(NULL_PERMUTATIONS)]  # drawn in turn: seeded as one
-    found = run_tasks([lambda order=order: _lines(grid.image(values[order]), min_chord)[1] for order in orders])
+
+    def null_lines(order: np.ndarray) -> list:
+        return _lines(grid.image(values[order]), min_chord)[1]
+
+    found = run_tasks([partial(null_lines, order) for order in orders])
     contrasts = [contrast for lines in found for contrast in lines]
     return float(np.quantile(contrasts, NULL_QUANTILE)) if contrasts else 0.0
 

@@ -155,7 +155,7 @@ def block_sums(coords, ranges: np.ndarray, n: int) -> BlockSums:
         index *= stride
         key += index
     size = n * blocks
-    per_block = [np.bincount(key, minlength=size).astype(np.float64)]
+    per_block: list[np.ndarray] = [np.bincount(key, minlength=size).astype(np.float64)]
     per_block += [np.bincount(key, x, size) for x in (u, v, h)]
     squares = np.column_stack([np.bincount(lab, np.multiply(x, x, out=scaled), n) for x in (u, v, h)]).reshape(n, 3)
     return BlockSums(
@@ -288,7 +288,9 @@ def correlated_tilt(normals, standard_errors, joints, moments, iterations: int =
         return 0.0, 0
     n, n_joints = moments.count[member], len(joints)
     # Each facet's first and second moments about its joint's centroid (no cancellation).
-    centre = np.stack([np.bincount(joint, n * moments.centroid[member, a], n_joints) for a in range(3)], axis=1)
+    centre: np.ndarray = np.stack(
+        [np.bincount(joint, n * moments.centroid[member, a], n_joints) for a in range(3)], axis=1
+    )
     centre /= np.maximum(np.bincount(joint, n, n_joints), 1.0)[:, None]
     d = moments.centroid[member] - centre[joint]
     first = n[:, None] * d

@@ -116,7 +116,7 @@ def _grouped_voxels(points: np.ndarray, edge: float, origin: np.ndarray, rel=Non
     no array the cloud's size is allocated twice."""
     check_voxel_count(points, edge, origin)
     key = np.empty((3, len(points)), dtype=np.int64)
-    scratch = np.empty(len(points)) if rel is None else None
+    scratch = np.empty(len(points) if rel is None else 0)
     for a in range(3):
         row = scratch if rel is None else rel[a]
         floor_index(points[:, a], origin[a], edge, key[a], row)

@@ -315,4 +315,5 @@ def plane_persistence(points, labels, normals, face: Exposure, up=(0.0, 0.0, 1.0
     i, j = face.cell_of(pts)
     censored = np.zeros(n, dtype=bool)
     censored[lab[face.edge()[i, j]]] = True
-    return Persistence(*extents, censored)
+    along_strike, along_dip, on_face = extents
+    return Persistence(along_strike, along_dip, on_face, censored)

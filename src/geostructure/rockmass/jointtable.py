@@ -52,7 +52,11 @@ class Joints:
         ([0, -1, 1, 0, -1], [3.5, 0.5], [True, False])
         """
         plane_joint = np.full(n_planes, -1, dtype=np.int64)
-        sets, sections, normals, traces, censored = [], [], [], [], []
+        sets: list = []
+        sections: list = []
+        normals: list[np.ndarray] = []
+        traces: list = []
+        censored: list = []
         for members, joint, set_id, section, normal, stretch_joint, lengths in groups:
             first = sum(len(n) for n in normals)
             grouped = joint >= 0
@@ -134,7 +138,7 @@ def joint_rows(planes, joints: Joints | None, frame: Frame = Frame(), metres_per
     n = len(joints)
     count = np.asarray(planes.n_points, dtype=np.float64)[grouped]
     points = np.bincount(j, count, n)
-    centroid = np.stack([np.bincount(j, count * planes.centroid[grouped, a], n) for a in range(3)], axis=1)
+    centroid: np.ndarray = np.stack([np.bincount(j, count * planes.centroid[grouped, a], n) for a in range(3)], axis=1)
     centroid /= np.maximum(points, 1.0)[:, None]
     # Each joint's largest facet (most points): its normal signs the joint's.
     order = np.lexsort((-count, j))

@@ -520,21 +520,21 @@ def rock_mass(
         result.scanlines.append(pooled_scanlines(lines))
         result.trace_scanlines.append(pooled_scanlines(trace_lines))
         along_face = not lengths
-        lengths = TraceLengths.none() if along_face else TraceLengths.pooled(lengths)
-        result.joint_trace_lengths.append(lengths)
+        pooled = TraceLengths.none() if along_face else TraceLengths.pooled(lengths)
+        result.joint_trace_lengths.append(pooled)
         members = np.flatnonzero(set_labels == s)
         result.nearest_gaps.append(nearest_plane_gaps(normals, centroids, members, mean, persistence))
         # The joints' traces, not their facets' (with those, P32 read 0.37 to 1.09 of the truth).
         area = result.exposure_area
-        result.p21[s] = lengths.length.sum() / area if area > 0 and not along_face else np.nan
+        result.p21[s] = pooled.length.sum() / area if area > 0 and not along_face else np.nan
         if len(members):
             if crossing and len(np.concatenate(crossing)):
                 result.c13[s] = 1.0 / np.concatenate(crossing).mean()
             result.c23[s] = 1.0 / max(np.concatenate(facing).mean(), 1e-6)
     result.joints = Joints.of(len(normals), groups)
     if standard_errors is not None:
-        along = {(set_id, section) for _, _, set_id, section, _, _, lengths in groups if lengths is None}
-        read_correlated_tilt(result, normals, standard_errors, moments, along)
+        along_pairs = {(set_id, section) for _, _, set_id, section, _, _, seen in groups if seen is None}
+        read_correlated_tilt(result, normals, standard_errors, moments, along_pairs)
     return result
 
 
@@ -545,6 +545,7 @@ def read_correlated_tilt(result: RockMass, normals, standard_errors, moments, al
     bends and undulations, its shape and not the cloud's errors. A drone survey's terrain read
     4.4 degrees from them, and every plane of it carried that (docs/rockmass.md)."""
     joints = result.joints
+    assert joints is not None, "the joints are read before their tilt"
     members = joints.members()
     crossing = [m for m, s, k in zip(members, joints.set, joints.section) if (int(s), int(k)) not in along]
     result.correlated_tilt, result.correlated_tilt_n = correlated_tilt(normals, standard_errors, crossing, moments)

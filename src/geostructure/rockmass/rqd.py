@@ -95,10 +95,10 @@ def rqd_range(normals, spacings) -> tuple[float, float]:
     # Every choice of signs with the first set's fixed (d and -d are one line).
     signs = np.array([(1.0, *rest) for rest in product((1.0, -1.0), repeat=len(scaled) - 1)])
     most = float(np.linalg.norm(signs @ scaled, axis=1).max())
-    crossings = [np.cross(a, b) for i, a in enumerate(scaled) for b in scaled[i + 1 :]]
-    crossings = np.array([c / np.linalg.norm(c) for c in crossings if np.linalg.norm(c) > 1e-12]).reshape(-1, 3)
+    pairs = [np.cross(a, b) for i, a in enumerate(scaled) for b in scaled[i + 1 :]]
+    crossings = np.array([c / np.linalg.norm(c) for c in pairs if np.linalg.norm(c) > 1e-12]).reshape(-1, 3)
     fewest = float(frequency_along(crossings, scaled, np.ones(len(scaled))).min()) if len(crossings) else 0.0
-    return rqd_from_frequency(most), rqd_from_frequency(fewest)
+    return float(rqd_from_frequency(most)), float(rqd_from_frequency(fewest))
 
 
 #: ISRM (1978)'s block sizes by the volumetric joint count: the greatest Jv (joints per m^3)

@@ -182,7 +182,8 @@ def sectioned_persistence(points, labels, normals, exposures, plane_section, up=
     labels = np.asarray(labels)
     if len(exposures) == 1:
         return plane_persistence(points, labels, normals, exposures[0], up)
-    out, labelled = None, labels >= 0
+    out: Persistence | None = None
+    labelled = labels >= 0
     for k, face in enumerate(exposures):
         mine = plane_section == k
         own = np.full(len(labels), -1, dtype=labels.dtype)  # no plane to index when there is none
@@ -193,6 +194,7 @@ def sectioned_persistence(points, labels, normals, exposures, plane_section, up=
         else:
             for name in ("trace_strike", "trace_dip", "trace_face", "censored"):
                 getattr(out, name)[mine] = getattr(part, name)[mine]
+    assert out is not None, "a face has at least one section"
     return out
 
 

@@ -225,7 +225,9 @@ def find_sets(
         candidates = [int(n_sets)]
     else:
         candidates = list(range(1, max(1, min(max_sets, len(x) // MIN_SET_PLANES)) + 1))
-    fits, bic, holds = {}, {}, {}
+    fits: dict[int, dict] = {}
+    bic: dict[int, float] = {}
+    holds: dict[int, bool] = {}
     count_joints = (
         joint_counter(x, np.asarray(centroids, dtype=np.float64).reshape(len(x), 3), area, MIN_SET_JOINTS)
         if centroids is not None and weights is not None
@@ -251,7 +253,7 @@ def find_sets(
         # (on a 40 x 16 m face of three sets, the fits of 4 to 6 sets were 95% of the time).
         last = sorted(bic)[-3:]
         if n_sets is None and len(last) == 3 and bic[last[2]] > bic[last[1]] > bic[last[0]]:
-            best = min(bic, key=bic.get)
+            best = min(bic, key=bic.__getitem__)
             if _separated(fits[best]["means"], MIN_SEPARATION) and holds_its_joints(best):
                 break
     if not fits:
@@ -265,12 +267,12 @@ def find_sets(
                 stacklevel=2,
             )
         return _empty(len(x))
-    admissible = sorted((k for k in bic if _separated(fits[k]["means"], MIN_SEPARATION)), key=bic.get)
+    admissible = sorted((k for k in bic if _separated(fits[k]["means"], MIN_SEPARATION)), key=bic.__getitem__)
     if count_joints is not None:
         # Tried from the smallest BIC up, the first that passes is the choice: counting the
         # joints of the others would not change it.
         admissible = next(([k] for k in admissible if holds_its_joints(k)), [])
-    best = (admissible[0] if admissible else min(bic, key=bic.get)) if n_sets is None else candidates[0]
+    best = (admissible[0] if admissible else min(bic, key=bic.__getitem__)) if n_sets is None else candidates[0]
     labels = _assign(x, fits[best])
     found = _summarise(x, area, labels, frame, "bic" if n_sets is None else "given", bic)
     if n_sets is not None and len(found) < n_sets:

@@ -64,7 +64,7 @@ def rock_mass_tables(planes, sets, rock, frame, metres_per_unit: float = 1.0) ->
     ``traces.csv`` and ``trace_vertices.csv`` (the face's fracture traces, :mod:`.tracemaps`)
     and ``traces.dxf`` (their polylines and sets, which :func:`~geostructure.io.atomic.write_table`
     draws)."""
-    tables = [("sets", "sets.csv", *sets_table(sets, rock))]
+    tables: list[tuple] = [("sets", "sets.csv", *sets_table(sets, rock))]
     if rock is not None:
         tables.append(("spacing", "spacing.csv", *spacing_table(rock)))
         rows = joint_rows(planes, rock.joints, frame, metres_per_unit)

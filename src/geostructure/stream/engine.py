@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from geostructure.core.cloud import Cloud
 from geostructure.core.orientation import Frame
 from geostructure.core.params import ParameterWarning, Params
 from geostructure.core.planes import Planes
@@ -90,7 +91,7 @@ class StreamedMeasurement:
     (True, 'voxel')
     """
 
-    cloud: object
+    cloud: Cloud
     params: Params
     frame: Frame
     voxels: VoxelPlanes

@@ -121,7 +121,7 @@ def write_kinematics_into(
 
 def kinematic_tests(
     planes, sets: list, friction: float, *, frame: Frame, detection: dict | None, metres_per_unit: float,
-    points, slope: Slope | None = None, lateral_limit: float = LATERAL_LIMIT, cohesion: float = 0.0,
+    points, slope: Slope | FittedFace | None = None, lateral_limit: float = LATERAL_LIMIT, cohesion: float = 0.0,
     unit_weight: float = UNIT_WEIGHT, height: float | None = None, upper_slope: tuple[float, float] | None = None,
     progress=None,
 ):  # fmt: skip
@@ -136,7 +136,7 @@ def kinematic_tests(
     from geostructure.workflows.sets_and_mass import detected_spacing  # lazy, as above
 
     report = progress or (lambda stage, done, total: None)
-    strength = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
+    strength: dict[str, float | str] = {"cohesion_kpa": float(cohesion), "unit_weight_kn_m3": float(unit_weight)}
     if slope is None or (cohesion and height is None):
         report("slope", 0, None)
         held, region, vegetation = points() if callable(points) else points
@@ -149,8 +149,10 @@ def kinematic_tests(
             height = float(np.ptp(frame.to_enu(held)[:, 2])) * metres_per_unit
             strength["height_source"] = "the cloud's height"
     if cohesion:
+        assert height is not None, "a height is given or read from the cloud above"
         strength["height_m"] = float(height)
         strength.setdefault("height_source", "given")
+    assert slope is not None, "a slope is given or fitted above"
     face = slope if isinstance(slope, FittedFace) else FittedFace(slope, None, (slope,))
     if upper_slope is not None:
         gentlest = min(part.dip for part in face.slopes)  # of a face in sections, its gentlest
