@@ -108,28 +108,30 @@ class Planes:
     """
 
     normal: np.ndarray
-    local_centroid: np.ndarray | None = None
-    region_id: np.ndarray | None = None
-    n_points: np.ndarray | None = None
-    area: np.ndarray | None = None
-    strike: np.ndarray | None = None
-    dip: np.ndarray | None = None
-    dip_direction: np.ndarray | None = None
-    rect_width: np.ndarray | None = None
-    rect_height: np.ndarray | None = None
-    fit_residual: np.ndarray | None = None
-    n_voxels: np.ndarray | None = None
-    normal_scatter_deg: np.ndarray | None = None
-    normal_uncertainty_deg: np.ndarray | None = None
-    local_rect_center: np.ndarray | None = None
-    rect_u: np.ndarray | None = None
-    dip_uncertainty_deg: np.ndarray | None = None
-    dip_direction_uncertainty_deg: np.ndarray | None = None
-    planarity: np.ndarray | None = None
-    facing: np.ndarray | None = None
-    overhang: np.ndarray | None = None
-    rect_v: np.ndarray | None = None
-    offset: np.ndarray | None = None
+    # The columns below may be left out (None): __post_init__ fills each, so a built table
+    # holds no None, which the annotations say.
+    local_centroid: np.ndarray = None  # type: ignore[assignment]
+    region_id: np.ndarray = None  # type: ignore[assignment]
+    n_points: np.ndarray = None  # type: ignore[assignment]
+    area: np.ndarray = None  # type: ignore[assignment]
+    strike: np.ndarray = None  # type: ignore[assignment]
+    dip: np.ndarray = None  # type: ignore[assignment]
+    dip_direction: np.ndarray = None  # type: ignore[assignment]
+    rect_width: np.ndarray = None  # type: ignore[assignment]
+    rect_height: np.ndarray = None  # type: ignore[assignment]
+    fit_residual: np.ndarray = None  # type: ignore[assignment]
+    n_voxels: np.ndarray = None  # type: ignore[assignment]
+    normal_scatter_deg: np.ndarray = None  # type: ignore[assignment]
+    normal_uncertainty_deg: np.ndarray = None  # type: ignore[assignment]
+    local_rect_center: np.ndarray = None  # type: ignore[assignment]
+    rect_u: np.ndarray = None  # type: ignore[assignment]
+    dip_uncertainty_deg: np.ndarray = None  # type: ignore[assignment]
+    dip_direction_uncertainty_deg: np.ndarray = None  # type: ignore[assignment]
+    planarity: np.ndarray = None  # type: ignore[assignment]
+    facing: np.ndarray = None  # type: ignore[assignment]
+    overhang: np.ndarray = None  # type: ignore[assignment]
+    rect_v: np.ndarray = None  # type: ignore[assignment]
+    offset: np.ndarray = None  # type: ignore[assignment]
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -221,7 +223,7 @@ class Planes:
 
     def rows(self) -> list[dict]:
         """One dict per plane, keyed by the ``planes.csv`` columns, with Python numbers."""
-        flat = []
+        flat: list[np.ndarray] = []
         for name, columns in LAYOUT:
             value = getattr(self, name.removeprefix("local_"))
             flat.extend(value.T if len(columns) > 1 else [value])
