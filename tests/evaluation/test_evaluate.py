@@ -4,7 +4,7 @@ from helpers import TESTS_DIR
 
 from geostructure.core.orientation import Frame, normal_from_orientation, orientation_from_normals
 from geostructure.core.planes import Planes
-from geostructure.errors import GeoStructureError
+from geostructure.errors import GeoStructureError, InputError
 from geostructure.evaluation.groundtruth import evaluate, run_score, z_score
 from geostructure.io.truth import GroundTruth, TruthWarning, dip_direction_from_strike, read_truth
 
@@ -108,6 +108,22 @@ def test_truth_with_two_of_three_angles(tmp_path):
     truth = read_truth(path)
     np.testing.assert_allclose(truth.dip_direction, [89, 100, 260])
     assert truth.has_centres.tolist() == [True, False, False]
+
+
+def test_a_truths_centre_may_be_named_x_y_z_as_in_a_field_map(tmp_path):
+    """A truth whose centres were written x, y, z (the field map's names) had them passed
+    over without a word: each surface matched by its orientation alone."""
+    path = tmp_path / "t.csv"
+    path.write_text("surface,dip,dip_direction,x,y,z\na,40,89,1,2,3\nb,30,100,,,\n")
+    truth = read_truth(path)
+    assert truth.has_centres.tolist() == [True, False]
+    np.testing.assert_allclose(truth.centres[0], [1, 2, 3])
+    path.write_text("surface,dip,dip_direction,x,y,z\na,40,89,1e308,2,3\n")
+    with pytest.raises(InputError, match="line 2: x 1e308 is no center"):
+        read_truth(path)
+    both = tmp_path / "both.csv"  # center_x given: x is some other column, not read
+    both.write_text("surface,dip,dip_direction,center_x,center_y,center_z,x,y,z\na,40,89,1,2,3,7,8,9\n")
+    np.testing.assert_allclose(read_truth(both).centres[0], [1, 2, 3])
 
 
 def test_truth_saved_by_a_european_spreadsheet(tmp_path):

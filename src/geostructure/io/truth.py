@@ -152,6 +152,11 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
         raise InputError(f"{path}: the header names column '{repeated[0]}' more than once; keep one.")
     if "surface" not in header:
         raise InputError(f"{path}: the header has no 'surface' column.")
+    # The centre as center_x, center_y, center_z, or as x, y, z where those are not given (the
+    # field map's names: a truth written so had its centres passed over without a word).
+    centre_keys = [f"center_{a}" for a in "xyz"]
+    if not any(key in header for key in centre_keys) and all(a in header for a in "xyz"):
+        centre_keys = list("xyz")
     names, dips, dds, normals, centres = [], [], [], [], []
     for line, row in rows[1:]:
         cell = {h: (row[i].strip() if i < len(row) else "") for i, h in enumerate(header)}
@@ -161,7 +166,7 @@ def read_truth(path, frame: Frame = Frame()) -> GroundTruth:
         dips.append(dip)
         dds.append(dd)
         normals.append(normal)
-        centres.append([_number(cell, f"center_{a}", path, line) for a in "xyz"])
+        centres.append([_number(cell, key, path, line) for key in centre_keys])
     return GroundTruth(names, np.array(dips), np.array(dds), np.array(normals), np.array(centres, dtype=np.float64))
 
 
@@ -175,16 +180,18 @@ def _number(cell: dict, key: str, path, line: int) -> float:
         raise InputError(f"{path}: line {line}: {key} '{text}' is not a number.") from None
     if not np.isfinite(value):
         raise InputError(f"{path}: line {line}: {key} '{text}' is not a finite number.")
-    limit = next((bound for prefix, bound in TRUTH_LIMITS.items() if key.startswith(prefix)), None)
-    if limit is not None and abs(value) > limit:
-        raise InputError(f"{path}: line {line}: {key} {text} is no {key.split('_')[0]} (at most {limit:g} either way).")
+    bound = next((b for prefix, b in TRUTH_LIMITS.items() if key == prefix or key.startswith(f"{prefix}_")), None)
+    if bound is not None and abs(value) > bound[0]:
+        raise InputError(f"{path}: line {line}: {key} {text} is no {bound[1]} (at most {bound[0]:g} either way).")
     return value
 
 
 #: How far each number of a truth row may go either way: an azimuth is degrees (a dip
 #: direction of 1e308 was read, and scored), a centre a coordinate no survey exceeds (one
 #: at 1e308 made the matching's costs infinite and stopped it with a traceback).
-TRUTH_LIMITS = {"strike": 360.0, "dip_direction": 360.0, "center_": MAX_COORDINATE, "normal_": 1e6}
+TRUTH_LIMITS = {"strike": (360.0, "strike"), "dip_direction": (360.0, "dip"), "center": (MAX_COORDINATE, "center"),
+                "x": (MAX_COORDINATE, "center"), "y": (MAX_COORDINATE, "center"), "z": (MAX_COORDINATE, "center"),
+                "normal": (1e6, "normal")}  # fmt: skip
 
 
 def _row_orientation(cell, frame, path, line, name):
