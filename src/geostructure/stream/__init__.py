@@ -67,12 +67,8 @@ def stream_planes(
 
     Examples
     --------
-    >>> import tempfile, pathlib
-    >>> from geostructure.synthetic import observatory_scene
-    >>> from geostructure.io.laz import write_laz
-    >>> cloud = observatory_scene(40_000, seed=1).cloud
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
-    >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+    >>> from geostructure.testing.examples import scene_laz
+    >>> path = scene_laz(40_000)
     >>> result = stream_planes([path], chunk_points=10_000)
     >>> len(result) >= 5, result.engine
     (True, 'stream')

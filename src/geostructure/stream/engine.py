@@ -79,13 +79,9 @@ class StreamedMeasurement:
 
     Examples
     --------
-    >>> import tempfile, pathlib
-    >>> from geostructure.synthetic import observatory_scene
-    >>> from geostructure.io.laz import write_laz
+    >>> from geostructure.testing.examples import scene_laz
     >>> from geostructure.stream import stream_planes
-    >>> cloud = observatory_scene(40_000, seed=1).cloud
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
-    >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+    >>> path = scene_laz(40_000)
     >>> result = stream_planes([path], chunk_points=10_000)
     >>> len(result) == len(result.planes), result.params.detector
     (True, 'voxel')
@@ -150,13 +146,9 @@ def spill_planes(
 
     Examples
     --------
-    >>> import tempfile, pathlib
-    >>> from geostructure.synthetic import observatory_scene
-    >>> from geostructure.io.laz import write_laz
+    >>> from geostructure.testing.examples import scene_laz
     >>> from geostructure.stream import spill_inputs
-    >>> cloud = observatory_scene(40_000, seed=1).cloud
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
-    >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+    >>> path = scene_laz(40_000)
     >>> spill = spill_inputs([path], rows=10_000)
     >>> len(spill_planes(spill, chunk_points=10_000)) >= 5
     True

@@ -86,12 +86,8 @@ class Spill:
 
     Examples
     --------
-    >>> import tempfile, pathlib
-    >>> from geostructure.synthetic import observatory_scene
-    >>> from geostructure.io.laz import write_laz
-    >>> cloud = observatory_scene(20_000, seed=1).cloud
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scene.laz"
-    >>> _ = write_laz(path, cloud.points, {}, offset=cloud.offset)
+    >>> from geostructure.testing.examples import scene_laz
+    >>> path = scene_laz(20_000)
     >>> spill = spill_inputs([path], rows=5_000)
     >>> spill.n_points, [(c.start, c.stop) for c in spill.chunks(8_000)]
     (20000, [(0, 8000), (8000, 16000), (16000, 20000)])
