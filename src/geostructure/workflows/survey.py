@@ -175,16 +175,12 @@ def measure_survey(
 
     Examples
     --------
-    >>> import tempfile, pathlib
-    >>> from geostructure.synthetic import observatory_scene
-    >>> from geostructure.io.laz import write_laz
-    >>> cloud = observatory_scene(40_000, seed=1).cloud
-    >>> folder = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = write_laz(folder / "scene.laz", cloud.points, {}, offset=cloud.offset)
-    >>> run = measure_survey([folder / "scene.laz"], folder / "out", engine="stream", max_memory=2**30)
+    >>> from geostructure.testing.examples import scene_laz
+    >>> path = scene_laz(40_000)
+    >>> run = measure_survey([path], path.parent / "out", engine="stream", max_memory=2**30)
     >>> run.engine, len(run.result) >= 5, sorted(run.paths)[:2]
     ('stream', True, ['dips', 'planes'])
-    >>> measure_survey([folder / "scene.laz"], folder / "mem").engine
+    >>> measure_survey([path], path.parent / "mem").engine
     'memory'
     """
     paths = [Path(p) for p in paths]
