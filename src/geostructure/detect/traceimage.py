@@ -148,33 +148,51 @@ class PatchGrid:
         return PatchImage(value, self)
 
 
-def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray]:
+def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The dark-line strength of each pixel (the Hessian's larger eigenvalue, scale-normalised;
-    0 outside) and the angle across the line (radians, in pixel axes)."""
+    0 outside), and the Hessian's ``hxx - hyy`` and ``2 hxy``, whose half angle is the
+    direction across the line (:func:`across_line`): read only where a line may pass."""
     sigma = RIDGE_SCALE * PIXELS_PER_SPACING
     filled = np.where(np.isfinite(image.value), image.value, np.nanmedian(image.value))
     hxx = ndimage.gaussian_filter(filled, sigma, order=(2, 0))
     hyy = ndimage.gaussian_filter(filled, sigma, order=(0, 2))
     hxy = ndimage.gaussian_filter(filled, sigma, order=(1, 1))
-    half_gap = np.sqrt(((hxx - hyy) / 2) ** 2 + hxy**2)
-    strength = (hxx + hyy) / 2 + half_gap
-    across = 0.5 * np.arctan2(2 * hxy, hxx - hyy)
-    return np.where(image.inside, strength * sigma**2, 0.0), across
+    difference, twice_hxy = hxx - hyy, 2 * hxy
+    strength = (hxx + hyy) / 2 + np.sqrt((difference / 2) ** 2 + hxy**2)
+    return np.where(image.inside, strength * sigma**2, 0.0), difference, twice_hxy
+
+
+def across_line(difference: np.ndarray, twice_hxy: np.ndarray) -> np.ndarray:
+    """The angle across a line (radians, in pixel axes) from the Hessian's ``hxx - hyy`` and
+    ``2 hxy`` (:func:`ridge_strength`).
+
+    Examples
+    --------
+    >>> float(np.degrees(across_line(np.array([1.0]), np.array([0.0]))[0]))  # hxx > hyy: across rows
+    0.0
+    """
+    return 0.5 * np.arctan2(twice_hxy, difference)
 
 
 def line_pixels(
-    strength: np.ndarray, across: np.ndarray, inside: np.ndarray, z: np.ndarray | None = None
+    strength: np.ndarray, hessian: tuple[np.ndarray, np.ndarray], inside: np.ndarray, z: np.ndarray | None = None
 ) -> np.ndarray:
-    """The thinned, hysteresis-kept pixels of the lines (see the module); ``z``, the
-    strength's :func:`robust_z`, when the caller holds it."""
+    """The thinned, hysteresis-kept pixels of the lines (see the module), from the ridge
+    ``strength`` and the Hessian's ``(hxx - hyy, 2 hxy)`` (:func:`ridge_strength`); ``z``,
+    the strength's :func:`robust_z`, when the caller holds it."""
     if np.count_nonzero(inside) < 16:
         return np.zeros_like(inside)
     z = robust_z(strength, inside) if z is None else z
-    rows, cols = np.meshgrid(np.arange(strength.shape[0]), np.arange(strength.shape[1]), indexing="ij")
+    # Only a pixel above LOW can be a line's: the strongest across the line is looked for
+    # there alone (a third of the pixels), each pixel read as it would be in the whole image.
+    rows, cols = np.nonzero(inside & (z > LOW_Z))
+    across = across_line(hessian[0][rows, cols], hessian[1][rows, cols])
     dr, dc = np.cos(across), np.sin(across)
     ahead = ndimage.map_coordinates(strength, [rows + dr, cols + dc], order=1, mode="nearest")
     behind = ndimage.map_coordinates(strength, [rows - dr, cols - dc], order=1, mode="nearest")
-    thin = (strength >= ahead) & (strength >= behind) & inside & (z > LOW_Z)
+    here = strength[rows, cols]
+    thin = np.zeros_like(inside)
+    thin[rows, cols] = (here >= ahead) & (here >= behind)
     labels, n = ndimage.label(thin, structure=np.ones((3, 3)))
     strong = np.zeros(n + 1, dtype=bool)
     strong[np.unique(labels[thin & (z > HIGH_Z)])] = True
@@ -217,12 +235,12 @@ def pixel_chains(mask: np.ndarray, min_pixels: float) -> list[np.ndarray]:
         found = _longest_path_per_group(graph, alive, min_pixels)
         if not found:
             return chains
-        for path in found:
-            chains.append(where[path])
-            # the path and the pixels touching it: its 8 neighbours in the mask (those dead
-            # already stay so), read from the lookup, not the sparse graph's rows
-            alive[path] = False
-            alive[_touching(where[path], lookup)] = False
+        chains.extend(where[path] for path in found)
+        # the paths and the pixels touching them: their 8 neighbours in the mask (those dead
+        # already stay so), read from the lookup, not the sparse graph's rows
+        taken = np.concatenate(found)
+        alive[taken] = False
+        alive[_touching(where[taken], lookup)] = False
 
 
 #: A pixel's 8 neighbours.
@@ -255,12 +273,13 @@ def _longest_path_per_group(graph, alive: np.ndarray, min_pixels: float) -> list
     reach, before, _ = dijkstra(graph, indices=start, directed=False, min_only=True, return_predecessors=True)
     end = _farthest(reach, group, order)
     paths = []
-    for a, z in zip(start, end):
+    previous = before.tolist()  # walked a pixel at a time: a list reads faster than an array
+    for a, z in zip(start.tolist(), end.tolist()):
         if reach[z] < min_pixels:
             continue
-        path = [int(z)]
+        path = [z]
         while path[-1] != a:
-            path.append(int(before[path[-1]]))
+            path.append(previous[path[-1]])
         paths.append(np.asarray(path, dtype=np.int64))
     return paths
 
@@ -268,11 +287,12 @@ def _longest_path_per_group(graph, alive: np.ndarray, min_pixels: float) -> list
 def _farthest(reach: np.ndarray, group: np.ndarray, order: np.ndarray) -> np.ndarray:
     """Per group (``order``: its alive pixels, grouped), the pixel farthest along ``reach``."""
     value = np.where(np.isfinite(reach[order]), reach[order], -1.0)
-    cuts = np.flatnonzero(np.r_[True, group[order][1:] != group[order][:-1]])
-    best = []
-    for a, b in zip(cuts, np.r_[cuts[1:], len(order)]):
-        best.append(order[a + int(np.argmax(value[a:b]))])
-    return np.asarray(best, dtype=np.int64)
+    sorted_group = group[order]
+    cuts = np.flatnonzero(np.r_[True, sorted_group[1:] != sorted_group[:-1]])
+    most = np.maximum.reduceat(value, cuts)
+    at_most = np.flatnonzero(value == np.repeat(most, np.diff(np.r_[cuts, len(order)])))
+    _, first = np.unique(sorted_group[at_most], return_index=True)  # the first, as argmax
+    return order[at_most[first]].astype(np.int64)
 
 
 def straight_pieces(chain: np.ndarray, tolerance: float, bend_deg: float = BEND_DEG) -> list[np.ndarray]:
@@ -285,37 +305,76 @@ def straight_pieces(chain: np.ndarray, tolerance: float, bend_deg: float = BEND_
     >>> [len(p) for p in straight_pieces(chain, 1.0)]
     [10, 10]
     """
-    chain = np.asarray(chain, dtype=np.float64)
-    keep = _simplified(chain, tolerance)
-    cuts = [0]
-    for i in range(1, len(keep) - 1):
-        a, b = chain[keep[i]] - chain[keep[i - 1]], chain[keep[i + 1]] - chain[keep[i]]
-        cosine = a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-12)
-        if np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))) > bend_deg:
-            cuts.append(i)
-    cuts.append(len(keep) - 1)
-    return [chain[keep[a] : keep[b] + 1] for a, b in zip(cuts[:-1], cuts[1:])]
+    return chains_straight_pieces([chain], tolerance, bend_deg)
 
 
-def _simplified(points: np.ndarray, tolerance: float) -> list[int]:
-    """Douglas-Peucker: the indices of the vertices that keep the chain within ``tolerance``."""
-    keep, stack = {0, len(points) - 1}, [(0, len(points) - 1)]
-    while stack:
-        a, b = stack.pop()
-        if b - a < 2:
-            continue
-        chord = points[b] - points[a]
-        length = np.linalg.norm(chord)
-        offsets = points[a + 1 : b] - points[a]
-        if length > 0:
-            distance = np.abs(chord[0] * offsets[:, 1] - chord[1] * offsets[:, 0]) / length
-        else:
-            distance = np.linalg.norm(offsets, axis=1)
-        k = int(np.argmax(distance))
-        if distance[k] > tolerance:
-            keep.add(a + 1 + k)
-            stack += [(a, a + 1 + k), (a + 1 + k, b)]
-    return sorted(keep)
+def chains_straight_pieces(chains: list, tolerance: float, bend_deg: float = BEND_DEG) -> list[np.ndarray]:
+    """Every chain's :func:`straight_pieces`, in order: all chains at once, one pass per
+    level of Douglas-Peucker's splits (an image's few hundred short chains, each its own
+    loop of small numpy calls, took a fifth of the dark lines' time)."""
+    if not len(chains):
+        return []
+    points = np.vstack([np.asarray(c, dtype=np.float64).reshape(-1, 2) for c in chains])
+    sizes = np.array([len(c) for c in chains], dtype=np.int64)
+    first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    keep = np.zeros(len(points), dtype=bool)
+    keep[first] = keep[first + sizes - 1] = True
+    _split_until_within(points, first, first + sizes - 1, tolerance, keep)
+    vertex = np.flatnonzero(keep)
+    chain_of = np.searchsorted(first, vertex, side="right") - 1
+    # the turn at each vertex between two others of its chain
+    steps = np.diff(points[vertex], axis=0)
+    norms = np.linalg.norm(steps, axis=1)
+    cosine = np.einsum("ij,ij->i", steps[:-1], steps[1:]) / np.maximum(norms[:-1] * norms[1:], 1e-12)
+    inner = (chain_of[1:-1] == chain_of[:-2]) & (chain_of[1:-1] == chain_of[2:])
+    turns = np.zeros(len(vertex), dtype=bool)
+    turns[1:-1] = inner & (np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))) > bend_deg)
+    ends = np.r_[True, chain_of[1:] != chain_of[:-1]]  # each chain's first vertex
+    pieces = []
+    for start, stop in zip(*_piece_bounds(vertex, ends, turns)):
+        pieces.append(points[start : stop + 1])
+    return pieces
+
+
+def _piece_bounds(vertex: np.ndarray, first: np.ndarray, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each piece's first and last point: from a chain's first vertex or a turn to the next
+    turn or the chain's last vertex (a chain of one point is one piece of one point)."""
+    last = np.r_[first[1:], True]
+    opens = first | turns
+    closes = (turns | last) & ~(first & ~last)  # a chain's first vertex closes nothing, unless alone
+    return vertex[opens & ~(last & ~first)], vertex[closes]
+
+
+def _split_until_within(points, start, stop, tolerance: float, keep: np.ndarray) -> None:
+    """Douglas-Peucker over every segment ``start[i]`` to ``stop[i]`` at once: each segment's
+    interior point farthest from its chord (the first such) is kept and splits it, while
+    that farthest lies beyond ``tolerance``."""
+    while len(start):
+        wide = stop - start >= 2
+        start, stop = start[wide], stop[wide]
+        if not len(start):
+            return
+        inner = stop - start - 1
+        segment = np.repeat(np.arange(len(start)), inner)
+        offset = np.arange(len(segment)) - np.repeat(np.cumsum(inner) - inner, inner)
+        at = start[segment] + 1 + offset
+        chord = points[stop] - points[start]
+        along, across = chord[:, 0], chord[:, 1]
+        length = np.sqrt(along * along + across * across)
+        off = points[at] - points[start[segment]]
+        lengths = length[segment]
+        cross = np.abs(along[segment] * off[:, 1] - across[segment] * off[:, 0]) / np.where(lengths > 0, lengths, 1.0)
+        distance = np.where(lengths > 0, cross, np.sqrt(off[:, 0] * off[:, 0] + off[:, 1] * off[:, 1]))
+        bounds = np.cumsum(inner) - inner
+        farthest = np.maximum.reduceat(distance, bounds)
+        is_max = distance == farthest[segment]
+        first_max = np.flatnonzero(is_max)
+        _, pick = np.unique(segment[first_max], return_index=True)
+        split = at[first_max[pick]]
+        beyond = farthest > tolerance
+        split, left, right = split[beyond], start[beyond], stop[beyond]
+        keep[split] = True
+        start, stop = np.concatenate([left, split]), np.concatenate([split, right])
 
 
 def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord: float) -> tuple:
@@ -337,22 +396,25 @@ def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord
     """
     grid = PatchGrid.of(points, spacing)
     image = grid.image(values)
-    pieces, contrast = _lines(image, min_chord)
-    bar = noise_contrast(grid, values, min_chord)
+    # the lines and their nulls side by side: each is half numpy filters, which run in threads
+    found = run_tasks([partial(_lines, image, min_chord), *_null_tasks(grid, values, min_chord)])
+    pieces, contrast = found[0]
+    bar = _null_bar(found[1:])
     kept = [k for k, c in enumerate(contrast) if c > bar]
     return [pieces[k] for k in kept], [contrast[k] for k in kept], image
 
 
 def _lines(image: PatchImage, min_chord: float) -> tuple[list, list]:
     """Every line piece of an image, with its contrast (the module's steps)."""
-    strength, across = ridge_strength(image)
+    strength, difference, twice_hxy = ridge_strength(image)
     z = robust_z(strength, image.inside)
-    mask = line_pixels(strength, across, image.inside, z)
+    mask = line_pixels(strength, (difference, twice_hxy), image.inside, z)
     pieces, mean_z = [], []
-    for chain in pixel_chains(mask, JOIN_GAP * PIXELS_PER_SPACING):
-        for piece in straight_pieces(chain, STRAIGHT_TOLERANCE * PIXELS_PER_SPACING):
-            pieces.append(piece.astype(np.float64))
-            mean_z.append(float(z[piece[:, 0].astype(np.int64), piece[:, 1].astype(np.int64)].mean()))
+    for piece in chains_straight_pieces(
+        pixel_chains(mask, JOIN_GAP * PIXELS_PER_SPACING), STRAIGHT_TOLERANCE * PIXELS_PER_SPACING
+    ):
+        pieces.append(piece)
+        mean_z.append(float(z[piece[:, 0].astype(np.int64), piece[:, 1].astype(np.int64)].mean()))
     lines, contrast = [], []
     for line, line_z in zip(*joined_collinear(pieces, mean_z, JOIN_GAP * PIXELS_PER_SPACING)):
         length = np.linalg.norm(line[-1] - line[0])
@@ -460,13 +522,23 @@ def noise_contrast(grid: PatchGrid, values: np.ndarray, min_chord: float) -> flo
     """The contrast a line must pass on this patch (its ``grid``): :data:`NULL_QUANTILE` of
     the contrasts of the lines found on the patch's values shuffled among its points
     (:data:`NULL_PERMUTATIONS` seeded permutations); 0 where the shuffles draw no line."""
+    return _null_bar(run_tasks(_null_tasks(grid, values, min_chord)))
+
+
+def _null_tasks(grid: PatchGrid, values: np.ndarray, min_chord: float) -> list:
+    """The shuffled images' line finding, one task per seeded permutation."""
     rng = np.random.default_rng(0)
     orders = [rng.permutation(len(values)) for _ in range(NULL_PERMUTATIONS)]  # drawn in turn: seeded as one
+    return [partial(_null_lines, grid, values, order, min_chord) for order in orders]
 
-    def null_lines(order: np.ndarray) -> list:
-        return _lines(grid.image(values[order]), min_chord)[1]
 
-    found = run_tasks([partial(null_lines, order) for order in orders])
+def _null_lines(grid: PatchGrid, values: np.ndarray, order: np.ndarray, min_chord: float) -> list:
+    """The contrasts of the lines found on the patch's values in ``order``."""
+    return _lines(grid.image(values[order]), min_chord)[1]
+
+
+def _null_bar(found: list) -> float:
+    """:data:`NULL_QUANTILE` of the null lines' contrasts (``found``: one list per shuffle)."""
     contrasts = [contrast for lines in found for contrast in lines]
     return float(np.quantile(contrasts, NULL_QUANTILE)) if contrasts else 0.0
 

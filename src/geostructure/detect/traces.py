@@ -30,6 +30,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from geostructure.core.threads import available_cores
 from geostructure.detect.traceimage import PIXELS_PER_SPACING, dark_lines, patch_frame
 
 #: Two groups of points this many spacings apart are separate patches (each point linked to
@@ -145,12 +146,27 @@ def nearest_spacing(points: np.ndarray, tree: cKDTree, sample: int = 50_000) -> 
     return float(np.median(distance[:, 1]))
 
 
+def median_nearest(nearest: np.ndarray, sample: int = 50_000) -> float:
+    """:func:`nearest_spacing` from each point's distance to its nearest neighbour, when a
+    query already holds them (the same seeded sample, so the same value)."""
+    rng = np.random.default_rng(0)
+    at = nearest if len(nearest) <= sample else nearest[rng.choice(len(nearest), sample, replace=False)]
+    return float(np.median(at))
+
+
+def neighbours(points: np.ndarray, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's :data:`PATCH_NEIGHBOURS` nearest (distances, indices; itself first), one
+    query that gives the patches and every spacing the traces read."""
+    distance, index = tree.query(points, min(PATCH_NEIGHBOURS, len(points)), workers=available_cores())
+    return distance.reshape(len(points), -1), index.reshape(len(points), -1)
+
+
 def surface_normals(points: np.ndarray, tree: cKDTree, at: np.ndarray, k: int = SURFACE_NEIGHBOURS) -> np.ndarray:
     """The surface's unit normal around each point of ``at``: the least axis of its ``k``
     nearest points of the cloud."""
     if not len(at):
         return np.zeros((0, 3))
-    _, idx = tree.query(at, min(k, len(points)))
+    _, idx = tree.query(at, min(k, len(points)), workers=available_cores())
     near = points[np.atleast_2d(idx)]
     near = near - near.mean(axis=1, keepdims=True)
     _, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", near, near))
@@ -183,14 +199,15 @@ def plane_traces(points, tree, labels, plane_normals, tested, spacing: float) ->
     return out
 
 
-def patches(points: np.ndarray, spacing: float, tree: cKDTree | None = None) -> list:
+def patches(points: np.ndarray, spacing: float, tree: cKDTree | None = None, near_points=None) -> list:
     """Groups of points no gap of :data:`PATCH_GAP` spacings splits (each point linked to its
     nearest neighbours that close, so that neither the cloud's axes nor its origin matter),
     each cut into tiles along its own axes where larger than :data:`MAX_PATCH`: (indices
-    with halos, the core each tile answers for) per tile."""
+    with halos, the core each tile answers for) per tile. ``near_points``: the points'
+    :func:`neighbours`, when the caller holds them."""
     tree = cKDTree(points) if tree is None else tree
-    k = min(PATCH_NEIGHBOURS, len(points))
-    distance, neighbour = tree.query(points, k)
+    distance, neighbour = neighbours(points, tree) if near_points is None else near_points
+    k = distance.shape[1]
     near = distance[:, 1:] <= PATCH_GAP * spacing
     rows = np.repeat(np.arange(len(points)), k - 1)[near.ravel()]
     graph = coo_matrix((np.ones(len(rows)), (rows, neighbour[:, 1:][near])), shape=(len(points),) * 2)
@@ -221,16 +238,20 @@ def _tiles(points, members, spacing):
     return out
 
 
-def dark_line_traces(points: np.ndarray, grey: np.ndarray, spacing: float, tree: cKDTree | None = None) -> list:
+def dark_line_traces(
+    points: np.ndarray, grey: np.ndarray, spacing: float, tree: cKDTree | None = None, near_points=None
+) -> list:
     """The dark lines of every patch (:func:`patches`) as 3D polylines on the surface, each
-    with its contrast."""
+    with its contrast. ``near_points``: the points' :func:`neighbours`, when the caller holds them."""
+    tree = cKDTree(points) if tree is None else tree
+    near_points = neighbours(points, tree) if near_points is None else near_points
     out = []
-    for members, core in patches(points, spacing, tree):
+    for members, core in patches(points, spacing, tree, near_points):
         if len(members) < 50:
             continue
         mine = points[members]
         # the patch's own spacing: a survey around it, or its sample, must not change its image
-        own = nearest_spacing(mine, tree, PATCH_SPACING_SAMPLE)
+        own = median_nearest(near_points[0][members, 1], PATCH_SPACING_SAMPLE)
         pieces, contrasts, image = dark_lines(mine, grey[members], own, MIN_CHORD)
         if not pieces:
             continue
@@ -329,8 +350,10 @@ def find_traces(
     """
     points = np.asarray(points, dtype=np.float64)
     tree = cKDTree(points) if tree is None else tree
+    dark = grey is not None and len(points) >= 50
+    near_points = neighbours(points, tree) if dark else None  # what the dark lines read
     if spacing is None:
-        spacing = nearest_spacing(points, tree)
+        spacing = median_nearest(near_points[0][:, 1]) if near_points is not None else nearest_spacing(points, tree)
     lines, source, region, contrast = [], [], [], []
     if labels is not None and plane_normals is not None and len(plane_normals):
         tested = np.ones(len(plane_normals), dtype=bool) if tested is None else np.asarray(tested, dtype=bool)
@@ -339,9 +362,9 @@ def find_traces(
             source.append(PLANE)
             region.append(plane)
             contrast.append(np.nan)
-    if grey is not None and len(points) >= 50:
+    if dark:
         own = _plane_trace_lookup(points, labels, lines, region) if lines else None
-        for line, strength in dark_line_traces(points, np.asarray(grey, dtype=np.float64), spacing, tree):
+        for line, strength in dark_line_traces(points, np.asarray(grey, dtype=np.float64), spacing, tree, near_points):
             if own is not None and own(line, spacing):
                 continue
             lines.append(line)
