@@ -143,23 +143,50 @@ class PatchGrid:
         Gaussian one spacing wide (normalised convolution: holes stay holes)."""
         size = self.shape[0] * self.shape[1]
         total = np.bincount(self.cell, weights=values, minlength=size).reshape(self.shape)
-        total = ndimage.gaussian_filter(total, PIXELS_PER_SPACING)
-        value = np.where(self.covered, total / np.maximum(self.count, 1e-12), np.nan)
+        value = ndimage.gaussian_filter(total, PIXELS_PER_SPACING)
+        del total
+        value /= np.maximum(self.count, 1e-12)  # in place: an image's size in arrays, two at most
+        value[~self.covered] = np.nan
         return PatchImage(value, self)
+
+
+#: Rows of an image squared at once where a whole image's temporary would be one array too many.
+ROW_BLOCK = 64
 
 
 def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The dark-line strength of each pixel (the Hessian's larger eigenvalue, scale-normalised;
     0 outside), and the Hessian's ``hxx - hyy`` and ``2 hxy``, whose half angle is the
     direction across the line (:func:`across_line`): read only where a line may pass."""
+    return _ridge(image.value.copy(), image.inside)
+
+
+def _ridge(value: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`ridge_strength` of an image's ``value``, which it overwrites (its holes
+    filled): five arrays of the image's size at most alive at once, for five images a patch
+    may find lines on side by side."""
     sigma = RIDGE_SCALE * PIXELS_PER_SPACING
-    filled = np.where(np.isfinite(image.value), image.value, np.nanmedian(image.value))
-    hxx = ndimage.gaussian_filter(filled, sigma, order=(2, 0))
-    hyy = ndimage.gaussian_filter(filled, sigma, order=(0, 2))
-    hxy = ndimage.gaussian_filter(filled, sigma, order=(1, 1))
-    difference, twice_hxy = hxx - hyy, 2 * hxy
-    strength = (hxx + hyy) / 2 + np.sqrt((difference / 2) ** 2 + hxy**2)
-    return np.where(image.inside, strength * sigma**2, 0.0), difference, twice_hxy
+    holes = ~np.isfinite(value)
+    value[holes] = np.median(value[~holes], overwrite_input=True) if (~holes).any() else np.nan
+    hxx = ndimage.gaussian_filter(value, sigma, order=(2, 0))
+    hyy = ndimage.gaussian_filter(value, sigma, order=(0, 2))
+    # (hxx + hyy) / 2 + sqrt(((hxx - hyy) / 2)^2 + hxy^2), in place
+    strength = hxx + hyy
+    difference = np.subtract(hxx, hyy, out=hxx)
+    del hyy
+    hxy = ndimage.gaussian_filter(value, sigma, order=(1, 1))
+    gap = np.divide(difference, 2, out=value)  # the image's array, no longer read
+    np.square(gap, out=gap)
+    for rows in range(0, len(gap), ROW_BLOCK):  # hxy squared a block of rows at a time: no fifth array
+        gap[rows : rows + ROW_BLOCK] += np.square(hxy[rows : rows + ROW_BLOCK])
+    np.sqrt(gap, out=gap)
+    strength /= 2
+    strength += gap
+    del gap
+    strength *= sigma**2
+    strength[~inside] = 0.0
+    twice_hxy = np.multiply(hxy, 2, out=hxy)
+    return strength, difference, twice_hxy
 
 
 def across_line(difference: np.ndarray, twice_hxy: np.ndarray) -> np.ndarray:
@@ -180,18 +207,30 @@ def line_pixels(
     """The thinned, hysteresis-kept pixels of the lines (see the module), from the ridge
     ``strength`` and the Hessian's ``(hxx - hyy, 2 hxy)`` (:func:`ridge_strength`); ``z``,
     the strength's :func:`robust_z`, when the caller holds it."""
-    if np.count_nonzero(inside) < 16:
-        return np.zeros_like(inside)
     z = robust_z(strength, inside) if z is None else z
-    # Only a pixel above LOW can be a line's: the strongest across the line is looked for
-    # there alone (a third of the pixels), each pixel read as it would be in the whole image.
+    rows, cols = line_candidates(z, inside)
+    return thinned_lines(strength, z, rows, cols, across_line(hessian[0][rows, cols], hessian[1][rows, cols]))
+
+
+def line_candidates(z: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pixels (rows, columns) that may be a line's: inside, above LOW (none where fewer
+    than 16 pixels are inside). The strongest across a line is looked for there alone (a
+    third of the pixels), each pixel read as it would be in the whole image."""
+    if np.count_nonzero(inside) < 16:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     rows, cols = np.nonzero(inside & (z > LOW_Z))
-    across = across_line(hessian[0][rows, cols], hessian[1][rows, cols])
+    return rows, cols
+
+
+def thinned_lines(strength: np.ndarray, z: np.ndarray, rows: np.ndarray, cols: np.ndarray, across) -> np.ndarray:
+    """Of the :func:`line_candidates` (``rows``, ``cols``, each with its angle ``across`` the
+    line), those the strongest across their line (non-maximum suppression) in a group that
+    reaches above HIGH (hysteresis): the lines' pixels, as a mask of the image."""
     dr, dc = np.cos(across), np.sin(across)
     ahead = ndimage.map_coordinates(strength, [rows + dr, cols + dc], order=1, mode="nearest")
     behind = ndimage.map_coordinates(strength, [rows - dr, cols - dc], order=1, mode="nearest")
     here = strength[rows, cols]
-    thin = np.zeros_like(inside)
+    thin = np.zeros(strength.shape, dtype=bool)
     thin[rows, cols] = (here >= ahead) & (here >= behind)
     labels, n = ndimage.label(thin, structure=np.ones((3, 3)))
     strong = np.zeros(n + 1, dtype=bool)
@@ -211,7 +250,7 @@ def pixel_chains(mask: np.ndarray, min_pixels: float) -> list[np.ndarray]:
     n = len(where)
     if n < 2:
         return []
-    lookup = -np.ones(mask.shape, dtype=np.int64)
+    lookup = np.full(mask.shape, -1, dtype=np.int32)  # a tile holds fewer than 2^31 pixels
     lookup[where[:, 0], where[:, 1]] = np.arange(n)
     row_parts: list[np.ndarray] = []
     col_parts: list[np.ndarray] = []
@@ -379,8 +418,8 @@ def _split_until_within(points, start, stop, tolerance: float, keep: np.ndarray)
 
 def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord: float) -> tuple:
     """The dark lines of one patch as straight pieces, each an (n, 2) array of coordinates
-    along the patch's axes (:class:`PatchImage`), their contrasts (:func:`line_contrast`) and
-    the image they were found on: those that stand out more than the patch's shuffled grey
+    along the patch's axes (:class:`PatchGrid`), their contrasts (:func:`line_contrast`) and
+    the grid they were found on: those that stand out more than the patch's shuffled grey
     lets a line (:func:`noise_contrast`).
 
     Parameters
@@ -395,20 +434,25 @@ def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord
         The shortest piece kept (spacings).
     """
     grid = PatchGrid.of(points, spacing)
-    image = grid.image(values)
-    # the lines and their nulls side by side: each is half numpy filters, which run in threads
-    found = run_tasks([partial(_lines, image, min_chord), *_null_tasks(grid, values, min_chord)])
+    # the lines and their nulls side by side, each image made in its own task (only those
+    # running take memory): each is half numpy filters, which run in threads
+    found = run_tasks([partial(_lines, grid, values, min_chord), *_null_tasks(grid, values, min_chord)])
     pieces, contrast = found[0]
-    bar = _null_bar(found[1:])
+    bar = _null_bar([null for _, null in found[1:]])
     kept = [k for k, c in enumerate(contrast) if c > bar]
-    return [pieces[k] for k in kept], [contrast[k] for k in kept], image
+    return [pieces[k] for k in kept], [contrast[k] for k in kept], grid
 
 
-def _lines(image: PatchImage, min_chord: float) -> tuple[list, list]:
-    """Every line piece of an image, with its contrast (the module's steps)."""
-    strength, difference, twice_hxy = ridge_strength(image)
-    z = robust_z(strength, image.inside)
-    mask = line_pixels(strength, (difference, twice_hxy), image.inside, z)
+def _lines(grid: PatchGrid, values: np.ndarray, min_chord: float) -> tuple[list, list]:
+    """Every line piece of the points' ``values`` on ``grid``, with its contrast (the
+    module's steps)."""
+    strength, difference, twice_hxy = _ridge(grid.image(values).value, grid.inside)
+    z = robust_z(strength, grid.inside)
+    rows, cols = line_candidates(z, grid.inside)
+    across = across_line(difference[rows, cols], twice_hxy[rows, cols])
+    del difference, twice_hxy  # read where a line may pass: the image's arrays let go first
+    mask = thinned_lines(strength, z, rows, cols, across)
+    del strength
     pieces, mean_z = [], []
     for piece in chains_straight_pieces(
         pixel_chains(mask, JOIN_GAP * PIXELS_PER_SPACING), STRAIGHT_TOLERANCE * PIXELS_PER_SPACING
@@ -419,7 +463,7 @@ def _lines(image: PatchImage, min_chord: float) -> tuple[list, list]:
     for line, line_z in zip(*joined_collinear(pieces, mean_z, JOIN_GAP * PIXELS_PER_SPACING)):
         length = np.linalg.norm(line[-1] - line[0])
         if length >= min_chord * PIXELS_PER_SPACING:
-            lines.append(image.to_plane(line))
+            lines.append(line * grid.pixel + grid.lower)
             contrast.append(float(line_z * np.sqrt(length / (2.0 * RIDGE_SCALE * PIXELS_PER_SPACING))))
     return lines, contrast
 
@@ -522,19 +566,14 @@ def noise_contrast(grid: PatchGrid, values: np.ndarray, min_chord: float) -> flo
     """The contrast a line must pass on this patch (its ``grid``): :data:`NULL_QUANTILE` of
     the contrasts of the lines found on the patch's values shuffled among its points
     (:data:`NULL_PERMUTATIONS` seeded permutations); 0 where the shuffles draw no line."""
-    return _null_bar(run_tasks(_null_tasks(grid, values, min_chord)))
+    return _null_bar([null for _, null in run_tasks(_null_tasks(grid, values, min_chord))])
 
 
 def _null_tasks(grid: PatchGrid, values: np.ndarray, min_chord: float) -> list:
     """The shuffled images' line finding, one task per seeded permutation."""
     rng = np.random.default_rng(0)
     orders = [rng.permutation(len(values)) for _ in range(NULL_PERMUTATIONS)]  # drawn in turn: seeded as one
-    return [partial(_null_lines, grid, values, order, min_chord) for order in orders]
-
-
-def _null_lines(grid: PatchGrid, values: np.ndarray, order: np.ndarray, min_chord: float) -> list:
-    """The contrasts of the lines found on the patch's values in ``order``."""
-    return _lines(grid.image(values[order]), min_chord)[1]
+    return [partial(_lines, grid, values[order], min_chord) for order in orders]
 
 
 def _null_bar(found: list) -> float:
@@ -545,10 +584,16 @@ def _null_bar(found: list) -> float:
 
 def robust_z(strength: np.ndarray, inside: np.ndarray) -> np.ndarray:
     """The ridge strength as robust z-scores of the patch's own (median, 1.4826 MAD)."""
-    values = strength[inside]
-    median = np.median(values) if values.size else 0.0
-    spread = 1.4826 * np.median(np.abs(values - median)) if values.size else 0.0
-    return (strength - median) / spread if spread > 0 else np.zeros_like(strength)
+    values = strength[inside]  # a copy, reordered and overwritten by the medians below
+    median = np.median(values, overwrite_input=True) if values.size else 0.0
+    values -= median
+    spread = 1.4826 * np.median(np.abs(values, out=values), overwrite_input=True) if values.size else 0.0
+    del values
+    if not spread > 0:
+        return np.zeros_like(strength)
+    z = strength - median
+    z /= spread
+    return z
 
 
 def line_contrast(z: np.ndarray, piece: np.ndarray, length: float) -> float:

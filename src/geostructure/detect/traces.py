@@ -238,24 +238,35 @@ def _tiles(points, members, spacing):
     return out
 
 
+def patch_tiles(points: np.ndarray, tree: cKDTree, spacing: float | None = None) -> tuple[float, list, np.ndarray]:
+    """From one neighbour query (:func:`neighbours`): the points' spacing (``spacing`` when
+    given), their patches' tiles (:func:`patches`) and each point's distance to its nearest
+    neighbour; the query's other columns are let go before the images take their memory."""
+    distance, index = neighbours(points, tree)
+    spacing = median_nearest(distance[:, 1]) if spacing is None else spacing
+    return spacing, patches(points, spacing, tree, (distance, index)), distance[:, 1].copy()
+
+
 def dark_line_traces(
-    points: np.ndarray, grey: np.ndarray, spacing: float, tree: cKDTree | None = None, near_points=None
+    points: np.ndarray, grey: np.ndarray, spacing: float, tree: cKDTree | None = None, tiles=None, nearest=None
 ) -> list:
     """The dark lines of every patch (:func:`patches`) as 3D polylines on the surface, each
-    with its contrast. ``near_points``: the points' :func:`neighbours`, when the caller holds them."""
+    with its contrast. ``tiles`` and ``nearest``: the points' :func:`patch_tiles`, when the
+    caller holds them."""
     tree = cKDTree(points) if tree is None else tree
-    near_points = neighbours(points, tree) if near_points is None else near_points
+    if tiles is None or nearest is None:
+        _, tiles, nearest = patch_tiles(points, tree, spacing)
     out = []
-    for members, core in patches(points, spacing, tree, near_points):
+    for members, core in tiles:
         if len(members) < 50:
             continue
         mine = points[members]
         # the patch's own spacing: a survey around it, or its sample, must not change its image
-        own = median_nearest(near_points[0][members, 1], PATCH_SPACING_SAMPLE)
-        pieces, contrasts, image = dark_lines(mine, grey[members], own, MIN_CHORD)
+        own = median_nearest(nearest[members], PATCH_SPACING_SAMPLE)
+        pieces, contrasts, grid = dark_lines(mine, grey[members], own, MIN_CHORD)
         if not pieces:
             continue
-        flat = np.column_stack([(mine - image.origin) @ image.u, (mine - image.origin) @ image.v])
+        flat = np.column_stack([(mine - grid.origin) @ grid.u, (mine - grid.origin) @ grid.v])
         flat_tree = cKDTree(flat)
         core_tree = cKDTree(flat[core]) if not core.all() else None
         for piece, contrast in zip(pieces, contrasts):
@@ -351,9 +362,10 @@ def find_traces(
     points = np.asarray(points, dtype=np.float64)
     tree = cKDTree(points) if tree is None else tree
     dark = grey is not None and len(points) >= 50
-    near_points = neighbours(points, tree) if dark else None  # what the dark lines read
-    if spacing is None:
-        spacing = median_nearest(near_points[0][:, 1]) if near_points is not None else nearest_spacing(points, tree)
+    if dark:  # one neighbour query gives the spacing and what the dark lines read
+        spacing, tiles, nearest = patch_tiles(points, tree, spacing)
+    elif spacing is None:
+        spacing = nearest_spacing(points, tree)
     lines, source, region, contrast = [], [], [], []
     if labels is not None and plane_normals is not None and len(plane_normals):
         tested = np.ones(len(plane_normals), dtype=bool) if tested is None else np.asarray(tested, dtype=bool)
@@ -364,7 +376,9 @@ def find_traces(
             contrast.append(np.nan)
     if dark:
         own = _plane_trace_lookup(points, labels, lines, region) if lines else None
-        for line, strength in dark_line_traces(points, np.asarray(grey, dtype=np.float64), spacing, tree, near_points):
+        for line, strength in dark_line_traces(
+            points, np.asarray(grey, dtype=np.float64), spacing, tree, tiles, nearest
+        ):
             if own is not None and own(line, spacing):
                 continue
             lines.append(line)
