@@ -14,8 +14,9 @@ Each is scored by the data's rule (``geostructure.evaluation.mapcheck``): mapped
 (a plane's centroid within 0.6 m, its normal within 10 degrees), precision (the share of
 the planes that match one), and each published set's angle to the nearest set found; and
 GeoStructure's traces by the data's trace rule, the null model's score beside them, with the
-seconds the traces' stage takes beside the planes' stages (``run.json``'s). It prints
-seconds, points per second, peak memory and the ratio of the peer's time to ours.
+seconds the traces' stage takes beside the planes' stages (``run.json``'s, in memory and
+streamed) and the memory each of those two stages takes at its peak. It prints seconds,
+points per second, peak memory and the ratio of the peer's time to ours.
 
     python bench/bench_real_rock.py
 """
@@ -75,6 +76,55 @@ def trace_scores(outdir: Path) -> dict:
             "traces_over_planes": round(seconds.get("traces", 0.0) / planes, 2) if planes else None}  # fmt: skip
 
 
+def streamed_stage_seconds(cloud: Path, outdir: Path) -> dict:
+    """``measure --sets --engine stream`` in a process of its own: the traces' stage and the
+    planes' stages, as its ``run.json`` times them."""
+    import subprocess
+
+    subprocess.run([sys.executable, "-m", "geostructure", "measure", str(cloud), "-o", str(outdir), "--sets",
+                    "--engine", "stream", "-q"], check=True, stderr=subprocess.DEVNULL)  # fmt: skip
+    seconds = json.loads((outdir / "run.json").read_text())["seconds"]
+    planes = sum(seconds.get(stage, 0.0) for stage in PLANE_STAGES)
+    return {"streamed_planes_seconds": round(planes, 2), "streamed_traces_seconds": round(seconds["traces"], 2),
+            "streamed_traces_over_planes": round(seconds["traces"] / planes, 2)}  # fmt: skip
+
+
+def stage_memory(cloud: Path) -> dict:
+    """The most memory (MB, numpy's and Python's, as ``tracemalloc`` counts them) the planes'
+    stage and the traces' stage each take above what stood when it began, in memory
+    (``measure_outcrop(..., sets=True)``, in this process, after the timed runs)."""
+    import tracemalloc
+    import warnings
+
+    import geostructure.workflows.outcrop as outcrop
+    from geostructure.io.readers import read_cloud
+
+    points = read_cloud(cloud)
+    peaks: dict = {}
+
+    def traced(name, stage):
+        def run(measuring):
+            start = tracemalloc.get_traced_memory()[0]
+            tracemalloc.reset_peak()
+            stage(measuring)
+            peaks[name] = (tracemalloc.get_traced_memory()[1] - start) / 1e6
+
+        return run
+
+    kept = outcrop.STAGES
+    # each stage wrapped for the one run: the workflow reads its stages from that list
+    outcrop.STAGES = tuple((name, traced(name, stage)) for name, stage in kept)
+    tracemalloc.start()
+    try:
+        with warnings.catch_warnings():  # the notes the timed run printed already
+            warnings.simplefilter("ignore")
+            outcrop.measure_outcrop(points, sets=True)
+    finally:
+        tracemalloc.stop()
+        outcrop.STAGES = kept
+    return {"planes_stage_mb": round(peaks["planes"], 1), "traces_stage_mb": round(peaks["traces"], 1)}
+
+
 def main() -> None:
     cloud = DATA / "Lastoni_SW_3cm.txt"
     if not cloud.is_file():
@@ -86,10 +136,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         runs = {"geostructure": run_geostructure(cloud, Path(tmp) / "out")}
         traced = trace_scores(Path(tmp) / "out")
+        traced.update(streamed_stage_seconds(cloud, Path(tmp) / "streamed"))
         for minimum in (30, 10):
             runs[f"DSE-style peer, clusters of {minimum}+"] = run_peer_process(
                 cloud, Path(tmp) / f"peer{minimum}.npz", minimum
             )
+    traced.update(stage_memory(cloud))
     ours = runs["geostructure"]["seconds"]
     for name, run in runs.items():
         row = {"method": name, "seconds": round(run["seconds"], 2), "points_per_s": round(n / run["seconds"]),
