@@ -44,22 +44,38 @@ def test_the_default_finds_the_mapped_fractures(lastoni):
 
 
 def test_the_default_draws_traces_that_beat_the_null_model(lastoni):
-    # Measured: 45 of 432 traced by 182 traces at a precision of 0.28; as many random
-    # segments of the same chords trace 11 at 0.06. 150 found by a plane or a trace (125 by
-    # a plane). (42 by 176 at 0.27, null 12 at 0.07, 149, before the fifth session.) The issue's bar (150 at 0.40, 220 found) is not reached:
-    # docs/rockmass.md says what limits it. These bounds hold the figures reached.
+    # Measured: 62 of 432 traced by 227 traces at a precision of 0.31; as many random
+    # segments of the same chords trace 13 at 0.06. 159 found by a plane or a trace (125 by
+    # a plane). (45 by 182 at 0.28, null 11 at 0.06, 150, while the rough rock's corners
+    # were clutter and the dark lines on them dropped.) The issue's bar (150 at 0.40, 220
+    # found) is not reached: docs/rockmass.md says what limits it. These bounds hold the
+    # figures reached.
     _, scores = lastoni
     traces = scores["traces"]
-    assert traces["traced"] >= 30, traces
-    assert traces["trace_precision"] >= 0.2, traces
+    assert traces["traced"] >= 50, traces
+    assert traces["trace_precision"] >= 0.25, traces
     assert traces["null_precision"] < 0.5 * traces["trace_precision"], traces
     assert traces["null_traced"] < 0.5 * traces["traced"], traces
-    assert traces["found_by_plane_or_trace"] >= scores["matched"] + 15, traces
+    assert traces["found_by_plane_or_trace"] >= scores["matched"] + 25, traces
+
+
+def test_bare_rock_is_not_taken_for_clutter(lastoni):
+    """The SW half is bare rock (no vegetation in its photographs). Clutter is a volume at the
+    cells' scale and at the points' own: measured, 6.3% of its points are clutter (their
+    rough corners and fracture crossings), where the cells alone took 16.2%, and the
+    clutter's planes hold 143 of the 16,839 points in planes (1,258 before)."""
+    import laspy
+
+    from geostructure.rockmass.face import CLUTTER
+
+    out, _ = lastoni
+    part = np.asarray(laspy.read(str(out / "regions.laz")).face_part)
+    assert (part == CLUTTER).mean() < 0.10, (part == CLUTTER).mean()
 
 
 def test_the_traces_median_chord_is_the_maps_within_a_factor_two(lastoni):
-    # set 1: 0.48 m found against the map's 0.70; set 2: 0.47 against 0.47. Their summed
-    # chords fall short (52 m of 219, 20 of 46): most mapped traces show no dark line here.
+    # set 1: 0.43 m found against the map's 0.70; set 2: 0.38 against 0.47. Their summed
+    # chords fall short (60 m of 219, 22 of 46): most mapped traces show no dark line here.
     _, scores = lastoni
     for label, figures in scores["traces"]["sets"].items():
         assert figures["measured_set"] >= 0, (label, figures)
@@ -201,7 +217,7 @@ def test_one_outcrop_one_answer_turned_or_inside_a_survey(lastoni, tmp_path):
     """The SW half turned 37 degrees about the vertical (its map turned with it), and inside a
     survey of four copies of itself 1 m apart, against the half alone. Measured: matched
     125 alone, 128 turned, 124 among copies (116 while the regions' size was a share of the
-    survey's points); traced 42, 50 and 48. The planes hold within 5%; the traces' count
+    survey's points); traced 62, 59 and 54. The planes hold within 5%; the traces' count
     moves more, with the planes and sets upstream of them (the dark lines themselves are the
     same to the bit when the same points are turned: test_fracture_traces.py)."""
     _, alone = lastoni

@@ -49,6 +49,9 @@ CLUTTER_CELL = 4.0
 MIN_CLUTTER_CELL_POINTS = 8
 #: ... or, holding no plane's point, when this share of its neighbours or more are clutter.
 CLUTTER_NEIGHBOURS = 0.3
+#: A volume cell is clutter only where its points are a volume at their own scale too: each
+#: point's nearest this many (a cell of a surface's points, 4 x 4), their surface variation.
+CLUTTER_NEIGHBOURS_K = 16
 #: Fewest points a face may keep once ground and clutter are left out.
 MIN_FACE_POINTS = 100
 #: Each point's part, as ``regions.laz``'s ``face_part`` dimension holds it.
@@ -212,6 +215,7 @@ def _clutter(points, labels, n_planes: int, spacing) -> tuple[np.ndarray, np.nda
     count = grid.moments[:-1, 0]
     values = block_fit(grid.moments[:-1])[0]  # each cell's own eigenvalues, ascending
     volume = (count >= MIN_CLUTTER_CELL_POINTS) & (values[:, 0] > SURFACE_VARIATION * values.sum(axis=1))
+    volume &= _volume_at_point_scale(points, grid.point_cell, volume)
     # A bush's thinner patches read as surface at this scale: a cell is clutter too when
     # enough of its neighbours are a volume.
     neighbours, volumes = np.zeros(len(count)), np.zeros(len(count))
@@ -230,6 +234,36 @@ def _clutter(points, labels, n_planes: int, spacing) -> tuple[np.ndarray, np.nda
     in_plane = np.zeros(len(points), dtype=bool)
     in_plane[~free] = clutter_planes[labels[~free]]
     return (free & clutter_cells[grid.point_cell]) | in_plane, clutter_planes
+
+
+def _volume_at_point_scale(points: np.ndarray, point_cell: np.ndarray, volume: np.ndarray) -> np.ndarray:
+    """Which of the cells (``volume``: those a volume at the cell's scale) are a volume at
+    the points' scale too: the median of their points' surface variation over each one's
+    :data:`CLUTTER_NEIGHBOURS_K` nearest (as many as a cell of a surface holds) is over
+    :data:`~geostructure.detect.cells.SURFACE_VARIATION`. Rough rock is a surface bent
+    within a cell (where facets meet, a corner); a bush is noise at every scale. On the
+    Lastoni SW half (bare rock, drone SfM) the cells alone took 16% of the rock's points for
+    clutter; their points' median variation is 0.038 there, 0.117 on the synthetic bushes."""
+    out = np.zeros(len(volume), dtype=bool)
+    members = np.flatnonzero(volume[point_cell])
+    if not len(members):
+        return out
+    from scipy.spatial import cKDTree  # lazy: only where a cell is a volume
+
+    k = min(CLUTTER_NEIGHBOURS_K, len(points))
+    _, near = cKDTree(points).query(points[members], k)
+    around = points[near.reshape(len(members), -1)]
+    around = around - around.mean(axis=1, keepdims=True)
+    values = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", around, around))
+    variation = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
+    cells = point_cell[members]
+    order = np.lexsort((variation, cells))  # by cell, each cell's variations ascending
+    cells, variation = cells[order], variation[order]
+    starts = np.flatnonzero(np.r_[True, cells[1:] != cells[:-1]])
+    size = np.diff(np.r_[starts, len(cells)])
+    median = (variation[starts + (size - 1) // 2] + variation[starts + size // 2]) / 2
+    out[cells[starts]] = median > SURFACE_VARIATION
+    return out
 
 
 def _most_in(labels, marked, n_planes: int) -> np.ndarray:
