@@ -215,7 +215,7 @@ def _clutter(points, labels, n_planes: int, spacing) -> tuple[np.ndarray, np.nda
     count = grid.moments[:-1, 0]
     values = block_fit(grid.moments[:-1])[0]  # each cell's own eigenvalues, ascending
     volume = (count >= MIN_CLUTTER_CELL_POINTS) & (values[:, 0] > SURFACE_VARIATION * values.sum(axis=1))
-    volume &= _volume_at_point_scale(points, grid.point_cell, volume)
+    volume &= _volume_at_point_scale(points, grid, volume)
     # A bush's thinner patches read as surface at this scale: a cell is clutter too when
     # enough of its neighbours are a volume.
     neighbours, volumes = np.zeros(len(count)), np.zeros(len(count))
@@ -236,7 +236,7 @@ def _clutter(points, labels, n_planes: int, spacing) -> tuple[np.ndarray, np.nda
     return (free & clutter_cells[grid.point_cell]) | in_plane, clutter_planes
 
 
-def _volume_at_point_scale(points: np.ndarray, point_cell: np.ndarray, volume: np.ndarray) -> np.ndarray:
+def _volume_at_point_scale(points: np.ndarray, grid: CellGrid, volume: np.ndarray) -> np.ndarray:
     """Which of the cells (``volume``: those a volume at the cell's scale) are a volume at
     the points' scale too: the median of their points' surface variation over each one's
     :data:`CLUTTER_NEIGHBOURS_K` nearest (as many as a cell of a surface holds) is over
@@ -245,14 +245,22 @@ def _volume_at_point_scale(points: np.ndarray, point_cell: np.ndarray, volume: n
     Lastoni SW half (bare rock, drone SfM) the cells alone took 16% of the rock's points for
     clutter; their points' median variation is 0.048 there, 0.136 on the synthetic bushes."""
     out = np.zeros(len(volume), dtype=bool)
+    point_cell = grid.point_cell
     members = np.flatnonzero(volume[point_cell])
     if not len(members):
         return out
     from scipy.spatial import cKDTree  # lazy: only where a cell is a volume
 
-    k = min(CLUTTER_NEIGHBOURS_K, len(points))
-    _, near = cKDTree(points).query(points[members], k)
-    around = points[near.reshape(len(members), -1)]
+    # A point's 16 nearest lie within a cell of it (a cell is four spacings): the tree holds
+    # the volume cells and the cells around them, not the whole cloud.
+    reach = volume.copy()
+    for step in grid.steps()[np.any(OFFSETS != 0, axis=1)]:
+        found = grid.find(grid.codes + step)
+        reach[found[(found >= 0) & volume]] = True
+    nearby = np.flatnonzero(reach[point_cell])
+    k = min(CLUTTER_NEIGHBOURS_K, len(nearby))
+    _, near = cKDTree(points[nearby]).query(points[members], k)
+    around = points[nearby[near.reshape(len(members), -1)]]
     around = around - around.mean(axis=1, keepdims=True)
     values = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", around, around))
     variation = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
