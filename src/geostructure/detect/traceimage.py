@@ -1,7 +1,7 @@
 """Dark lines on a patch of surface, as a geologist sees fracture traces on a photograph of it.
 
 A patch of the cloud is laid flat on its own mean plane and sampled as an image half a point
-spacing per pixel (:func:`patch_image`): each pixel the points' values around it, weighted by a
+spacing per pixel (:meth:`PatchGrid.image`): each pixel the points' values around it, weighted by a
 Gaussian one spacing wide (normalised convolution, so that holes stay holes). A trace is a
 line darker than the rock either side of it: where the image's Hessian, at a scale of one
 spacing, has a large positive eigenvalue (the value curves up across the line), thinned to
@@ -43,44 +43,6 @@ BEND_DEG = 25.0
 STRAIGHT_TOLERANCE = 1.5
 
 
-@dataclass(frozen=True)
-class PatchImage:
-    """A patch of surface as an image: ``value`` (H, W) with NaN where no point lies, on its
-    ``grid`` (:class:`PatchGrid`: where it is trusted, the plane it lies on)."""
-
-    value: np.ndarray
-    grid: PatchGrid
-
-    @property
-    def inside(self) -> np.ndarray:
-        """Where the image is trusted: a scale's width away from its edges and holes."""
-        return self.grid.inside
-
-    @property
-    def origin(self) -> np.ndarray:
-        return self.grid.origin
-
-    @property
-    def u(self) -> np.ndarray:
-        return self.grid.u
-
-    @property
-    def v(self) -> np.ndarray:
-        return self.grid.v
-
-    @property
-    def lower(self) -> np.ndarray:
-        return self.grid.lower
-
-    @property
-    def pixel(self) -> float:
-        return self.grid.pixel
-
-    def to_plane(self, pixels: np.ndarray) -> np.ndarray:
-        """Pixel coordinates (n, 2) to coordinates along ``u`` and ``v``."""
-        return pixels * self.pixel + self.lower
-
-
 def patch_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A patch's mean plane: its centroid and the principal axes (largest, second, normal)."""
     centre = points.mean(axis=0)
@@ -94,11 +56,6 @@ def patch_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     normal = normal if np.mean((centred @ normal) ** 3) >= 0 else -normal
     v = np.cross(normal, u)
     return centre, u, v, normal
-
-
-def patch_image(points: np.ndarray, values: np.ndarray, spacing: float) -> PatchImage:
-    """The patch's values as an image on its mean plane (see the module)."""
-    return PatchGrid.of(points, spacing).image(values)
 
 
 @dataclass(frozen=True)
@@ -138,33 +95,30 @@ class PatchGrid:
         inside = ndimage.binary_erosion(covered, iterations=margin) if margin else covered
         return cls(cell, shape, count, covered, inside, centre, u, v, lower, pixel)
 
-    def image(self, values: np.ndarray) -> PatchImage:
-        """The points' ``values`` on the grid: each pixel their mean around it, weighted by a
-        Gaussian one spacing wide (normalised convolution: holes stay holes)."""
+    def image(self, values: np.ndarray) -> np.ndarray:
+        """The points' ``values`` on the grid, (H, W) with NaN where no point lies: each pixel
+        their mean around it, weighted by a Gaussian one spacing wide (normalised
+        convolution: holes stay holes)."""
         size = self.shape[0] * self.shape[1]
         total = np.bincount(self.cell, weights=values, minlength=size).reshape(self.shape)
         value = ndimage.gaussian_filter(total, PIXELS_PER_SPACING)
         del total
         value /= np.maximum(self.count, 1e-12)  # in place: an image's size in arrays, two at most
         value[~self.covered] = np.nan
-        return PatchImage(value, self)
+        return value
 
 
 #: Rows of an image squared at once where a whole image's temporary would be one array too many.
 ROW_BLOCK = 64
 
 
-def ridge_strength(image: PatchImage) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The dark-line strength of each pixel (the Hessian's larger eigenvalue, scale-normalised;
-    0 outside), and the Hessian's ``hxx - hyy`` and ``2 hxy``, whose half angle is the
-    direction across the line (:func:`across_line`): read only where a line may pass."""
-    return _ridge(image.value.copy(), image.inside)
-
-
-def _ridge(value: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`ridge_strength` of an image's ``value``, which it overwrites (its holes
-    filled): five arrays of the image's size at most alive at once, for five images a patch
-    may find lines on side by side."""
+def ridge_strength(value: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The dark-line strength of each pixel of an image's ``value`` (the Hessian's larger
+    eigenvalue, scale-normalised; 0 off ``inside``), and the Hessian's ``hxx - hyy`` and
+    ``2 hxy``, whose half angle is the direction across the line (:func:`across_line`), read
+    only where a line may pass. ``value`` is overwritten (its holes filled): five arrays of
+    the image's size at most alive at once, for five images a patch may find lines on side
+    by side."""
     sigma = RIDGE_SCALE * PIXELS_PER_SPACING
     holes = ~np.isfinite(value)
     value[holes] = np.median(value[~holes], overwrite_input=True) if (~holes).any() else np.nan
@@ -199,17 +153,6 @@ def across_line(difference: np.ndarray, twice_hxy: np.ndarray) -> np.ndarray:
     0.0
     """
     return 0.5 * np.arctan2(twice_hxy, difference)
-
-
-def line_pixels(
-    strength: np.ndarray, hessian: tuple[np.ndarray, np.ndarray], inside: np.ndarray, z: np.ndarray | None = None
-) -> np.ndarray:
-    """The thinned, hysteresis-kept pixels of the lines (see the module), from the ridge
-    ``strength`` and the Hessian's ``(hxx - hyy, 2 hxy)`` (:func:`ridge_strength`); ``z``,
-    the strength's :func:`robust_z`, when the caller holds it."""
-    z = robust_z(strength, inside) if z is None else z
-    rows, cols = line_candidates(z, inside)
-    return thinned_lines(strength, z, rows, cols, across_line(hessian[0][rows, cols], hessian[1][rows, cols]))
 
 
 def line_candidates(z: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -438,7 +381,7 @@ def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord
     # running take memory): each is half numpy filters, which run in threads
     found = run_tasks([partial(_lines, grid, values, min_chord), *_null_tasks(grid, values, min_chord)])
     pieces, contrast = found[0]
-    bar = _null_bar([null for _, null in found[1:]])
+    bar = noise_contrast([null for _, null in found[1:]])
     kept = [k for k, c in enumerate(contrast) if c > bar]
     return [pieces[k] for k in kept], [contrast[k] for k in kept], grid
 
@@ -446,7 +389,7 @@ def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord
 def _lines(grid: PatchGrid, values: np.ndarray, min_chord: float) -> tuple[list, list]:
     """Every line piece of the points' ``values`` on ``grid``, with its contrast (the
     module's steps)."""
-    strength, difference, twice_hxy = _ridge(grid.image(values).value, grid.inside)
+    strength, difference, twice_hxy = ridge_strength(grid.image(values), grid.inside)
     z = robust_z(strength, grid.inside)
     rows, cols = line_candidates(z, grid.inside)
     across = across_line(difference[rows, cols], twice_hxy[rows, cols])
@@ -578,13 +521,6 @@ NULL_PERMUTATIONS = 4
 NULL_QUANTILE = 0.99
 
 
-def noise_contrast(grid: PatchGrid, values: np.ndarray, min_chord: float) -> float:
-    """The contrast a line must pass on this patch (its ``grid``): :data:`NULL_QUANTILE` of
-    the contrasts of the lines found on the patch's values shuffled among its points
-    (:data:`NULL_PERMUTATIONS` seeded permutations); 0 where the shuffles draw no line."""
-    return _null_bar([null for _, null in run_tasks(_null_tasks(grid, values, min_chord))])
-
-
 def _null_tasks(grid: PatchGrid, values: np.ndarray, min_chord: float) -> list:
     """The shuffled images' line finding, one task per seeded permutation."""
     rng = np.random.default_rng(0)
@@ -592,8 +528,10 @@ def _null_tasks(grid: PatchGrid, values: np.ndarray, min_chord: float) -> list:
     return [partial(_lines, grid, values[order], min_chord) for order in orders]
 
 
-def _null_bar(found: list) -> float:
-    """:data:`NULL_QUANTILE` of the null lines' contrasts (``found``: one list per shuffle)."""
+def noise_contrast(found: list) -> float:
+    """The contrast a line must pass on a patch: :data:`NULL_QUANTILE` of the contrasts of
+    the lines found on its values shuffled among its points (``found``: one list per
+    shuffle, :data:`NULL_PERMUTATIONS` seeded ones); 0 where the shuffles draw no line."""
     contrasts = [contrast for lines in found for contrast in lines]
     return float(np.quantile(contrasts, NULL_QUANTILE)) if contrasts else 0.0
 
