@@ -215,12 +215,13 @@ def _clutter(points, labels, n_planes: int, spacing) -> tuple[np.ndarray, np.nda
     count = grid.moments[:-1, 0]
     values = block_fit(grid.moments[:-1])[0]  # each cell's own eigenvalues, ascending
     volume = (count >= MIN_CLUTTER_CELL_POINTS) & (values[:, 0] > SURFACE_VARIATION * values.sum(axis=1))
-    volume &= _volume_at_point_scale(points, grid, volume)
+    # each cell's 26 neighbours (-1 where none), read once for both rules below
+    around = np.stack([grid.find(grid.codes + step) for step in grid.steps()[np.any(OFFSETS != 0, axis=1)]])
+    volume &= _volume_at_point_scale(points, grid.point_cell, around, volume)
     # A bush's thinner patches read as surface at this scale: a cell is clutter too when
     # enough of its neighbours are a volume.
     neighbours, volumes = np.zeros(len(count)), np.zeros(len(count))
-    for step in grid.steps()[np.any(OFFSETS != 0, axis=1)]:
-        found = grid.find(grid.codes + step)
+    for found in around:
         there = found >= 0
         neighbours[there] += 1
         volumes[there] += volume[found[there]]
@@ -236,7 +237,9 @@ def _clutter(points, labels, n_planes: int, spacing) -> tuple[np.ndarray, np.nda
     return (free & clutter_cells[grid.point_cell]) | in_plane, clutter_planes
 
 
-def _volume_at_point_scale(points: np.ndarray, grid: CellGrid, volume: np.ndarray) -> np.ndarray:
+def _volume_at_point_scale(
+    points: np.ndarray, point_cell: np.ndarray, around: np.ndarray, volume: np.ndarray
+) -> np.ndarray:
     """Which of the cells (``volume``: those a volume at the cell's scale) are a volume at
     the points' scale too: the median of their points' surface variation over each one's
     :data:`CLUTTER_NEIGHBOURS_K` nearest (as many as a cell of a surface holds) is over
@@ -245,7 +248,6 @@ def _volume_at_point_scale(points: np.ndarray, grid: CellGrid, volume: np.ndarra
     Lastoni SW half (bare rock, drone SfM) the cells alone took 16% of the rock's points for
     clutter; their points' median variation is 0.048 there, 0.136 on the synthetic bushes."""
     out = np.zeros(len(volume), dtype=bool)
-    point_cell = grid.point_cell
     members = np.flatnonzero(volume[point_cell])
     if not len(members):
         return out
@@ -254,8 +256,7 @@ def _volume_at_point_scale(points: np.ndarray, grid: CellGrid, volume: np.ndarra
     # A point's 16 nearest lie within a cell of it (a cell is four spacings): the tree holds
     # the volume cells and the cells around them, not the whole cloud.
     reach = volume.copy()
-    for step in grid.steps()[np.any(OFFSETS != 0, axis=1)]:
-        found = grid.find(grid.codes + step)
+    for found in around:  # each cell's neighbour in one direction (``around``: (26, C))
         reach[found[(found >= 0) & volume]] = True
     nearby = np.flatnonzero(reach[point_cell])
     k = min(CLUTTER_NEIGHBOURS_K, len(nearby))
