@@ -140,18 +140,21 @@ PATCH_SPACING_SAMPLE = 200_000
 def nearest_spacing(points: np.ndarray, tree: cKDTree, sample: int = 50_000) -> float:
     """The median distance from a point to its nearest neighbour (a seeded sample of at most
     ``sample`` points; every point of a cloud that size or smaller)."""
-    rng = np.random.default_rng(0)
-    at = points if len(points) <= sample else points[rng.choice(len(points), sample, replace=False)]
-    distance, _ = tree.query(at, 2)
+    distance, _ = tree.query(_seeded_sample(points, sample), 2)
     return float(np.median(distance[:, 1]))
 
 
 def median_nearest(nearest: np.ndarray, sample: int = 50_000) -> float:
     """:func:`nearest_spacing` from each point's distance to its nearest neighbour, when a
     query already holds them (the same seeded sample, so the same value)."""
-    rng = np.random.default_rng(0)
-    at = nearest if len(nearest) <= sample else nearest[rng.choice(len(nearest), sample, replace=False)]
-    return float(np.median(at))
+    return float(np.median(_seeded_sample(nearest, sample)))
+
+
+def _seeded_sample(rows: np.ndarray, sample: int) -> np.ndarray:
+    """At most ``sample`` of ``rows``, drawn with seed 0 (all of them when that many or fewer)."""
+    if len(rows) <= sample:
+        return rows
+    return rows[np.random.default_rng(0).choice(len(rows), sample, replace=False)]
 
 
 def neighbours(points: np.ndarray, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:

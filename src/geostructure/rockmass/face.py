@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geostructure.core.density import point_spacing
+from geostructure.core.eigen import smallest_eigenpair
 from geostructure.detect.cells import OFFSETS, SURFACE_VARIATION, CellGrid, block_fit
 from geostructure.rockmass.exposure import mean_face
 
@@ -261,9 +262,9 @@ def _volume_at_point_scale(
     nearby = np.flatnonzero(reach[point_cell])
     k = min(CLUTTER_NEIGHBOURS_K, len(nearby))
     _, near = cKDTree(points[nearby]).query(points[members], k)
-    around = points[nearby[near.reshape(len(members), -1)]]
-    around = around - around.mean(axis=1, keepdims=True)
-    values = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", around, around))
+    neighbourhood = points[nearby[near.reshape(len(members), -1)]]
+    neighbourhood = neighbourhood - neighbourhood.mean(axis=1, keepdims=True)
+    values, _ = smallest_eigenpair(np.einsum("nki,nkj->nij", neighbourhood, neighbourhood))
     variation = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)
     cells = point_cell[members]
     order = np.lexsort((variation, cells))  # by cell, each cell's variations ascending
