@@ -7,6 +7,7 @@ import faulthandler
 import os
 import signal
 import sys
+import threading
 
 
 def prefer_small_pages() -> None:
@@ -70,10 +71,39 @@ def stacks_on_request() -> None:
         faulthandler.register(signal.SIGUSR1, all_threads=True, chain=False)
 
 
+#: How long after a swallowed interrupt it is sent again (the hook has long returned by then).
+REDELIVERY_DELAY_S = 0.05
+
+
+def interrupts_never_swallowed() -> None:
+    """An interrupt that lands where Python cannot raise it (a weak reference's callback, an
+    object's finaliser, the garbage collector) is raised again in the main thread.
+
+    Python prints such an exception as "Exception ignored in ..." with its traceback, and
+    goes on: a Ctrl-C in a weakref callback while a report was drawn printed Python's
+    ``KeyboardInterrupt`` traceback, and the command ran on to exit 0 as if never
+    interrupted. Here the signal is raised once more, so the next line of the command's own
+    code meets it and the command ends as any interrupt ends it (exit 130, the folder's
+    previous set whole). Any other such exception goes to Python's own hook.
+    """
+    previous = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            # Sent again from a thread of its own a moment later, once this hook has returned:
+            # raised inside the hook, it would be swallowed again.
+            threading.Timer(REDELIVERY_DELAY_S, os.kill, (os.getpid(), signal.SIGINT)).start()
+            return
+        previous(unraisable)
+
+    sys.unraisablehook = hook
+
+
 def run(argv=None) -> int:
     prefer_small_pages()  # before numpy is imported: it reads the switch then
     reuse_freed_memory()
     stacks_on_request()
+    interrupts_never_swallowed()
     try:
         from geostructure.cli import build_parser, main  # lazy on purpose: the import itself may be interrupted
 

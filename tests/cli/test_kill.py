@@ -167,3 +167,28 @@ def test_an_interruption_at_each_rename_of_the_commit(runs, tmp_path, monkeypatc
             pass
         recover(work)
     assert which_set(work, folders) == ("new" if committed or code == 0 else "old")
+
+
+SWALLOWED = """
+import time, weakref
+from geostructure.__main__ import interrupts_never_swallowed
+interrupts_never_swallowed()
+class Cloud: pass
+cloud = Cloud()
+def on_free(ref): raise KeyboardInterrupt  # as a Ctrl-C landing in a weakref's callback
+ref = weakref.ref(cloud, on_free)
+try:
+    del cloud  # Python prints such an exception, ignores it, and goes on
+    time.sleep(5)
+    print("ran on")
+except KeyboardInterrupt:
+    print("interrupted")
+"""
+
+
+def test_an_interrupt_in_a_callback_python_ignores_still_ends_the_command():
+    """A Ctrl-C in a weakref callback while a report was drawn printed Python's traceback
+    and the command ran on to exit 0."""
+    done = subprocess.run([sys.executable, "-c", SWALLOWED], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == "interrupted"
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr

@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.sampling import order_free_sample, sampled_blocks
+from geostructure.core.threads import tree_query
 
 #: Points sampled to measure the point spacing.
 SPACING_SAMPLE = 20_000
@@ -70,7 +71,7 @@ def _spacing_of(points: np.ndarray, sample: int, seed: int) -> tuple[float, floa
             return found[0] * float(np.sqrt(np.pi / (k - 1))), found[1]
     probe = points[order_free_sample(points, min(sample, len(points)), seed)]
     tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # built fast: queried once
-    distance = tree.query(probe, k=k, workers=-1)[0]
+    distance = tree_query(tree, probe, k)[0]
     copied = float(np.mean(distance[:, 1] == 0.0)) if k > 1 else 0.0  # column 0 is the probe itself
     return float(np.median(distance[:, -1])) * float(np.sqrt(np.pi / max(k - 1, 1))), copied
 
@@ -113,7 +114,7 @@ def r8_in_blocks(sub: np.ndarray, lower, edge: float, sample: int, seed: int) ->
         return None
     probe = order_free_sample(sub, min(4 * sample, len(sub)), seed)
     tree = cKDTree(sub, balanced_tree=False, compact_nodes=False)
-    distance = tree.query(sub[probe], k=9, workers=-1)[0]
+    distance = tree_query(tree, sub[probe], 9)[0]
     r8 = distance[:, -1]
     within = sub[probe] - (lower + np.floor((sub[probe] - lower) / edge) * edge)
     room = np.minimum(within.min(axis=1), (edge - within).min(axis=1))

@@ -37,6 +37,7 @@ from scipy.spatial import cKDTree
 from geostructure.core.bounds import column_max, column_min
 from geostructure.core.params import ParameterWarning, Params
 from geostructure.core.sampling import order_free_sample, sampled_blocks
+from geostructure.core.threads import tree_query
 from geostructure.detect.voxel import (
     CloudMoments,
     accumulate_moments,
@@ -169,7 +170,7 @@ def surface_noise(points: np.ndarray | None, zeta: float, neighbours: int = 6, v
         voxels = fit_voxels(points, zeta, max_curvature=1 / 3)
     if len(voxels) < neighbours + 1:
         return 5.0, 0.1
-    _, idx = cKDTree(voxels.centroid).query(voxels.centroid, k=neighbours + 1, workers=-1)
+    _, idx = tree_query(cKDTree(voxels.centroid), voxels.centroid, neighbours + 1)
     idx = idx[:, 1:]
     cos = np.abs(np.einsum("ij,ikj->ik", voxels.normal, voxels.normal[idx]))
     angle = np.degrees(np.arccos(np.clip(cos, 0, 1)))

@@ -24,6 +24,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from geostructure.core import params
+from geostructure.core.threads import tree_query
 from geostructure.detect.voxel import VoxelPlanes
 
 REFERENCES = params.REFERENCES
@@ -43,7 +44,7 @@ def neighbour_graph(centroids: np.ndarray, k: int, max_distance: float) -> np.nd
         return np.full((len(centroids), k), -1, dtype=np.int64)
     tree = cKDTree(centroids)
     kq = min(k + 1, len(centroids))
-    dist, idx = tree.query(centroids, k=kq, distance_upper_bound=max_distance, workers=-1)
+    dist, idx = tree_query(tree, centroids, kq, distance_upper_bound=max_distance)
     idx = np.where(np.isfinite(dist), idx, -1).reshape(len(centroids), kq)
     self_column = idx == np.arange(len(centroids))[:, None]
     idx[self_column] = -1

@@ -42,6 +42,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from geostructure.core.threads import tree_query
 from geostructure.detect.cells import SURFACE_VARIATION, CellGrid, grid_planes, with_sparse_cells_filled
 
 #: Neighbours of each point's plane: the fewest that fit a plane through the noise (on the
@@ -119,7 +120,7 @@ def point_normals(
     """
     points = np.asarray(points, dtype=np.float64)
     k, search = min(k, len(points)), min(max(k, search), len(points))
-    distances, neighbours = cKDTree(points).query(points, k=search, workers=-1)
+    distances, neighbours = tree_query(cKDTree(points), points, search)
     distances, neighbours = distances.reshape(len(points), -1), neighbours.reshape(len(points), -1)  # k = 1: (N,)
     normal, variation, residual = np.empty((len(points), 3)), np.empty(len(points)), np.empty(len(points))
     for start in range(0, len(points), BATCH):

@@ -30,7 +30,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from geostructure.core.threads import available_cores
+from geostructure.core.threads import tree_query
 from geostructure.detect.traceimage import PIXELS_PER_SPACING, dark_lines, patch_frame
 
 #: Two groups of points this many spacings apart are separate patches (each point linked to
@@ -160,7 +160,7 @@ def _seeded_sample(rows: np.ndarray, sample: int) -> np.ndarray:
 def neighbours(points: np.ndarray, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
     """Each point's :data:`PATCH_NEIGHBOURS` nearest (distances, indices; itself first), one
     query that gives the patches and every spacing the traces read."""
-    distance, index = tree.query(points, min(PATCH_NEIGHBOURS, len(points)), workers=available_cores())
+    distance, index = tree_query(tree, points, min(PATCH_NEIGHBOURS, len(points)))
     return distance.reshape(len(points), -1), index.reshape(len(points), -1)
 
 
@@ -169,7 +169,7 @@ def surface_normals(points: np.ndarray, tree: cKDTree, at: np.ndarray, k: int = 
     nearest points of the cloud."""
     if not len(at):
         return np.zeros((0, 3))
-    _, idx = tree.query(at, min(k, len(points)), workers=available_cores())
+    _, idx = tree_query(tree, at, min(k, len(points)))
     near = points[np.atleast_2d(idx)]
     near = near - near.mean(axis=1, keepdims=True)
     _, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", near, near))

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from geostructure.core.sampling import order_free_sample
+from geostructure.core.threads import tree_query
 
 #: Empty patches of the occupancy grid up to this many cells are gaps in the sampling, not
 #: holes in the exposure.
@@ -110,7 +111,7 @@ def exposure(points, up=(0.0, 0.0, 1.0), *, seed: int = 0, spacing: float | None
     if spacing is None:
         probe = points[order_free_sample(points, min(len(points), 2000), seed + 1)]
         tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # half the build time; queried once
-        r8 = float(np.median(tree.query(probe, k=9, workers=-1)[0][:, 8]))
+        r8 = float(np.median(tree_query(tree, probe, 9)[0][:, 8]))
     else:  # the spacing is r8 sqrt(pi / 8): 8 points in pi r8^2
         r8 = float(spacing) / np.sqrt(np.pi / 8.0)
     cell = np.sqrt(CELL_POINTS * np.pi * max(r8, 1e-6) ** 2 / 8.0)

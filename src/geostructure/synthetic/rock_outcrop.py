@@ -43,6 +43,7 @@ from scipy.spatial import cKDTree
 
 from geostructure.core.cloud import Cloud
 from geostructure.core.orientation import normal_from_orientation
+from geostructure.core.threads import tree_query
 from geostructure.errors import ParameterError
 from geostructure.synthetic.face_texture import facet_seeds, jittered_grid, smooth_field, visible_points
 from geostructure.synthetic.jointsets import joint_discs, nearest_joint, persistent_planes
@@ -286,7 +287,7 @@ def outcrop_scene(
 
     ab = jittered_grid(width, height, point_spacing, rng)
     seeds = facet_seeds(width, height, facet_size, rng)
-    cell = cKDTree(seeds).query(ab, workers=-1)[1]
+    cell = tree_query(cKDTree(seeds), ab)[1]
     seeds3 = seeds[:, :1] * along + seeds[:, 1:] * up_dip
 
     # Each cell's joint plane: of a set drawn by share, the plane nearest the cell's centre.
@@ -339,7 +340,7 @@ def outcrop_scene(
     # it is hidden and nothing seen lies in front of that part: a hole in the cloud. (Where a
     # step in front hides it, the cloud has no edge there and the cut is not the cloud's.)
     lost = np.flatnonzero(~seen)
-    in_hole = np.isinf(cKDTree(ab[seen]).query(ab[lost], distance_upper_bound=2.0 * point_spacing, workers=-1)[0])
+    in_hole = np.isinf(tree_query(cKDTree(ab[seen]), ab[lost], distance_upper_bound=2.0 * point_spacing)[0])
     hidden = np.bincount(cell[lost[in_hole]], minlength=len(seeds)) >= 3
     margin = 1.5 * point_spacing
     at_edge = (ab[:, 0] < margin) | (ab[:, 1] < margin) | (ab[:, 0] > width - margin) | (ab[:, 1] > height - margin)
