@@ -99,6 +99,13 @@ def interrupts_never_swallowed() -> None:
     sys.unraisablehook = hook
 
 
+def _interrupt(error: BaseException) -> bool:
+    """:func:`geostructure.errors.raised_by_interrupt`, imported only when an error came."""
+    from geostructure.errors import raised_by_interrupt  # lazy: the start-up keeps its imports few
+
+    return raised_by_interrupt(error)
+
+
 def run(argv=None) -> int:
     prefer_small_pages()  # before numpy is imported: it reads the switch then
     reuse_freed_memory()
@@ -108,6 +115,11 @@ def run(argv=None) -> int:
         from geostructure.cli import build_parser, main  # lazy on purpose: the import itself may be interrupted
 
         parser = build_parser()  # and so may the building of the options
+    except Exception as exc:  # an interrupt Python wrapped in an error (a class made mid-import)
+        if not _interrupt(exc):
+            raise
+        print("geostructure: interrupted while starting; nothing was written.", file=sys.stderr)
+        return 130
     except KeyboardInterrupt:
         print("geostructure: interrupted while starting; nothing was written.", file=sys.stderr)
         return 130

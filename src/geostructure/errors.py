@@ -90,3 +90,33 @@ class GeoStructureNote(GeoStructureWarning):
     >>> issubclass(caught[0].category, GeoStructureWarning)
     True
     """
+
+
+def raised_by_interrupt(error: BaseException) -> bool:
+    """Whether an exception is an interrupt (Ctrl-C) or was raised because of one.
+
+    Python wraps an exception raised while a class is made (``__set_name__``) in a
+    ``RuntimeError`` of its own: a Ctrl-C that landed while matplotlib's axes were imported,
+    in the middle of drawing a report, came out as that error, exit 1 and Python's
+    traceback. Any exception whose chain of causes holds a ``KeyboardInterrupt`` is read as
+    the interrupt it is.
+
+    Examples
+    --------
+    >>> try:
+    ...     try:
+    ...         raise KeyboardInterrupt
+    ...     except KeyboardInterrupt as interrupt:
+    ...         raise RuntimeError("Error calling __set_name__") from interrupt
+    ... except RuntimeError as error:
+    ...     print(raised_by_interrupt(error), raised_by_interrupt(ValueError()))
+    True False
+    """
+    link: BaseException | None = error
+    seen = set()
+    while link is not None and id(link) not in seen:
+        if isinstance(link, KeyboardInterrupt):
+            return True
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
+    return False

@@ -192,3 +192,30 @@ def test_an_interrupt_in_a_callback_python_ignores_still_ends_the_command():
     done = subprocess.run([sys.executable, "-c", SWALLOWED], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "interrupted"
     assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+
+
+WRAPPED = """
+import sys
+from geostructure import cli
+def drawn(args):  # as a Ctrl-C inside matplotlib's axes while a report was drawn
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as interrupt:
+        raise RuntimeError("Error calling __set_name__ on '_axis_method_wrapper'") from interrupt
+parser = cli.build_parser()
+args = parser.parse_args(["demo", "-o", sys.argv[1]])
+args.run = drawn
+parser.parse_args = lambda argv=None: args
+sys.exit(cli.main([], parser=parser))
+"""
+
+
+def test_an_interrupt_python_wrapped_in_an_error_ends_as_an_interrupt(tmp_path):
+    """A Ctrl-C while matplotlib's axes were imported came out as Python's RuntimeError
+    ("Error calling __set_name__"), exit 1 and a traceback, in `sets` on the Lastoni half."""
+    done = subprocess.run(
+        [sys.executable, "-c", WRAPPED, str(tmp_path / "out")], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 130, done.stderr
+    assert "Traceback" not in done.stderr
+    assert done.stderr.strip().startswith("geostructure: interrupted;")

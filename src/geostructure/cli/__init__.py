@@ -18,7 +18,7 @@ from geostructure import __version__
 from geostructure.cli.measure import add_measure_commands
 from geostructure.cli.reconstruct import add_reconstruct_commands
 from geostructure.cli.rockmass import add_rockmass_commands
-from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning
+from geostructure.errors import GeoStructureError, GeoStructureNote, GeoStructureWarning, raised_by_interrupt
 from geostructure.io.outdir import folder_state
 
 EXIT_USER_ERROR = 2
@@ -39,7 +39,7 @@ def main(argv=None, parser=None) -> int:
         outdir = getattr(args, "outdir", None)
         before = folder_state(outdir)
         try:
-            return args.run(args) or 0
+            return run_reading_interrupts(args)
         except GeoStructureError as exc:
             print(f"geostructure: error: {one_line(as_options(str(exc)))}", file=sys.stderr)
             return EXIT_USER_ERROR
@@ -50,6 +50,18 @@ def main(argv=None, parser=None) -> int:
         except KeyboardInterrupt:
             print(f"geostructure: interrupted; {interrupted_folder(outdir, before)}", file=sys.stderr)
             return 130
+
+
+def run_reading_interrupts(args) -> int:
+    """Run the command; an error Python raised because of an interrupt (a Ctrl-C inside a
+    class being made, which Python wraps in a ``RuntimeError``) is raised as the interrupt,
+    before any handler can read it as a failure of the data or the machine."""
+    try:
+        return args.run(args) or 0
+    except Exception as exc:
+        if raised_by_interrupt(exc):
+            raise KeyboardInterrupt from exc
+        raise
 
 
 def interrupted_folder(outdir, before: tuple) -> str:
