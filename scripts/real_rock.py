@@ -49,7 +49,9 @@ def causes(points: np.ndarray, planes, fmap) -> dict[str, int]:
     from scipy.spatial import cKDTree
 
     normal, _, _, _, _ = point_normals(points)
-    on_face = np.abs(np.einsum("ij,ij->i", normal, envelope_normals(points, point_spacing(points)))) >= np.cos(np.radians(FACE_CONE))
+    on_face = np.abs(np.einsum("ij,ij->i", normal, envelope_normals(points, point_spacing(points)))) >= np.cos(
+        np.radians(FACE_CONE)
+    )
     map_normals = normal_from_orientation(fmap.dip_direction, fmap.dip)
     centroids = np.column_stack([planes["centroid_x"], planes["centroid_y"], planes["centroid_z"]])
     plane_normals = normal_from_orientation(planes["dip_direction"], planes["dip"])

@@ -58,6 +58,10 @@ def main() -> None:
     print(json.dumps(scores, indent=1))
 
 
+#: How each kind of trace is drawn: a dark line solid, a valley dotted, a plane's trace dashed.
+LINE_STYLES = {"dark line": "-", "valley": ":", "plane": "--"}
+
+
 def draw(xyz, rgb, centres, radius, lines, labels, found, score, source, scores) -> None:
     import matplotlib
 
@@ -85,7 +89,7 @@ def draw(xyz, rgb, centres, radius, lines, labels, found, score, source, scores)
     for line, useful, kind in zip(found, score.useful, source):
         xy = flat(line)
         panels[1].plot(xy[:, 0], xy[:, 1], color="#1f78b4" if useful else "#e31a1c", lw=1.6,
-                       ls="-" if kind == "dark line" else "--")  # fmt: skip
+                       ls=LINE_STYLES.get(kind, "--"))  # fmt: skip
     panels[1].set_title(
         f"The default: {scores['found']} traces, {scores['traced']} mapped fractures traced, precision "
         f"{scores['trace_precision']:.2f} (null model: {scores['null_traced']} at {scores['null_precision']:.2f})"
@@ -93,6 +97,7 @@ def draw(xyz, rgb, centres, radius, lines, labels, found, score, source, scores)
     panels[1].legend(handles=[Line2D([], [], color="#1f78b4", lw=2, label="traces a mapped fracture"),
                               Line2D([], [], color="#e31a1c", lw=2, label="traces none"),
                               Line2D([], [], color="k", lw=2, label="dark line"),
+                              Line2D([], [], color="k", lw=2, ls=":", label="valley"),
                               Line2D([], [], color="k", lw=2, ls="--", label="a plane's trace")],
                      loc="lower right")  # fmt: skip
     FIGURE.parent.mkdir(parents=True, exist_ok=True)

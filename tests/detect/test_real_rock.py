@@ -44,15 +44,14 @@ def test_the_default_finds_the_mapped_fractures(lastoni):
 
 
 def test_the_default_draws_traces_that_beat_the_null_model(lastoni):
-    # Measured: 62 of 432 traced by 227 traces at a precision of 0.31; as many random
-    # segments of the same chords trace 13 at 0.06. 159 found by a plane or a trace (125 by
-    # a plane). (45 by 182 at 0.28, null 11 at 0.06, 150, while the rough rock's corners
-    # were clutter and the dark lines on them dropped.) The issue's bar (150 at 0.40, 220
-    # found) is not reached: docs/rockmass.md says what limits it. These bounds hold the
-    # figures reached.
+    # Measured: 69 of 432 traced by 275 traces (89 dark lines, 48 valleys, 138 planes'
+    # traces) at a precision of 0.32; as many random segments of the same chords trace 25 at
+    # 0.10. 161 found by a plane or a trace (125 by a plane). (Without the valleys: 62 by 227
+    # at 0.31, null 13 at 0.06, 159.) The issue's bar (150 at 0.40, 220 found) is not
+    # reached: docs/rockmass.md says what limits it. These bounds hold the figures reached.
     _, scores = lastoni
     traces = scores["traces"]
-    assert traces["traced"] >= 50, traces
+    assert traces["traced"] >= 60, traces
     assert traces["trace_precision"] >= 0.25, traces
     assert traces["null_precision"] < 0.5 * traces["trace_precision"], traces
     assert traces["null_traced"] < 0.5 * traces["traced"], traces
@@ -74,8 +73,8 @@ def test_bare_rock_is_not_taken_for_clutter(lastoni):
 
 
 def test_the_traces_median_chord_is_the_maps_within_a_factor_two(lastoni):
-    # set 1: 0.43 m found against the map's 0.70; set 2: 0.38 against 0.47. Their summed
-    # chords fall short (60 m of 219, 22 of 46): most mapped traces show no dark line here.
+    # set 1: 0.48 m found against the map's 0.70; set 2: 0.44 against 0.47. Their summed
+    # chords fall short (84 m of 219, 27 of 46): most mapped traces show no line here.
     _, scores = lastoni
     for label, figures in scores["traces"]["sets"].items():
         assert figures["measured_set"] >= 0, (label, figures)
@@ -85,16 +84,16 @@ def test_the_traces_median_chord_is_the_maps_within_a_factor_two(lastoni):
 
 def test_circular_windows_read_the_maps_mean_trace_length_within_a_factor_two(lastoni):
     """The censoring-free mean trace length (circular windows, the same windows for ours,
-    the map's and the null model's traces): set 1 0.66 m against the map's 0.55, set 2 0.32
+    the map's and the null model's traces): set 1 0.58 m against the map's 0.55, set 2 0.34
     against 0.39, where the planes' censored joint traces read 5.4 and 4.6 m. Their P21 (ours
-    1.25 and 0.23 /m against 2.68 and 0.74) is what misses."""
+    1.76 and 0.37 /m against 2.68 and 0.74) is what misses."""
     _, scores = lastoni
     for label, figures in scores["traces"]["sets"].items():
         assert figures["windows"] >= 3, (label, figures)
         ratio = figures["found_window_mean_m"] / figures["mapped_window_mean_m"]
         assert 0.5 <= ratio <= 2.0, (label, figures)
         assert figures["found_window_p21_per_m"] < figures["mapped_window_p21_per_m"], (label, figures)
-        # P10 on one set of scanlines: ours 1.23 and 0.43 /m, the map's 4.49 and 0.89, nothing's 0.68 and 0.23
+        # P10 on one set of scanlines: ours 2.01 and 0.58 /m, the map's 4.49 and 0.89, nothing's 1.25 and 0.37
         assert figures["null_p10_per_m"] < figures["found_p10_per_m"] < figures["mapped_p10_per_m"], (label, figures)
 
 
@@ -105,7 +104,7 @@ def test_the_traces_files(lastoni):
     with open(out / "traces.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert {"trace_id", "set", "length_m", "chord_m", "n_points", "dip", "dip_direction"} <= set(rows[0])
-    assert {r["source"] for r in rows} == {"plane", "dark line"}
+    assert {r["source"] for r in rows} == {"plane", "dark line", "valley"}
     vertices = np.genfromtxt(out / "trace_vertices.csv", delimiter=",", names=True)
     assert set(np.unique(vertices["trace_id"]).astype(int)) == set(range(len(rows)))
     cloud = np.loadtxt(shared_file(f"{SW}/Lastoni_SW_3cm.txt"), usecols=(0, 1, 2))
@@ -116,9 +115,9 @@ def test_the_traces_files(lastoni):
     assert cKDTree(cloud).query(xyz)[0].max() < 0.15
     sets = np.genfromtxt(out / "sets.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
     assert (sets["traces"] > 0).all() and (sets["trace_p21_per_m"] > 0).all()
-    # Traces cut by the exposure's edge (a hole or the border): measured 47 of 182 seen end to
-    # end; per set 61 of 89, 25 of 33, 31 of 35 cut, each set flagged, and the mean with
-    # censoring (1.9, 2.5, 5.2 m) above the chords seen, as censoring asks.
+    # Traces cut by the exposure's edge (a hole or the border): measured 171 of 275 seen end
+    # to end; per set 43 of 144, 19 of 42, 23 of 52 cut, no set flagged, and the mean with
+    # censoring (0.88, 1.07, 1.00 m) above the chords seen, as censoring asks.
     ends = np.array([int(r["censored_ends"]) for r in rows])
     assert set(ends) <= {0, 1, 2} and 0 < np.count_nonzero(ends) < len(ends)
     assert (sets["trace_censored"] <= sets["traces"]).all()

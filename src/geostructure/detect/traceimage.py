@@ -376,14 +376,27 @@ def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord
     min_chord : float
         The shortest piece kept (spacings).
     """
+    found, grid = channel_lines(points, [values], spacing, min_chord)
+    return *found[0], grid
+
+
+def channel_lines(points: np.ndarray, channels: list, spacing: float, min_chord: float) -> tuple[list, PatchGrid]:
+    """:func:`dark_lines` of several per-point ``channels`` of one patch, on one grid: per
+    channel its kept pieces and their contrasts, each against its own shuffles."""
     grid = PatchGrid.of(points, spacing)
-    # the lines and their nulls side by side, each image made in its own task (only those
-    # running take memory): each is half numpy filters, which run in threads
-    found = run_tasks([partial(_lines, grid, values, min_chord), *_null_tasks(grid, values, min_chord)])
-    pieces, contrast = found[0]
-    bar = noise_contrast([null for _, null in found[1:]])
-    kept = [k for k, c in enumerate(contrast) if c > bar]
-    return [pieces[k] for k in kept], [contrast[k] for k in kept], grid
+    # every channel's lines and nulls side by side, each image made in its own task (only
+    # those running take memory): each is half numpy filters, which run in threads
+    tasks = []
+    for values in channels:
+        tasks += [partial(_lines, grid, values, min_chord), *_null_tasks(grid, values, min_chord)]
+    found = run_tasks(tasks)
+    out = []
+    for start in range(0, len(found), NULL_PERMUTATIONS + 1):
+        (pieces, contrast), nulls = found[start], found[start + 1 : start + NULL_PERMUTATIONS + 1]
+        bar = noise_contrast([null for _, null in nulls])
+        kept = [k for k, c in enumerate(contrast) if c > bar]
+        out.append(([pieces[k] for k in kept], [contrast[k] for k in kept]))
+    return out, grid
 
 
 def _lines(grid: PatchGrid, values: np.ndarray, min_chord: float) -> tuple[list, list]:

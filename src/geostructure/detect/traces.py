@@ -1,6 +1,6 @@
 """Fracture traces: the lines a geologist maps by hand where fractures cut the rock's surface.
 
-Two kinds, in one table (:class:`Traces`):
+Three kinds, in one table (:class:`Traces`):
 
 - **plane traces**: a discontinuity the planes found (a facet of a joint) cuts the surface
   along the line its plane shares with the surface around it; its trace is that line across
@@ -8,13 +8,14 @@ Two kinds, in one table (:class:`Traces`):
   :data:`MIN_CUT_DEG`) has no trace line: it *is* the surface (Compass's "surface effect").
 - **dark lines**: most fractures on real rock show no face, only a trace, darker than the
   rock either side (an open crack, its shadow, its weathering). Where the cloud has colour,
-  each patch of the face is laid flat and its dark lines drawn (:mod:`.traceimage`); a line
-  over a plane's own points, along its trace, is that plane's trace already and is dropped.
+  each patch of the face is laid flat and its dark lines drawn (:mod:`.tracepatches`,
+  :mod:`.traceimage`).
+- **valleys**: the same drawn on each point's depth below the surface around it, toward the
+  rock (:mod:`.tracechannels`): a crack too faint to be dark, but cut into the rock. A
+  valley along a dark line is that line again.
 
-A patch is a group of points no gap of :data:`PATCH_GAP` spacings splits, so that an outcrop
-measured inside a larger survey gives the same patch, laid on the same plane, as alone; a
-patch too large for one image is cut into tiles along its own axes. Every length is in point
-spacings.
+An image line over a plane's own points, along its trace, is that plane's trace already and
+is dropped. Every length is in point spacings.
 
 Each trace has its chord and length, the set whose mean plane holds its direction
 (:func:`trace_sets`) and, where it bends out of its chord enough to define one, its own plane
@@ -26,24 +27,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from geostructure.core.threads import tree_query
-from geostructure.detect.traceimage import PIXELS_PER_SPACING, dark_lines, patch_frame
+from geostructure.detect.tracechannels import DARK_LINE, VALLEY
+from geostructure.detect.tracepatches import MIN_CHORD, VERTEX_STEP, dark_line_traces, nearest_spacing, patch_tiles
 
-#: Two groups of points this many spacings apart are separate patches (each point linked to
-#: its PATCH_NEIGHBOURS nearest within it).
-PATCH_GAP = 4.0
-PATCH_NEIGHBOURS = 8
-#: The largest patch laid flat as one image (spacings along its longer axis); larger ones
-#: are cut into tiles of this size, with halos of :data:`TILE_HALO`.
-MAX_PATCH = 768.0
-TILE_HALO = 16.0
-#: The shortest trace kept (spacings): six spacings, the scale below which a line of points
-#: is noise as often as rock.
-MIN_CHORD = 6.0
 #: A plane cuts the surface along a trace only when their normals are this far apart (degrees).
 MIN_CUT_DEG = 20.0
 #: A trace belongs to the set whose mean plane holds its direction within this (degrees).
@@ -52,10 +41,10 @@ SET_ANGLE_DEG = 15.0
 #: spacings across, wider than most facets, so that a facet's own points do not make the
 #: surface (with 100, most facets read as the surface itself and lost their trace).
 SURFACE_NEIGHBOURS = 300
-#: Vertices along a trace every this many spacings.
-VERTEX_STEP = 2.0
 
-PLANE, DARK_LINE = "plane", "dark line"
+PLANE = "plane"
+#: The kinds drawn from a patch's image, not from a plane.
+IMAGE_LINES = (DARK_LINE, VALLEY)
 
 
 @dataclass
@@ -130,40 +119,6 @@ class Traces:
         return out
 
 
-#: Points a patch's own spacing is read over, at most (its image's pixel): every point of a
-#: patch this size or smaller. A sample drawn again from a few points more or less is another
-#: sample, whose median moved the pixel, and so the lines, where the median over all barely
-#: moves (on the Lastoni SW half, 0.02% against 0.003%).
-PATCH_SPACING_SAMPLE = 200_000
-
-
-def nearest_spacing(points: np.ndarray, tree: cKDTree, sample: int = 50_000) -> float:
-    """The median distance from a point to its nearest neighbour (a seeded sample of at most
-    ``sample`` points; every point of a cloud that size or smaller)."""
-    distance, _ = tree.query(_seeded_sample(points, sample), 2)
-    return float(np.median(distance[:, 1]))
-
-
-def median_nearest(nearest: np.ndarray, sample: int = 50_000) -> float:
-    """:func:`nearest_spacing` from each point's distance to its nearest neighbour, when a
-    query already holds them (the same seeded sample, so the same value)."""
-    return float(np.median(_seeded_sample(nearest, sample)))
-
-
-def _seeded_sample(rows: np.ndarray, sample: int) -> np.ndarray:
-    """At most ``sample`` of ``rows``, drawn with seed 0 (all of them when that many or fewer)."""
-    if len(rows) <= sample:
-        return rows
-    return rows[np.random.default_rng(0).choice(len(rows), sample, replace=False)]
-
-
-def neighbours(points: np.ndarray, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
-    """Each point's :data:`PATCH_NEIGHBOURS` nearest (distances, indices; itself first), one
-    query that gives the patches and every spacing the traces read."""
-    distance, index = tree_query(tree, points, min(PATCH_NEIGHBOURS, len(points)))
-    return distance.reshape(len(points), -1), index.reshape(len(points), -1)
-
-
 def surface_normals(points: np.ndarray, tree: cKDTree, at: np.ndarray, k: int = SURFACE_NEIGHBOURS) -> np.ndarray:
     """The surface's unit normal around each point of ``at``: the least axis of its ``k``
     nearest points of the cloud."""
@@ -199,87 +154,6 @@ def plane_traces(points, tree, labels, plane_normals, tested, spacing: float) ->
             continue
         steps = np.linspace(low, high, max(2, int(np.ceil((high - low) / (VERTEX_STEP * spacing))) + 1))
         out.append((centre + steps[:, None] * line, int(plane)))
-    return out
-
-
-def patches(points: np.ndarray, spacing: float, tree: cKDTree | None = None, near_points=None) -> list:
-    """Groups of points no gap of :data:`PATCH_GAP` spacings splits (each point linked to its
-    nearest neighbours that close, so that neither the cloud's axes nor its origin matter),
-    each cut into tiles along its own axes where larger than :data:`MAX_PATCH`: (indices
-    with halos, the core each tile answers for) per tile. ``near_points``: the points'
-    :func:`neighbours`, when the caller holds them."""
-    tree = cKDTree(points) if tree is None else tree
-    distance, neighbour = neighbours(points, tree) if near_points is None else near_points
-    k = distance.shape[1]
-    near = distance[:, 1:] <= PATCH_GAP * spacing
-    rows = np.repeat(np.arange(len(points)), k - 1)[near.ravel()]
-    graph = coo_matrix((np.ones(len(rows)), (rows, neighbour[:, 1:][near])), shape=(len(points),) * 2)
-    _, group = connected_components(graph, directed=False)
-    order = np.argsort(group, kind="stable")
-    tiles = []
-    for members in np.split(order, np.flatnonzero(np.diff(group[order])) + 1):
-        tiles.extend(_tiles(points, members, spacing))
-    return tiles
-
-
-def _tiles(points, members, spacing):
-    if len(members) < 3:
-        return []
-    centre, u, v, _ = patch_frame(points[members])
-    flat = np.column_stack([(points[members] - centre) @ u, (points[members] - centre) @ v])
-    size = MAX_PATCH * spacing
-    if np.ptp(flat[:, 0]) <= size and np.ptp(flat[:, 1]) <= size:
-        return [(members, np.ones(len(members), dtype=bool))]
-    lower, halo = flat.min(axis=0), TILE_HALO * spacing
-    out = []
-    tile = np.floor((flat - lower) / size).astype(np.int64)
-    for t in np.unique(tile, axis=0):
-        low, high = lower + t * size, lower + (t + 1) * size
-        near = np.all((flat >= low - halo) & (flat < high + halo), axis=1)
-        core = np.all((flat[near] >= low) & (flat[near] < high), axis=1)
-        out.append((members[near], core))
-    return out
-
-
-def patch_tiles(points: np.ndarray, tree: cKDTree, spacing: float | None = None) -> tuple[float, list, np.ndarray]:
-    """From one neighbour query (:func:`neighbours`): the points' spacing (``spacing`` when
-    given), their patches' tiles (:func:`patches`) and each point's distance to its nearest
-    neighbour; the query's other columns are let go before the images take their memory."""
-    distance, index = neighbours(points, tree)
-    spacing = median_nearest(distance[:, 1]) if spacing is None else spacing
-    return spacing, patches(points, spacing, tree, (distance, index)), distance[:, 1].copy()
-
-
-def dark_line_traces(
-    points: np.ndarray, grey: np.ndarray, spacing: float, tree: cKDTree | None = None, tiles=None, nearest=None
-) -> list:
-    """The dark lines of every patch (:func:`patches`) as 3D polylines on the surface, each
-    with its contrast. ``tiles`` and ``nearest``: the points' :func:`patch_tiles`, when the
-    caller holds them."""
-    tree = cKDTree(points) if tree is None else tree
-    if tiles is None or nearest is None:
-        _, tiles, nearest = patch_tiles(points, tree, spacing)
-    out = []
-    for members, core in tiles:
-        if len(members) < 50:
-            continue
-        mine = points[members]
-        # the patch's own spacing: a survey around it, or its sample, must not change its image
-        own = median_nearest(nearest[members], PATCH_SPACING_SAMPLE)
-        pieces, contrasts, grid = dark_lines(mine, grey[members], own, MIN_CHORD)
-        if not pieces:
-            continue
-        flat = np.column_stack([(mine - grid.origin) @ grid.u, (mine - grid.origin) @ grid.v])
-        flat_tree = cKDTree(flat)
-        core_tree = cKDTree(flat[core]) if not core.all() else None
-        for piece, contrast in zip(pieces, contrasts):
-            mid = piece[len(piece) // 2]
-            if core_tree is not None and core_tree.query(mid)[0] > flat_tree.query(mid)[0] + 1e-9:
-                continue  # its middle lies in the halo: the neighbouring tile answers for it
-            step = max(1, int(round(VERTEX_STEP * PIXELS_PER_SPACING)))  # pixels: the patch's spacings
-            at = np.vstack([piece[::step], piece[-1:]]) if (len(piece) - 1) % step else piece[::step]
-            _, idx = flat_tree.query(at, 3)
-            out.append((mine[idx].mean(axis=1), contrast))  # on the surface: the nearest points, in 3D
     return out
 
 
@@ -379,13 +253,13 @@ def find_traces(
             contrast.append(np.nan)
     if dark:
         own = _plane_trace_lookup(points, labels, lines, region) if lines else None
-        for line, strength in dark_line_traces(
+        for line, strength, kind in dark_line_traces(
             points, np.asarray(grey, dtype=np.float64), spacing, tree, tiles, nearest
         ):
             if own is not None and own(line, spacing):
                 continue
             lines.append(line)
-            source.append(DARK_LINE)
+            source.append(kind)
             region.append(-1)
             contrast.append(strength)
     traces = Traces.from_polylines(lines, source, region)
@@ -408,7 +282,7 @@ def find_traces(
         # A fracture's trace lies in its plane: a dark line in no set's plane that defines
         # no plane of its own is the trace of nothing the face shows (on the Lastoni SW half
         # none of 23 such lines traced a mapped fracture).
-        orphan = (traces.source == DARK_LINE) & (traces.set < 0) & ~np.isfinite(traces.normal[:, 0])
+        orphan = np.isin(traces.source, IMAGE_LINES) & (traces.set < 0) & ~np.isfinite(traces.normal[:, 0])
         if orphan.any():
             traces = traces.subset(~orphan)
     traces.n_points = points_along(traces, tree, spacing)

@@ -184,8 +184,10 @@ def traces_line(traces, rows: list[dict]) -> str:
     Traces: 3 drawn (2 dark lines, 1 plane's trace); set 0: 2, P21 1.23 /m, median chord 0.50 m.
     """
     dark = int(np.sum(traces.source == "dark line"))
-    planes = len(traces) - dark
-    kinds = f"{counted(dark, 'dark line')}, {planes:,} " + ("plane's trace" if planes == 1 else "planes' traces")
+    valleys = int(np.sum(traces.source == "valley"))
+    planes = len(traces) - dark - valleys
+    kinds = f"{counted(dark, 'dark line')}, " + (f"{counted(valleys, 'valley')}, " if valleys else "")
+    kinds += f"{planes:,} " + ("plane's trace" if planes == 1 else "planes' traces")
     per_set = traces_per_set(rows)
     return f"Traces: {len(traces):,} drawn ({kinds})" + (f"; {per_set}." if per_set else ".")
 

@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from geostructure.core.orientation import orientation_from_normals
-from geostructure.detect.traces import DARK_LINE, Traces, find_traces
+from geostructure.detect.traces import IMAGE_LINES, Traces, find_traces
 from geostructure.rockmass.face import FACE
 from geostructure.rockmass.tracelengths import TraceLengths
 from geostructure.rockmass.windows import set_trace_p10, set_window_estimates
@@ -66,7 +66,7 @@ def face_traces(points, labels, planes, sets, point_part=None, grey=None, tested
         return traces
     keep = np.ones(len(traces), dtype=bool)
     for k, line in enumerate(traces.polylines()):
-        if traces.source[k] == DARK_LINE:
+        if traces.source[k] in IMAGE_LINES:
             _, nearest = tree.query(line)
             keep[k] = np.mean(point_part[nearest] != FACE) <= OFF_FACE_SHARE
     return traces if keep.all() else traces.subset(keep)
