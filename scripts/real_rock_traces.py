@@ -29,6 +29,12 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "dice_lastoni_sw"
 CLOUD = DATA / "Lastoni_SW_3cm.txt"
 FIGURE = ROOT / "docs" / "figures" / "real_rock_traces.png"
+ZOOM_FIGURE = ROOT / "docs" / "figures" / "real_rock_traces_zoom.png"
+#: The window the zoom shows, square-on (metres along and up the face from its centroid):
+#: the face's left part, where the map's first set is densest.
+ZOOM_WINDOW = (-3.5, -1.5, -2.5, -0.5)
+#: Distances (m) at which a mapped trace counts as crowded by another along half its length.
+CROWDING_M = (0.03, 0.06, 0.09, 0.15)
 COMMAND = [sys.executable, "-m", "geostructure"]
 SET_COLOURS = {"1": "#1b9e77", "2": "#d95f02", "": "#7570b3"}
 
@@ -55,7 +61,61 @@ def main() -> None:
     with open(out / "traces.csv", newline="") as fh:
         source = [row["source"] for row in csv.DictReader(fh)]
     draw(xyz, rgb, centres, mapped.radius, lines, labels, found, score, source, scores)
+    draw_zoom(xyz, rgb, centres, mapped.radius, lines, found, score, source)
     print(json.dumps(scores, indent=1))
+    print(json.dumps({"mapped_traces_crowded": crowding(centres, mapped.radius, lines)}))
+
+
+def crowding(centres, radius, lines) -> dict:
+    """How many mapped traces run within each distance of :data:`CROWDING_M` of another
+    mapped trace along half their length or more (21 samples along each chord): two lines
+    that close are one line to a detector whose flanks lie a spacing or two away."""
+    samples = [c + np.outer(np.linspace(-1.0, 1.0, 21) * r, t) for c, r, t in zip(centres, radius, lines)]
+    owner = np.repeat(np.arange(len(samples)), 21)
+    tree = cKDTree(np.vstack(samples))
+    out = {}
+    for distance in CROWDING_M:
+        crowded = 0
+        for k, points in enumerate(samples):
+            near = tree.query_ball_point(points, distance)
+            crowded += np.mean([bool(set(owner[n]) - {k}) for n in near]) >= 0.5
+        out[f"{distance:g} m"] = int(crowded)
+    return out
+
+
+def draw_zoom(xyz, rgb, centres, radius, lines, found, score, source) -> None:
+    """The face's colour with the map's traces (traced ones bright), and its grey with ours
+    (those that trace a mapped fracture blue), in :data:`ZOOM_WINDOW`, a point a dot."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    axes = np.linalg.eigh(np.cov(xyz.T))[1]
+    u, v = axes[:, 2], axes[:, 1] if axes[2, 1] >= 0 else -axes[:, 1]
+    flat = lambda p: np.column_stack([p @ u, p @ v])  # noqa: E731
+    face = flat(xyz)
+    x0, x1, y0, y1 = ZOOM_WINDOW
+    inside = (face[:, 0] > x0) & (face[:, 0] < x1) & (face[:, 1] > y0) & (face[:, 1] < y1)
+    fig, panels = plt.subplots(1, 2, figsize=(16, 8.4), constrained_layout=True)
+    panels[0].scatter(face[inside, 0], face[inside, 1], c=rgb[inside], s=16, lw=0)
+    panels[1].scatter(face[inside, 0], face[inside, 1], c=rgb[inside].mean(axis=1), cmap="gray", s=16, lw=0)
+    for c, r, t, traced in zip(centres, radius, lines, score.traced):
+        ends = flat(np.stack([c - r * t, c + r * t]))
+        panels[0].plot(ends[:, 0], ends[:, 1], color="#00c000" if traced else "#ffd000", lw=2)
+    for line, useful, kind in zip(found, score.useful, source):
+        xy = flat(line)
+        panels[1].plot(xy[:, 0], xy[:, 1], color="#1f78b4" if useful else "#e31a1c", lw=2, ls=LINE_STYLES.get(kind, "--"))
+    for ax in panels:
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.set_aspect("equal")
+        ax.set_xlabel("along the face (m)")
+        ax.set_ylabel("up the face (m)")
+    panels[0].set_title("The map over the colour: traced (green), missed (yellow)")
+    panels[1].set_title("The default's traces over the grey: tracing a mapped fracture (blue) or none (red)")
+    fig.savefig(ZOOM_FIGURE, dpi=60)
+    print(f"wrote {ZOOM_FIGURE}")
 
 
 #: How each kind of trace is drawn: a dark line solid, a valley dotted, a plane's trace dashed.
