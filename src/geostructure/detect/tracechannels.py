@@ -35,24 +35,28 @@ RECESS_NEIGHBOURS = 16
 RECESS_BLOCK = 100_000
 
 
-def local_planes(points: np.ndarray, tree: cKDTree, k: int = RECESS_NEIGHBOURS) -> tuple[np.ndarray, np.ndarray]:
-    """Each point's local plane: the centroid of its ``k`` nearest points (itself among
-    them) and their least axis (unit, its sign arbitrary), (N, 3) each.
+def local_planes(
+    points: np.ndarray, tree: cKDTree, k: int = RECESS_NEIGHBOURS, at: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The local plane of each point (of ``at``, indices, where given): the centroid of its
+    ``k`` nearest points of the cloud (itself among them) and their least axis (unit, its
+    sign arbitrary), (N, 3) each.
 
     Examples
     --------
     >>> rng = np.random.default_rng(0)
     >>> flat = np.column_stack([rng.uniform(0, 1, 400), rng.uniform(0, 1, 400), np.zeros(400)])
-    >>> _, normals = local_planes(flat, cKDTree(flat))
-    >>> bool(np.allclose(np.abs(normals[:, 2]), 1.0))
-    True
+    >>> _, normals = local_planes(flat, cKDTree(flat), at=np.arange(10))
+    >>> normals.shape, bool(np.allclose(np.abs(normals[:, 2]), 1.0))
+    ((10, 3), True)
     """
+    at = np.arange(len(points)) if at is None else np.asarray(at)
     k = min(k, len(points))
-    centres = np.empty_like(points)
-    normals = np.empty_like(points)
-    for start in range(0, len(points), RECESS_BLOCK):
+    centres = np.empty((len(at), 3))
+    normals = np.empty((len(at), 3))
+    for start in range(0, len(at), RECESS_BLOCK):
         rows = slice(start, start + RECESS_BLOCK)
-        _, near = tree_query(tree, points[rows], k)
+        _, near = tree_query(tree, points[at[rows]], k)
         near = points[np.asarray(near).reshape(-1, k)]
         centres[rows] = near.mean(axis=1)
         near -= centres[rows][:, None, :]

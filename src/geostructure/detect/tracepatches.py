@@ -130,7 +130,6 @@ def dark_line_traces(
     tree = cKDTree(points) if tree is None else tree
     if tiles is None or nearest is None:
         _, tiles, nearest = patch_tiles(points, tree, spacing)
-    centres, normals = local_planes(points, tree)
     out: list = []
     for members, core in tiles:
         if len(members) < 50:
@@ -138,7 +137,10 @@ def dark_line_traces(
         mine = points[members]
         # the patch's own spacing: a survey around it, or its sample, must not change its image
         own = median_nearest(nearest[members], PATCH_SPACING_SAMPLE)
-        recess = patch_recess(mine, centres[members], normals[members], grey[members], patch_frame(mine)[3])
+        # each point's plane of its nearest in the whole cloud, read a tile at a time: memory
+        # the tile's, not the survey's
+        centres, normals = local_planes(points, tree, at=members)
+        recess = patch_recess(mine, centres, normals, grey[members], patch_frame(mine)[3])
         channels = [grey[members]] if recess is None else [grey[members], -recess]
         found = _patch_lines(mine, core, channels, own)
         (dark, dark_contrast), (valley, valley_contrast) = found[0], found[1] if len(found) > 1 else ([], [])
