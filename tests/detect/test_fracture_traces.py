@@ -115,8 +115,9 @@ def test_no_colour_no_dark_lines_and_uniform_grey_draws_nothing():
 
 
 @pytest.mark.parametrize("turn", [37.0])
-def test_the_same_traces_when_the_face_is_moved_and_turned_about_the_vertical(turn):
-    points, grey, lines = face_with_lines(seed=1)
+@pytest.mark.parametrize("face", [face_with_lines, face_with_grooves])
+def test_the_same_traces_when_the_face_is_moved_and_turned_about_the_vertical(turn, face):
+    points, grey, lines = face(seed=1)
     base = find_traces(points, grey=grey)
     t = np.radians(turn)
     rotation = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1.0]])
@@ -129,8 +130,9 @@ def test_the_same_traces_when_the_face_is_moved_and_turned_about_the_vertical(tu
     assert np.allclose(recovered(back, lines), recovered(base, lines), atol=0.05)
 
 
-def test_the_same_traces_inside_a_survey_of_copies():
-    points, grey, lines = face_with_lines(seed=2)
+@pytest.mark.parametrize("face", [face_with_lines, face_with_grooves])
+def test_the_same_traces_inside_a_survey_of_copies(face):
+    points, grey, lines = face(seed=2)
     alone = find_traces(points, grey=grey)
     copies = [points + [dx, dy, 0.0] for dx, dy in ((0.0, 0.0), (5.0, 0.0), (0.0, 3.6))]  # 1 m apart
     survey = find_traces(np.vstack(copies), grey=np.tile(grey, len(copies)))
