@@ -32,7 +32,7 @@ DARK_LINE, VALLEY = "dark line", "valley"
 #: holds (a disc some four spacings across), the scale of a crack one or two points wide.
 RECESS_NEIGHBOURS = 16
 #: Points whose neighbourhoods are gathered at once (each 16 x 3 coordinates).
-RECESS_BLOCK = 100_000
+RECESS_BLOCK = 16_384
 
 
 def local_planes(
