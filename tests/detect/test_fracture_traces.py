@@ -16,10 +16,16 @@ def face_with_lines(seed=0, size=(4.0, 2.6)):
     """A rough, gently folded face of points about 1 cm apart (4 by 2.6 m: its own axes are
     well defined), with three dark lines 2.4 cm wide, two of them crossing: their ends
     (x, y), the points and their grey."""
+    return _face(seed, size, paint=0.25)
+
+
+def _face(seed, size, paint=0.0, cut=0.0, shade=0.0):
+    """The face's points, grey and lines: each line ``paint`` darker and ``cut`` metres into
+    the rock, the grey ``shade`` darker a metre of depth."""
     rng = np.random.default_rng(seed)
     n = int(size[0] * size[1] / SPACING**2)
     xy = rng.uniform(0.0, 1.0, (n, 2)) * size
-    z = 0.003 * rng.standard_normal(n) + 0.05 * np.sin(xy[:, 0] * 2.0)
+    relief = 0.003 * rng.standard_normal(n)
     lines = [((0.3, 0.5), (3.2, 1.1)), ((0.5, 2.3), (3.4, 1.8)), ((1.5, 0.3), (1.7, 1.5))]
     grey = 0.6 + 0.05 * rng.standard_normal(n)
     for a, b in lines:
@@ -27,8 +33,11 @@ def face_with_lines(seed=0, size=(4.0, 2.6)):
         d = (b - a) / np.linalg.norm(b - a)
         t = (xy - a) @ d
         off = np.abs((xy - a) @ np.array([-d[1], d[0]]))
-        grey[(off < 0.012) & (t > 0) & (t < np.linalg.norm(b - a))] -= 0.25
-    return np.column_stack([xy, z]), grey, lines
+        on = (off < 0.012) & (t > 0) & (t < np.linalg.norm(b - a))
+        grey[on] -= paint
+        relief[on] -= cut
+    grey += shade * relief
+    return np.column_stack([xy, relief + 0.05 * np.sin(xy[:, 0] * 2.0)]), grey, lines
 
 
 def recovered(traces: Traces, lines, offset=np.zeros(3)):
@@ -76,19 +85,7 @@ def face_with_grooves(seed=0, shade=1.0, size=(4.0, 2.6)):
     """The face of :func:`face_with_lines` with its three lines cut 1 cm into the rock
     instead of painted, and its grey shaded by the relief (``shade`` grey a metre of depth:
     the grooves 0.01 darker, a fifth of the grey's noise)."""
-    rng = np.random.default_rng(seed)
-    n = int(size[0] * size[1] / SPACING**2)
-    xy = rng.uniform(0.0, 1.0, (n, 2)) * size
-    relief = 0.003 * rng.standard_normal(n)
-    lines = [((0.3, 0.5), (3.2, 1.1)), ((0.5, 2.3), (3.4, 1.8)), ((1.5, 0.3), (1.7, 1.5))]
-    for a, b in lines:
-        a, b = np.asarray(a), np.asarray(b)
-        d = (b - a) / np.linalg.norm(b - a)
-        t = (xy - a) @ d
-        off = np.abs((xy - a) @ np.array([-d[1], d[0]]))
-        relief[(off < 0.012) & (t > 0) & (t < np.linalg.norm(b - a))] -= 0.01
-    grey = 0.6 + 0.05 * rng.standard_normal(n) + shade * relief
-    return np.column_stack([xy, relief + 0.05 * np.sin(xy[:, 0] * 2.0)]), grey, lines
+    return _face(seed, size, cut=0.01, shade=shade)
 
 
 @pytest.mark.parametrize("seed", [0, 1])

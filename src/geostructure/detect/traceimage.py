@@ -359,30 +359,24 @@ def _split_until_within(points, start, stop, tolerance: float, keep: np.ndarray)
         start, stop = np.concatenate([left, split]), np.concatenate([split, right])
 
 
-def dark_lines(points: np.ndarray, values: np.ndarray, spacing: float, min_chord: float) -> tuple:
-    """The dark lines of one patch as straight pieces, each an (n, 2) array of coordinates
-    along the patch's axes (:class:`PatchGrid`), their contrasts (:func:`line_contrast`) and
-    the grid they were found on: those that stand out more than the patch's shuffled grey
-    lets a line (:func:`noise_contrast`).
+def channel_lines(points: np.ndarray, channels: list, spacing: float, min_chord: float) -> tuple[list, PatchGrid]:
+    """The lines of low values of one patch, per channel (its grey, its depths), on one grid:
+    per channel its straight pieces, each an (n, 2) array of coordinates along the patch's
+    axes (:class:`PatchGrid`), and their contrasts (:func:`line_contrast`), those that stand
+    out more than the channel's values shuffled among the points let a line
+    (:func:`noise_contrast`); and the grid.
 
     Parameters
     ----------
     points : (N, 3) array
         The patch's points.
-    values : (N,) array
-        What is dark along a trace (the points' grey).
+    channels : list of (N,) arrays
+        What is low along a trace (the points' grey; their height over the surface around them).
     spacing : float
         The points' spacing.
     min_chord : float
         The shortest piece kept (spacings).
     """
-    found, grid = channel_lines(points, [values], spacing, min_chord)
-    return *found[0], grid
-
-
-def channel_lines(points: np.ndarray, channels: list, spacing: float, min_chord: float) -> tuple[list, PatchGrid]:
-    """:func:`dark_lines` of several per-point ``channels`` of one patch, on one grid: per
-    channel its kept pieces and their contrasts, each against its own shuffles."""
     grid = PatchGrid.of(points, spacing)
     # every channel's lines and nulls side by side, each image made in its own task (only
     # those running take memory): each is half numpy filters, which run in threads
