@@ -359,25 +359,22 @@ def _split_until_within(points, start, stop, tolerance: float, keep: np.ndarray)
         start, stop = np.concatenate([left, split]), np.concatenate([split, right])
 
 
-def channel_lines(points: np.ndarray, channels: list, spacing: float, min_chord: float) -> tuple[list, PatchGrid]:
-    """The lines of low values of one patch, per channel (its grey, its depths), on one grid:
-    per channel its straight pieces, each an (n, 2) array of coordinates along the patch's
-    axes (:class:`PatchGrid`), and their contrasts (:func:`line_contrast`), those that stand
-    out more than the channel's values shuffled among the points let a line
-    (:func:`noise_contrast`); and the grid.
+def channel_lines(grid: PatchGrid, channels: list, min_chord: float) -> list:
+    """The lines of low values of one patch, per channel (its grey, its depths), on its
+    ``grid``: per channel its straight pieces, each an (n, 2) array of coordinates along the
+    patch's axes (:class:`PatchGrid`), and their contrasts (:func:`line_contrast`), those
+    that stand out more than the channel's values shuffled among the points let a line
+    (:func:`noise_contrast`).
 
     Parameters
     ----------
-    points : (N, 3) array
-        The patch's points.
+    grid : PatchGrid
+        The patch's points laid flat (:meth:`PatchGrid.of`).
     channels : list of (N,) arrays
         What is low along a trace (the points' grey; their height over the surface around them).
-    spacing : float
-        The points' spacing.
     min_chord : float
         The shortest piece kept (spacings).
     """
-    grid = PatchGrid.of(points, spacing)
     # every channel's lines and nulls side by side, each image made in its own task (only
     # those running take memory): each is half numpy filters, which run in threads
     tasks = []
@@ -390,7 +387,7 @@ def channel_lines(points: np.ndarray, channels: list, spacing: float, min_chord:
         bar = noise_contrast([null for _, null in nulls])
         kept = [k for k, c in enumerate(contrast) if c > bar]
         out.append(([pieces[k] for k in kept], [contrast[k] for k in kept]))
-    return out, grid
+    return out
 
 
 def _lines(grid: PatchGrid, values: np.ndarray, min_chord: float) -> tuple[list, list]:

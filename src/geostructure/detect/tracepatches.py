@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 
 from geostructure.core.threads import tree_query
 from geostructure.detect.tracechannels import DARK_LINE, VALLEY, local_planes, patch_recess
-from geostructure.detect.traceimage import PIXELS_PER_SPACING, channel_lines, patch_frame
+from geostructure.detect.traceimage import PIXELS_PER_SPACING, PatchGrid, channel_lines, patch_frame
 
 #: Two groups of points this many spacings apart are separate patches (each point linked to
 #: its PATCH_NEIGHBOURS nearest within it).
@@ -140,9 +140,10 @@ def dark_line_traces(
         # each point's plane of its nearest in the whole cloud, read a tile at a time: memory
         # the tile's, not the survey's
         centres, normals = local_planes(points, tree, at=members)
-        recess = patch_recess(mine, centres, normals, grey[members], patch_frame(mine)[3])
+        grid = PatchGrid.of(mine, own)
+        recess = patch_recess(mine, centres, normals, grey[members], np.cross(grid.u, grid.v))
         channels = [grey[members]] if recess is None else [grey[members], -recess]
-        found = _patch_lines(mine, core, channels, own)
+        found = _patch_lines(mine, core, channels, grid)
         (dark, dark_contrast), (valley, valley_contrast) = found[0], found[1] if len(found) > 1 else ([], [])
         again = _along(valley, dark, own)
         out.extend((line, contrast, DARK_LINE) for line, contrast in zip(dark, dark_contrast))
@@ -150,11 +151,11 @@ def dark_line_traces(
     return out
 
 
-def _patch_lines(mine: np.ndarray, core: np.ndarray, channels: list, spacing: float) -> list:
+def _patch_lines(mine: np.ndarray, core: np.ndarray, channels: list, grid: PatchGrid) -> list:
     """One patch's lines of low values in each of ``channels`` (:func:`~.traceimage.channel_lines`)
     whose middle is in the tile's ``core``: per channel, 3D polylines on its points and their
     contrasts."""
-    found, grid = channel_lines(mine, channels, spacing, MIN_CHORD)
+    found = channel_lines(grid, channels, MIN_CHORD)
     if not any(pieces for pieces, _ in found):
         return [([], []) for _ in channels]
     flat = np.column_stack([(mine - grid.origin) @ grid.u, (mine - grid.origin) @ grid.v])
