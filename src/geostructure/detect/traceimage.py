@@ -375,17 +375,30 @@ def channel_lines(grid: PatchGrid, channels: list, min_chord: float) -> list:
     min_chord : float
         The shortest piece kept (spacings).
     """
-    # every channel's lines and nulls side by side, each image made in its own task (only
-    # those running take memory): each is half numpy filters, which run in threads
+    # every channel's lines and first null side by side, each image made in its own task
+    # (only those running take memory; each is half numpy filters, which run in threads);
+    # then as many further nulls as the lines drawn so far show are needed
+    orders = [_null_orders(len(values)) for values in channels]
     tasks = []
-    for values in channels:
-        tasks += [partial(_lines, grid, values, min_chord), *_null_tasks(grid, values, min_chord)]
+    for values, mine in zip(channels, orders):
+        tasks += [partial(_lines, grid, values, min_chord), partial(_lines, grid, values[mine[0]], min_chord)]
     found = run_tasks(tasks)
+    lines = [found[2 * c] for c in range(len(channels))]
+    nulls = [[found[2 * c + 1][1]] for c in range(len(channels))]
+    while True:
+        wanted = [permutations_needed(sum(map(len, drawn)), len(drawn)) - len(drawn) for drawn in nulls]
+        if not any(wanted):
+            break
+        tasks = [partial(_lines, grid, values[order], min_chord)
+                 for values, mine, drawn, extra in zip(channels, orders, nulls, wanted)
+                 for order in mine[len(drawn) : len(drawn) + extra]]  # fmt: skip
+        more = iter(run_tasks(tasks))
+        for drawn, extra in zip(nulls, wanted):
+            drawn.extend(next(more)[1] for _ in range(extra))
     out = []
-    for start in range(0, len(found), NULL_PERMUTATIONS + 1):
-        (pieces, contrast), nulls = found[start], found[start + 1 : start + NULL_PERMUTATIONS + 1]
-        bar = noise_contrast([null for _, null in nulls])
-        kept = [k for k, c in enumerate(contrast) if c > bar]
+    for (pieces, contrast), drawn in zip(lines, nulls):
+        bar = noise_contrast(drawn)
+        kept = [k for k, value in enumerate(contrast) if value > bar]
         out.append(([pieces[k] for k in kept], [contrast[k] for k in kept]))
     return out
 
@@ -517,19 +530,46 @@ def _follow(start: int, partner: np.ndarray, pieces: list, mean_z: list, length:
 
 
 #: The null that sets how much contrast a line needs: the patch's grey shuffled among its
-#: points (four seeded permutations: one alone moved its bar by 10%), its lines found the same way; a line is kept when it
-#: stands out more than this share of the null's lines (a contrario, as LSD keeps a segment
-#: that noise would give less than once). The cloud's own noise sets the bar, no constant:
-#: on the Lastoni SW half it came to a contrast of about 5.4.
-NULL_PERMUTATIONS = 4
+#: points, its lines found the same way; a line is kept when it stands out more than this
+#: share of the null's lines (a contrario, as LSD keeps a segment that noise would give less
+#: than once). The cloud's own noise sets the bar, no constant: on the Lastoni SW half it
+#: came to a contrast of about 5.4.
 NULL_QUANTILE = 0.99
+#: Seeded permutations drawn, at most: on the Lastoni SW half one alone (some 320 lines)
+#: moved its bar by 10%.
+NULL_PERMUTATIONS = 4
+#: The bar, a tail quantile, is read from at least this many null lines beyond it: as many
+#: permutations as give NULL_TAIL_LINES / (1 - NULL_QUANTILE) lines (a thousand), at most
+#: :data:`NULL_PERMUTATIONS`. A large patch's first shuffle alone draws that many (on the
+#: ODM Brighton survey's largest, 2,000), and its other three were half the traces' time.
+NULL_TAIL_LINES = 10
 
 
-def _null_tasks(grid: PatchGrid, values: np.ndarray, min_chord: float) -> list:
-    """The shuffled images' line finding, one task per seeded permutation."""
+def permutations_needed(lines_drawn: int, shuffles: int) -> int:
+    """How many shuffles a patch's null needs, from the ``lines_drawn`` by its first
+    ``shuffles`` (see :data:`NULL_TAIL_LINES`): as many as, drawing lines at that rate, give
+    a thousand, at most :data:`NULL_PERMUTATIONS`.
+
+    Examples
+    --------
+    >>> permutations_needed(2000, 1), permutations_needed(600, 1), permutations_needed(320, 1), permutations_needed(0, 1)
+    (1, 2, 4, 4)
+    >>> permutations_needed(996, 3)  # three short of a thousand: a fourth
+    4
+    """
+    lines_needed = int(round(NULL_TAIL_LINES / (1.0 - NULL_QUANTILE)))
+    if lines_drawn >= lines_needed:
+        return shuffles
+    if lines_drawn <= 0:
+        return NULL_PERMUTATIONS
+    return int(min(NULL_PERMUTATIONS, max(shuffles + 1, -(-lines_needed * shuffles // lines_drawn))))
+
+
+def _null_orders(n: int) -> list:
+    """The null's :data:`NULL_PERMUTATIONS` seeded orders of a patch's ``n`` points, drawn in
+    turn (seeded as one, whichever of them are used)."""
     rng = np.random.default_rng(0)
-    orders = [rng.permutation(len(values)) for _ in range(NULL_PERMUTATIONS)]  # drawn in turn: seeded as one
-    return [partial(_lines, grid, values[order], min_chord) for order in orders]
+    return [rng.permutation(n) for _ in range(NULL_PERMUTATIONS)]
 
 
 def noise_contrast(found: list) -> float:
