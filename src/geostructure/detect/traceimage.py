@@ -382,24 +382,29 @@ def channel_lines(grid: PatchGrid, channels: list, min_chord: float) -> list:
     """
     # every channel's lines and first null side by side, each image made in its own task
     # (only those running take memory; each is half numpy filters, which run in threads);
-    # then as many further nulls as the lines drawn so far show are needed
-    orders = [_null_orders(len(values)) for values in channels]
+    # then as many further nulls as the lines drawn so far show are needed. A null keeps only
+    # its lines' contrasts, and its order is drawn as it is needed (the images' stage took
+    # 3.8 MB more at its peak while all four orders and the nulls' pieces were kept).
+    shuffles = [np.random.default_rng(0) for _ in channels]  # each channel's orders drawn in turn from its own
     tasks = []
-    for values, mine in zip(channels, orders):
-        tasks += [partial(_lines, grid, values, min_chord), partial(_lines, grid, values[mine[0]], min_chord)]
+    for values, rng in zip(channels, shuffles):
+        tasks += [
+            partial(_lines, grid, values, min_chord),
+            partial(_null_lines, grid, values, rng.permutation(len(values)), min_chord),
+        ]
     found = run_tasks(tasks)
     lines = [found[2 * c] for c in range(len(channels))]
-    nulls = [[found[2 * c + 1][1]] for c in range(len(channels))]
+    nulls = [[found[2 * c + 1]] for c in range(len(channels))]
+    del found
     while True:
         wanted = [permutations_needed(sum(map(len, drawn)), len(drawn)) - len(drawn) for drawn in nulls]
         if not any(wanted):
             break
-        tasks = [partial(_lines, grid, values[order], min_chord)
-                 for values, mine, drawn, extra in zip(channels, orders, nulls, wanted)
-                 for order in mine[len(drawn) : len(drawn) + extra]]  # fmt: skip
+        tasks = [partial(_null_lines, grid, values, rng.permutation(len(values)), min_chord)
+                 for values, rng, extra in zip(channels, shuffles, wanted) for _ in range(extra)]  # fmt: skip
         more = iter(run_tasks(tasks))
         for drawn, extra in zip(nulls, wanted):
-            drawn.extend(next(more)[1] for _ in range(extra))
+            drawn.extend(next(more) for _ in range(extra))
     out = []
     for (pieces, contrast), drawn in zip(lines, nulls):
         bar = noise_contrast(drawn)
@@ -570,17 +575,17 @@ def permutations_needed(lines_drawn: int, shuffles: int) -> int:
     return int(min(NULL_PERMUTATIONS, max(shuffles + 1, -(-lines_needed * shuffles // lines_drawn))))
 
 
-def _null_orders(n: int) -> list:
-    """The null's :data:`NULL_PERMUTATIONS` seeded orders of a patch's ``n`` points, drawn in
-    turn (seeded as one, whichever of them are used)."""
-    rng = np.random.default_rng(0)
-    return [rng.permutation(n) for _ in range(NULL_PERMUTATIONS)]
+def _null_lines(grid: PatchGrid, values: np.ndarray, order: np.ndarray, min_chord: float) -> list:
+    """The contrasts of the lines :func:`_lines` draws on ``values`` shuffled by ``order``
+    (what the null keeps of them)."""
+    return _lines(grid, values[order], min_chord)[1]
 
 
 def noise_contrast(found: list) -> float:
     """The contrast a line must pass on a patch: :data:`NULL_QUANTILE` of the contrasts of
     the lines found on its values shuffled among its points (``found``: one list per
-    shuffle, :data:`NULL_PERMUTATIONS` seeded ones); 0 where the shuffles draw no line."""
+    seeded shuffle, as many as :func:`permutations_needed` asks); 0 where the shuffles draw no
+    line."""
     contrasts = [contrast for lines in found for contrast in lines]
     return float(np.quantile(contrasts, NULL_QUANTILE)) if contrasts else 0.0
 
