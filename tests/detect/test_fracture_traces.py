@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from geostructure.detect.traceimage import straight_pieces
+from geostructure.detect.tracechains import straight_pieces
 from geostructure.detect.traces import DARK_LINE, PLANE, VALLEY, Traces, find_traces, trace_planes, trace_sets
 
 SPACING = 0.02
