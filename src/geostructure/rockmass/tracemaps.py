@@ -89,25 +89,59 @@ def censored_ends(traces: Traces | None, exposures, metres: float = 1.0) -> np.n
     >>> censored_ends(t, [face]).tolist()
     [0, 1, 2]
     """
-    from scipy import ndimage  # imported with the exposure's edge: only with sets
-
     if traces is None:
         return np.zeros(0, dtype=np.int64)
     n = len(traces)
     if not n or not len(exposures):
         return np.zeros(n, dtype=np.int64)
-    ends = np.concatenate([traces.vertices[traces.start[:-1]], traces.vertices[traces.start[1:] - 1]]) * metres
-    best = np.full(len(ends), np.inf)
-    at_edge = np.ones(len(ends), dtype=bool)  # on no section's grid: off the exposure
+    ends = np.concatenate([traces.vertices[traces.start[:-1]], traces.vertices[traces.start[1:] - 1]])
+    at_edge = _at_edge(ends, exposures, metres)
+    return at_edge[:n].astype(np.int64) + at_edge[n:].astype(np.int64)
+
+
+def along_edge(traces: Traces, exposures, metres: float = 1.0) -> np.ndarray:
+    """Per trace, whether it runs along the exposure's edge: both its ends and its middle
+    vertex within :data:`CENSOR_CELLS` of it (:func:`censored_ends`). Such a line is the
+    edge's own, where the survey stops or the rock turns out of sight, and cannot be told
+    from it: on the Lastoni SW half 48 traces ran so (30 planes' traces, 10 dark lines, 8
+    valleys) and 5 of them traced a mapped fracture, where 76 of the other 216 did.
+
+    Examples
+    --------
+    >>> from geostructure.rockmass.exposure import exposure
+    >>> g = np.mgrid[0:4:0.02, 0:0.03:0.01, 0:3:0.02].reshape(3, -1).T  # a wall 4 m long, 3 m high
+    >>> face = exposure(g, spacing=0.02)
+    >>> t = Traces.from_polylines([np.array([[0.5, 0, 0.0], [2.0, 0, 0.0], [3.5, 0, 0.0]]),  # along its foot
+    ...                            np.array([[2.0, 0, 0.0], [2.0, 0, 1.5], [2.0, 0, 3.0]])],  # across it
+    ...                           ["dark line"] * 2, [-1] * 2)
+    >>> along_edge(t, [face]).tolist(), censored_ends(t, [face]).tolist()
+    ([True, False], [2, 2])
+    """
+    n = len(traces)
+    if not n or not len(exposures):
+        return np.zeros(n, dtype=bool)
+    middle = traces.vertices[(traces.start[:-1] + traces.start[1:] - 1) // 2]
+    return (censored_ends(traces, exposures, metres) == 2) & _at_edge(middle, exposures, metres)
+
+
+def _at_edge(at: np.ndarray, exposures, metres: float) -> np.ndarray:
+    """Whether each point of ``at`` (the traces' unit) lies within :data:`CENSOR_CELLS` of
+    the exposure's edge, or off it; each read on the section whose plane lies nearest it
+    among those whose grid holds it."""
+    from scipy import ndimage  # imported with the exposure's edge: only with sets
+
+    at = np.asarray(at, dtype=np.float64) * metres
+    best = np.full(len(at), np.inf)
+    at_edge = np.ones(len(at), dtype=bool)  # on no section's grid: off the exposure
     for face in exposures:
-        ij = np.floor((face.project(ends) - face.lower) / face.cell).astype(np.int64)
+        ij = np.floor((face.project(at) - face.lower) / face.cell).astype(np.int64)
         on_grid = ((ij >= 0) & (ij < face.occupied.shape)).all(axis=1)
-        off_plane = np.abs((ends - face.origin) @ face.normal)
+        off_plane = np.abs((at - face.origin) @ face.normal)
         nearer = on_grid & (off_plane < SECTION_REACH_CELLS * face.cell) & (off_plane < best)
         near_edge = ndimage.binary_dilation(face.edge(), iterations=CENSOR_CELLS) | ~face.occupied
         best[nearer] = off_plane[nearer]
         at_edge[nearer] = near_edge[ij[nearer, 0], ij[nearer, 1]]
-    return at_edge[:n].astype(np.int64) + at_edge[n:].astype(np.int64)
+    return at_edge
 
 
 def trace_set_rows(

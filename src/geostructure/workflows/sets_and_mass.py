@@ -20,7 +20,7 @@ from geostructure.rockmass.exposure import exposure
 from geostructure.rockmass.face import face_parts
 from geostructure.rockmass.mass import RockMass, rock_mass
 from geostructure.rockmass.sets import JointSets, find_sets
-from geostructure.rockmass.tracemaps import censored_ends, face_traces
+from geostructure.rockmass.tracemaps import along_edge, censored_ends, face_traces
 
 
 def plane_sets(
@@ -129,7 +129,8 @@ def rock_traces(points, labels, planes: Planes, sets: JointSets, rock: RockMass,
     tested = ~sets_left_out(planes, rock)
     traces = face_traces(points, labels, planes, sets, rock.point_part, grey, tested)
     traces.censored_ends = censored_ends(traces, rock.exposures, rock.metres_per_unit)
-    return traces
+    rim = along_edge(traces, rock.exposures, rock.metres_per_unit)  # the exposure's outline, not a fracture's
+    return traces.subset(~rim) if rim.any() else traces
 
 
 def sets_left_out(planes: Planes, rock: RockMass) -> np.ndarray:
