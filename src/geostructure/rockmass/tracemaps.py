@@ -59,7 +59,12 @@ def face_traces(points, labels, planes, sets, point_part=None, grey=None, tested
     >>> len(traces) > 10, set(traces.source) == {"plane"}
     (True, True)
     """
-    tree = cKDTree(np.asarray(points, dtype=np.float64))  # one tree for the traces and the filter below
+    # One tree for the traces and the filter below. Balanced where the dark lines will query
+    # every point (an unbalanced tree's 8 nearest of all 0.7M outcrop points took 2.1 s, a
+    # balanced one's 1.3); built fast where only the planes' few hundred centres and traces
+    # are (0.15 s against 0.39 s on that outcrop, its queries as fast).
+    balanced = grey is not None
+    tree = cKDTree(np.asarray(points, dtype=np.float64), balanced_tree=balanced, compact_nodes=balanced)
     traces = find_traces(points, None, grey=grey, labels=labels, plane_normals=planes.normal, tested=tested,
                          plane_sets=sets.labels, set_normals=sets.mean_normal, tree=tree)  # fmt: skip
     if point_part is None or not len(traces):
