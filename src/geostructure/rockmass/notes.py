@@ -24,6 +24,7 @@ from geostructure.rockmass.mass import (
     BLOCK_SETS,
     FEW_WHOLE_TRACES,
     FRACTURE_TRACES_MOSTLY_CENSORED,
+    FRACTURE_TRACES_UNDERCOUNT,
     MIN_SPACING_GAPS,
     SPACING_FEW_GAPS,
     TRACE_BEYOND_EXPOSURE,
@@ -50,6 +51,7 @@ def set_notes(set_id: int, row: dict) -> list[str]:
         few_gaps_note(set_id, row),
         mostly_censored_note(set_id, row),
         censored_fracture_traces_note(set_id, row),
+        undercount_note(set_id, row),
     )
     return [note for note in notes if note]
 
@@ -124,6 +126,24 @@ def censored_fracture_traces_note(set_id: int, row: dict) -> str | None:
     )
     return (
         f"{cut} of set {set_id}'s {drawn} fracture traces ({cut / drawn:.0%}) reach the face's edge or a hole: {tail}."
+    )
+
+
+def undercount_note(set_id: int, row: dict) -> str | None:
+    """A sentence when set ``set_id``'s fracture traces cross its scanlines less often than
+    its planes do (``fracture_traces_undercount``): its trace intensities are lower bounds.
+
+    Examples
+    --------
+    >>> undercount_note(0, {"flags": "fracture_traces_undercount", "trace_p10_per_m": 1.59, "p10_per_m": 2.28})
+    "Set 0's fracture traces cross its scanlines 1.59 times a metre where its planes cross 2.28: the traces miss fractures the planes show, so its trace P10 and P21 are lower bounds."
+    """
+    if not _flagged(row, FRACTURE_TRACES_UNDERCOUNT):
+        return None
+    traces, planes = float(row["trace_p10_per_m"]), float(row["p10_per_m"])
+    return (
+        f"Set {set_id}'s fracture traces cross its scanlines {traces:.2f} times a metre where its planes cross "
+        f"{planes:.2f}: the traces miss fractures the planes show, so its trace P10 and P21 are lower bounds."
     )
 
 
