@@ -26,6 +26,7 @@ from geostructure.rockmass.mass import (
     FRACTURE_TRACES_MOSTLY_CENSORED,
     FRACTURE_TRACES_UNDERCOUNT,
     MIN_SPACING_GAPS,
+    PERSISTENCE_WINDOWS_DIFFER,
     SPACING_FEW_GAPS,
     TRACE_BEYOND_EXPOSURE,
     TRACES_MOSTLY_CENSORED,
@@ -52,6 +53,7 @@ def set_notes(set_id: int, row: dict) -> list[str]:
         mostly_censored_note(set_id, row),
         censored_fracture_traces_note(set_id, row),
         undercount_note(set_id, row),
+        windows_persistence_note(set_id, row),
     )
     return [note for note in notes if note]
 
@@ -144,6 +146,28 @@ def undercount_note(set_id: int, row: dict) -> str | None:
     return (
         f"Set {set_id}'s fracture traces cross its scanlines {traces:.2f} times a metre where its planes cross "
         f"{planes:.2f}: the traces miss fractures the planes show, so its trace P10 and P21 are lower bounds."
+    )
+
+
+def windows_persistence_note(set_id: int, row: dict) -> str | None:
+    """A sentence when the circular windows on set ``set_id``'s fracture traces read another
+    persistence class than its joints' traces do (``persistence_windows_differ``); none where
+    :func:`mostly_censored_note` already gives the windows' figure.
+
+    Examples
+    --------
+    >>> windows_persistence_note(0, {"flags": "persistence_windows_differ", "trace_window_mean_m": 0.57,
+    ...                              "joint_trace_mean_m": 2.57, "persistence": "low"})
+    "Set 0's joints' traces read a mean length of 2.6 m (low persistence), but circular windows on its fracture traces, which no censoring biases, read 0.57 m (very low): the joints' figure bridges the gaps between each joint's facets and models the traces the edge cuts, the windows' counts the traces drawn."
+    """
+    if not _flagged(row, PERSISTENCE_WINDOWS_DIFFER) or _flagged(row, TRACES_MOSTLY_CENSORED):
+        return None
+    window = float(row["trace_window_mean_m"])
+    return (
+        f"Set {set_id}'s joints' traces read a mean length of {float(row['joint_trace_mean_m']):.1f} m "
+        f"({row['persistence']} persistence), but circular windows on its fracture traces, which no censoring "
+        f"biases, read {window:.2f} m ({persistence_class(window)}): the joints' figure bridges the gaps between "
+        f"each joint's facets and models the traces the edge cuts, the windows' counts the traces drawn."
     )
 
 
