@@ -20,8 +20,8 @@ from geostructure.detect.uncertainty import MIN_TILT_FACETS
 from geostructure.errors import GeoStructureNote, GeoStructureWarning
 from geostructure.rockmass.exposure import BENT_FACE
 from geostructure.rockmass.face import CLUTTER
-from geostructure.rockmass.mass import (
-    BLOCK_SETS,
+from geostructure.rockmass.mass import BLOCK_SETS, RockMass
+from geostructure.rockmass.setflags import (
     FEW_WHOLE_TRACES,
     FRACTURE_TRACES_MOSTLY_CENSORED,
     FRACTURE_TRACES_UNDERCOUNT,
@@ -30,7 +30,6 @@ from geostructure.rockmass.mass import (
     SPACING_FEW_GAPS,
     TRACE_BEYOND_EXPOSURE,
     TRACES_MOSTLY_CENSORED,
-    RockMass,
 )
 from geostructure.rockmass.spacing import MIN_SCANLINE_COSINE
 from geostructure.rockmass.tracelengths import persistence_class
@@ -356,7 +355,7 @@ def censored_traces_note(set_id: int, row: dict) -> str | None:
 
 def trace_cell(row: dict, digits: int = 1) -> str | None:
     """The tables' trace cell for a set whose mean is longer than the exposure spans
-    (:data:`~geostructure.rockmass.mass.TRACE_BEYOND_EXPOSURE`): "> span"; None for any other set (its
+    (:data:`~geostructure.rockmass.setflags.TRACE_BEYOND_EXPOSURE`): "> span"; None for any other set (its
     figure is shown as it is).
 
     Examples
@@ -371,7 +370,7 @@ def trace_cell(row: dict, digits: int = 1) -> str | None:
 
 def trace_beyond_exposure_note(set_id: int, row: dict) -> str | None:
     """A sentence when set ``set_id``'s mean trace length, as the censored traces give it,
-    is longer than any line across the exposed face (:data:`~geostructure.rockmass.mass.TRACE_BEYOND_EXPOSURE`
+    is longer than any line across the exposed face (:data:`~geostructure.rockmass.setflags.TRACE_BEYOND_EXPOSURE`
     in its row's ``flags``): no face this size measures it, so it is given as a bound, the
     exposure's span, and its persistence class "or more". None otherwise.
 
