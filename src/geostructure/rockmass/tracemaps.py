@@ -104,12 +104,13 @@ def censored_ends(traces: Traces | None, exposures, metres: float = 1.0) -> np.n
     return at_edge[:n].astype(np.int64) + at_edge[n:].astype(np.int64)
 
 
-def along_edge(traces: Traces, exposures, metres: float = 1.0) -> np.ndarray:
+def along_edge(traces: Traces, exposures, metres: float = 1.0, ends: np.ndarray | None = None) -> np.ndarray:
     """Per trace, whether it runs along the exposure's edge: both its ends and its middle
     vertex within :data:`CENSOR_CELLS` of it (:func:`censored_ends`). Such a line is the
     edge's own, where the survey stops or the rock turns out of sight, and cannot be told
     from it: on the Lastoni SW half 48 traces ran so (30 planes' traces, 10 dark lines, 8
-    valleys) and 5 of them traced a mapped fracture, where 76 of the other 216 did.
+    valleys) and 5 of them traced a mapped fracture, where 76 of the other 216 did. ``ends``:
+    the traces' :func:`censored_ends`, when the caller holds them.
 
     Examples
     --------
@@ -126,7 +127,8 @@ def along_edge(traces: Traces, exposures, metres: float = 1.0) -> np.ndarray:
     if not n or not len(exposures):
         return np.zeros(n, dtype=bool)
     middle = traces.vertices[(traces.start[:-1] + traces.start[1:] - 1) // 2]
-    return (censored_ends(traces, exposures, metres) == 2) & _at_edge(middle, exposures, metres)
+    ends = censored_ends(traces, exposures, metres) if ends is None else np.asarray(ends)
+    return (ends == 2) & _at_edge(middle, exposures, metres)
 
 
 def _at_edge(at: np.ndarray, exposures, metres: float) -> np.ndarray:

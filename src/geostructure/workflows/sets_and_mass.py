@@ -129,7 +129,7 @@ def rock_traces(points, labels, planes: Planes, sets: JointSets, rock: RockMass,
     tested = ~sets_left_out(planes, rock)
     traces = face_traces(points, labels, planes, sets, rock.point_part, grey, tested)
     traces.censored_ends = censored_ends(traces, rock.exposures, rock.metres_per_unit)
-    rim = along_edge(traces, rock.exposures, rock.metres_per_unit)  # the exposure's outline, not a fracture's
+    rim = along_edge(traces, rock.exposures, rock.metres_per_unit, traces.censored_ends)  # its outline, no fracture's
     return traces.subset(~rim) if rim.any() else traces
 
 
