@@ -1,5 +1,11 @@
 """Row-split work in threads (geostructure.core.threads): the same bits whatever the number of
-threads, and a block's error raised in the caller."""
+threads, a block's error raised in the caller, and a writers' pool left only once its threads
+are done, even on an interrupt."""
+
+import os
+import signal
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -98,3 +104,27 @@ def test_every_threaded_tree_query_holds_interrupts_back():
         if threaded.search(line) and path.name != "threads.py"
     ]
     assert found == []
+
+
+def test_an_interrupt_inside_submit_still_waits_for_the_thread_it_started(monkeypatch):
+    """A Ctrl-C landing in ``submit`` after the pool started a thread, before it counted it,
+    left that thread writing after the pool was left (its regions.laz reached an output
+    folder's staging after the folder was cleaned)."""
+    real_start = threading.Thread.start
+
+    def start_then_interrupt(thread):
+        real_start(thread)
+        os.kill(os.getpid(), signal.SIGINT)  # to the main thread, still inside submit
+
+    done = []
+
+    def slow():
+        time.sleep(0.3)
+        done.append(True)
+
+    monkeypatch.setattr(threading.Thread, "start", start_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        with threads.finished_pool(2) as pool:
+            pool.submit(slow)
+            time.sleep(1.0)  # the interrupt, held back in submit, lands here at the latest
+    assert done, "the pool was left while its thread still ran"
